@@ -1,0 +1,33 @@
+// Forward kinematics and Jacobians of a serial chain in product-of-exponentials form
+// (Modern Robotics ch. 4 and 5). Every function allocates nothing; results land in Data.
+#pragma once
+
+#include "chasles/core/model/model.hpp"
+
+namespace chasles {
+
+using JointVector = Eigen::Ref<const Eigen::VectorXd>;
+
+/// Tip pose T_sb and every body pose T_0i, by the local PoE recursion
+/// T_0i = T_0,i−1 · M_{i−1,i} · exp([A_i] q_i). The fast path the Jacobians and dynamics use.
+const Transform& forward_kinematics(const RobotModel& model, Data& data, const JointVector& q);
+
+/// Every chain link's pose (data.T_link, in RobotModel::links order), after forward_kinematics.
+const std::vector<Transform>& link_poses(const RobotModel& model, Data& data, const JointVector& q);
+
+/// Space form T = e^[S_1 q_1] ⋯ e^[S_n q_n] M (MR eq. 4.14).
+Transform forward_kinematics_space(const RobotModel& model, const JointVector& q);
+
+/// Body form T = M e^[B_1 q_1] ⋯ e^[B_n q_n] (MR eq. 4.16).
+Transform forward_kinematics_body(const RobotModel& model, const JointVector& q);
+
+/// Space Jacobian J_s(q): column i is the screw axis of joint i in the base frame at q,
+/// [Ad_{T_0i}] A_i = [Ad_{e^[S_1 q_1]⋯e^[S_{i−1} q_{i−1}]}] S_i (MR eq. 5.11). Also runs
+/// forward_kinematics.
+const Matrix6Xd& space_jacobian(const RobotModel& model, Data& data, const JointVector& q);
+
+/// Body Jacobian J_b(q) at the tip: [Ad_{T_sb⁻¹}] J_s (MR eq. 5.18). Also runs
+/// forward_kinematics.
+const Matrix6Xd& body_jacobian(const RobotModel& model, Data& data, const JointVector& q);
+
+}  // namespace chasles

@@ -1,0 +1,98 @@
+#include "chasles/core/model/model.hpp"
+
+#include <cmath>
+
+#include "chasles/core/lie/se3.hpp"
+
+namespace chasles {
+
+const char* to_string(JointType type) {
+  switch (type) {
+    case JointType::Revolute: return "revolute";
+    case JointType::Continuous: return "continuous";
+    case JointType::Prismatic: return "prismatic";
+  }
+  return "unknown";
+}
+
+namespace {
+
+bool is_finite(const Transform& T) { return T.matrix().allFinite(); }
+
+bool is_rotation(const Matrix3d& R) {
+  constexpr double tolerance = 1e-9;
+  return (R.transpose() * R - Matrix3d::Identity()).cwiseAbs().maxCoeff() < tolerance &&
+         std::abs(R.determinant() - 1.0) < tolerance;
+}
+
+void check(bool ok, const ChainDescription& d, const std::string& what) {
+  if (!ok) throw ModelError(d.source + ": " + what);
+}
+
+void validate(const ChainDescription& d) {
+  check(!d.joints.empty(), d, "no movable joint between '" + d.base_link + "' and '" + d.tip_link + "'");
+  check(d.inertia.size() == d.joints.size(), d, "one spatial inertia per body is required");
+  check(d.gravity.allFinite(), d, "gravity is not finite");
+  check(is_finite(d.T_last_tip) && is_rotation(d.T_last_tip.linear()), d, "tip offset is not a rigid transform");
+  for (size_t i = 0; i < d.joints.size(); ++i) {
+    const Joint& j = d.joints[i];
+    const std::string where = "joint '" + j.name + "': ";
+    check(is_finite(j.T_parent_joint) && is_rotation(j.T_parent_joint.linear()), d,
+          where + "origin is not a finite rigid transform");
+    check(j.axis.allFinite() && std::abs(j.axis.norm() - 1.0) < 1e-12, d, where + "axis is not a unit vector");
+    const JointLimits& l = j.limits;
+    check(std::isfinite(l.lower) && std::isfinite(l.upper), d, where + "position limits are not finite");
+    check(l.lower <= l.upper, d, where + "lower limit is above the upper limit");
+    check(!std::isnan(l.velocity) && l.velocity >= 0.0, d, where + "velocity limit is negative or NaN");
+    check(!std::isnan(l.effort) && l.effort >= 0.0, d, where + "effort limit is negative or NaN");
+    const Matrix6d& G = d.inertia[i];
+    check(G.allFinite() && (G - G.transpose()).cwiseAbs().maxCoeff() <= 1e-9 * (1.0 + G.cwiseAbs().maxCoeff()), d,
+          "body of joint '" + j.name + "': spatial inertia is not finite and symmetric");
+  }
+  for (const ChainLink& link : d.links) {
+    check(link.body >= 0 && link.body <= static_cast<int>(d.joints.size()) && is_finite(link.T_body_link), d,
+          "link '" + link.name + "': invalid placement");
+  }
+}
+
+}  // namespace
+
+RobotModel::RobotModel(ChainDescription description) : d_(std::move(description)) {
+  validate(d_);
+  const int n = dof();
+  M_body_.resize(static_cast<size_t>(n));
+  A_.resize(static_cast<size_t>(n));
+  S_.resize(6, n);
+  B_.resize(6, n);
+  Transform M_i = Transform::Identity();
+  for (int i = 0; i < n; ++i) {
+    const Joint& j = joint(i);
+    M_i = M_i * j.T_parent_joint;
+    M_body_[static_cast<size_t>(i)] = M_i;
+    Vector6d& A = A_[static_cast<size_t>(i)];
+    if (j.type == JointType::Prismatic) {
+      A << Vector3d::Zero(), j.axis;
+    } else {
+      A << j.axis, Vector3d::Zero();
+    }
+    S_.col(i) = adjoint_times(M_i, A);  // S_i = [Ad_{M_i}] A_i
+  }
+  M_ = M_i * d_.T_last_tip;
+  for (int i = 0; i < n; ++i) B_.col(i) = adjoint_inverse_times(M_, S_.col(i));
+}
+
+int RobotModel::joint_index(const std::string& name) const {
+  for (int i = 0; i < dof(); ++i) {
+    if (joint(i).name == name) return i;
+  }
+  return -1;
+}
+
+Data::Data(const RobotModel& model)
+    : T_body(static_cast<size_t>(model.dof()) + 1, Transform::Identity()),
+      T_sb(Transform::Identity()),
+      T_link(model.links().size(), Transform::Identity()),
+      J_s(Matrix6Xd::Zero(6, model.dof())),
+      J_b(Matrix6Xd::Zero(6, model.dof())) {}
+
+}  // namespace chasles

@@ -1,0 +1,124 @@
+// RobotModel: the immutable description of a serial chain, and Data: the workspace every
+// algorithm writes into (Pinocchio's Model/Data split). Build the model once, give each thread
+// its own Data, and no algorithm allocates afterwards.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "chasles/core/lie/types.hpp"
+
+namespace chasles {
+
+using Matrix6Xd = Eigen::Matrix<double, 6, Eigen::Dynamic>;
+
+/// An invalid robot description. what() names the file and the joint or link.
+class ModelError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+enum class JointType { Revolute, Continuous, Prismatic };
+
+/// "revolute", "continuous" or "prismatic", as URDF spells them.
+const char* to_string(JointType type);
+
+/// Position limits (rad or m; ±π for continuous joints, which wrap), velocity (rad/s or m/s)
+/// and effort (N·m or N) limits. An absent velocity or effort limit is +∞.
+struct JointLimits {
+  double lower = 0.0;
+  double upper = 0.0;
+  double velocity = 0.0;
+  double effort = 0.0;
+};
+
+/// A movable joint of the chain. Body i is the child link of joint i with everything rigidly
+/// attached to it; its frame is that link's frame.
+struct Joint {
+  std::string name;
+  JointType type = JointType::Revolute;
+  /// M_{i−1,i}: the joint frame (= body i frame at q = 0) in the frame of body i−1, with the
+  /// fixed joints between them merged in.
+  Transform T_parent_joint = Transform::Identity();
+  /// Unit joint axis in the joint frame; the local screw axis is A = (axis, 0) for revolute
+  /// joints and (0, axis) for prismatic ones.
+  Vector3d axis = Vector3d::UnitZ();
+  JointLimits limits;
+};
+
+/// A link of the root → tip path, placed on the body it rides on (0 = the fixed base).
+struct ChainLink {
+  std::string name;
+  int body = 0;
+  Transform T_body_link = Transform::Identity();
+};
+
+/// Everything a RobotModel is computed from. The URDF loader produces one; calibration edits one.
+struct ChainDescription {
+  std::string name;
+  std::string source;  ///< where it came from (a file path), for error messages
+  std::string base_link;
+  std::string tip_link;
+  std::vector<Joint> joints;                     ///< n movable joints, root to tip
+  std::vector<Matrix6d> inertia;                 ///< G_i of body i (index i−1) in its own frame, (ω, v) order
+  std::vector<ChainLink> links;                  ///< every link from base to tip
+  Transform T_last_tip = Transform::Identity();  ///< tip frame in the frame of body n
+  Vector3d gravity = Vector3d(0.0, 0.0, -9.81);  ///< in the base frame, m/s²
+};
+
+/// The immutable model of a serial chain, with the quantities of Modern Robotics ch. 4 and 8
+/// derived once: home tip pose M, home body frames M_i, space and body screw axes S_i and B_i.
+class RobotModel {
+ public:
+  /// Checks the description and derives the rest; throws ModelError if it is not a valid chain.
+  explicit RobotModel(ChainDescription description);
+
+  int dof() const { return static_cast<int>(d_.joints.size()); }
+  const ChainDescription& description() const { return d_; }
+  const std::string& name() const { return d_.name; }
+  const std::string& base_link() const { return d_.base_link; }
+  const std::string& tip_link() const { return d_.tip_link; }
+  const std::vector<Joint>& joints() const { return d_.joints; }
+  const Joint& joint(int i) const { return d_.joints[static_cast<size_t>(i)]; }
+  const std::vector<ChainLink>& links() const { return d_.links; }
+  const Matrix6d& inertia(int i) const { return d_.inertia[static_cast<size_t>(i)]; }
+  const Transform& T_last_tip() const { return d_.T_last_tip; }
+  const Vector3d& gravity() const { return d_.gravity; }
+
+  /// M: the tip pose at q = 0.
+  const Transform& home_tip() const { return M_; }
+  /// M_i: the pose of body i (index i−1) at q = 0.
+  const Transform& home_body(int i) const { return M_body_[static_cast<size_t>(i)]; }
+  /// Local screw axis A_i of joint i in its own frame.
+  const Vector6d& local_axis(int i) const { return A_[static_cast<size_t>(i)]; }
+  /// S: space screw axes at q = 0, one column per joint (MR §4.1.1).
+  const Matrix6Xd& space_axes() const { return S_; }
+  /// B: body screw axes at q = 0 in the tip frame, B_i = [Ad_{M⁻¹}] S_i (MR §4.1.3).
+  const Matrix6Xd& body_axes() const { return B_; }
+
+  /// Index of the joint with this name, or −1.
+  int joint_index(const std::string& name) const;
+
+ private:
+  ChainDescription d_;
+  Transform M_;
+  std::vector<Transform> M_body_;
+  std::vector<Vector6d> A_;
+  Matrix6Xd S_;
+  Matrix6Xd B_;
+};
+
+/// Scratch and results of the algorithms for one model; one per thread. Sized on construction,
+/// never resized afterwards.
+struct Data {
+  explicit Data(const RobotModel& model);
+
+  std::vector<Transform> T_body;  ///< T_0i, pose of body i in the base frame; T_body[0] = I
+  Transform T_sb;                 ///< tip pose in the base (space) frame
+  std::vector<Transform> T_link;  ///< pose of every chain link (RobotModel::links order)
+  Matrix6Xd J_s;                  ///< space Jacobian
+  Matrix6Xd J_b;                  ///< body Jacobian at the tip
+};
+
+}  // namespace chasles

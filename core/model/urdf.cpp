@@ -1,0 +1,286 @@
+#include "chasles/core/model/urdf.hpp"
+
+#include <console_bridge/console.h>
+#include <tinyxml2.h>
+#include <urdf_parser/urdf_parser.h>
+
+#include <Eigen/Eigenvalues>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <set>
+#include <sstream>
+
+#include "chasles/core/lie/se3.hpp"
+
+namespace chasles {
+namespace {
+
+[[noreturn]] void fail(const std::string& source, const std::string& what) { throw ModelError(source + ": " + what); }
+
+std::string quoted_list(const std::vector<std::string>& names) {
+  std::string out;
+  for (const auto& name : names) out += (out.empty() ? "'" : ", '") + name + "'";
+  return out;
+}
+
+// urdfdom reports problems through console_bridge and sometimes goes on regardless (a link whose
+// <inertial> does not parse loses it silently). Every error it logs fails the load.
+class UrdfdomErrors : public console_bridge::OutputHandler {
+ public:
+  void log(const std::string& text, console_bridge::LogLevel level, const char*, int) override {
+    if (level >= console_bridge::CONSOLE_BRIDGE_LOG_ERROR) messages.push_back(text);
+  }
+  std::vector<std::string> messages;
+};
+
+urdf::ModelInterfaceSharedPtr parse_with_urdfdom(const std::string& xml, const std::string& source) {
+  static std::mutex mutex;  // console_bridge's handler is global
+  std::lock_guard<std::mutex> lock(mutex);
+  UrdfdomErrors errors;
+  console_bridge::useOutputHandler(&errors);
+  urdf::ModelInterfaceSharedPtr parsed;
+  try {
+    parsed = urdf::parseURDF(xml);
+  } catch (const std::exception& e) {
+    errors.messages.push_back(e.what());
+  }
+  console_bridge::restorePreviousOutputHandler();
+  if (!parsed || !errors.messages.empty()) {
+    std::string what;
+    for (const auto& m : errors.messages) what += (what.empty() ? "" : "; ") + m;
+    fail(source, what.empty() ? "not a valid URDF" : what);
+  }
+  return parsed;
+}
+
+// urdfdom reports a cycle as "no root link" and a link with two parents as "two root links";
+// this pass names the joints and links involved before urdfdom sees the file.
+void check_tree_structure(const std::string& xml, const std::string& source) {
+  tinyxml2::XMLDocument doc;
+  if (doc.Parse(xml.c_str(), xml.size()) != tinyxml2::XML_SUCCESS) {
+    fail(source, std::string("malformed XML at line ") + std::to_string(doc.ErrorLineNum()) + ": " + doc.ErrorName());
+  }
+  const tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
+  if (!robot) fail(source, "no <robot> element");
+
+  std::set<std::string> links;
+  for (auto* e = robot->FirstChildElement("link"); e; e = e->NextSiblingElement("link")) {
+    const char* name = e->Attribute("name");
+    if (!name) fail(source, "a <link> has no name (line " + std::to_string(e->GetLineNum()) + ")");
+    if (!links.insert(name).second) fail(source, std::string("link '") + name + "' is defined twice");
+  }
+  std::map<std::string, std::pair<std::string, std::string>> parent_of;  // child → (joint, parent)
+  for (auto* e = robot->FirstChildElement("joint"); e; e = e->NextSiblingElement("joint")) {
+    const char* name = e->Attribute("name");
+    if (!name) fail(source, "a <joint> has no name (line " + std::to_string(e->GetLineNum()) + ")");
+    const std::string where = std::string("joint '") + name + "'";
+    auto* p = e->FirstChildElement("parent");
+    auto* c = e->FirstChildElement("child");
+    const char* parent = p ? p->Attribute("link") : nullptr;
+    const char* child = c ? c->Attribute("link") : nullptr;
+    if (!parent || !child) fail(source, where + " needs <parent link=...> and <child link=...>");
+    if (!links.count(parent)) fail(source, where + " names parent link '" + parent + "', which does not exist");
+    if (!links.count(child)) fail(source, where + " names child link '" + child + "', which does not exist");
+    auto [it, inserted] = parent_of.emplace(child, std::make_pair(std::string(name), std::string(parent)));
+    if (!inserted) {
+      fail(source, "link '" + std::string(child) + "' has two parent joints, '" + it->second.first + "' and '" + name +
+                       "': a URDF must be a tree");
+    }
+  }
+  for (const auto& start : parent_of) {
+    std::set<std::string> seen{start.first};
+    std::vector<std::string> joints;
+    for (auto it = parent_of.find(start.first); it != parent_of.end(); it = parent_of.find(it->second.second)) {
+      joints.push_back(it->second.first);
+      if (!seen.insert(it->second.second).second) {
+        fail(source, "the joints " + quoted_list(joints) + " form a cycle: a URDF must be a tree");
+      }
+    }
+  }
+}
+
+Transform to_transform(const urdf::Pose& pose) {
+  const Eigen::Quaterniond q(pose.rotation.w, pose.rotation.x, pose.rotation.y, pose.rotation.z);
+  return make_transform(q.normalized().toRotationMatrix(), Vector3d(pose.position.x, pose.position.y, pose.position.z));
+}
+
+bool is_finite(const urdf::Pose& pose) {
+  return std::isfinite(pose.position.x) && std::isfinite(pose.position.y) && std::isfinite(pose.position.z) &&
+         std::isfinite(pose.rotation.x) && std::isfinite(pose.rotation.y) && std::isfinite(pose.rotation.z) &&
+         std::isfinite(pose.rotation.w);
+}
+
+// Spatial inertia of a link about its own frame, (ω, v) order: the rotational inertia at the
+// centre of mass c, turned by the <inertial> rpy, then moved to the link origin (MR eq. 8.32).
+Matrix6d link_spatial_inertia(const urdf::Inertial& in, const std::string& link, const std::string& source) {
+  const std::string where = "link '" + link + "': ";
+  const double values[] = {in.mass, in.ixx, in.ixy, in.ixz, in.iyy, in.iyz, in.izz};
+  for (double v : values) {
+    if (!std::isfinite(v)) fail(source, where + "<inertial> holds a non-finite number");
+  }
+  if (!is_finite(in.origin)) fail(source, where + "<inertial> origin is not finite");
+  if (in.mass < 0.0) fail(source, where + "mass " + std::to_string(in.mass) + " is negative");
+  Matrix3d I_c;
+  I_c << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
+  const Eigen::SelfAdjointEigenSolver<Matrix3d> eig(I_c, Eigen::EigenvaluesOnly);
+  const double smallest = eig.eigenvalues().minCoeff();
+  // A massless link (a frame) may carry zero inertia; a massive one needs a positive definite one.
+  const bool valid = in.mass > 0.0 ? smallest > 0.0 : smallest >= 0.0;
+  if (!valid) {
+    fail(source, where + "inertia is not positive definite (smallest eigenvalue " + std::to_string(smallest) + ")");
+  }
+  const Transform T_link_com = to_transform(in.origin);
+  const Matrix3d& R = T_link_com.linear();
+  const Matrix3d C = hat3(T_link_com.translation());
+  Matrix6d G;
+  G << R * I_c * R.transpose() + in.mass * C * C.transpose(), in.mass * C,  //
+      in.mass * C.transpose(), in.mass * Matrix3d::Identity();
+  return G;
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  if (!file) fail(path, std::string("cannot open URDF file: ") + std::strerror(errno));
+  std::ostringstream text;
+  text << file.rdbuf();
+  if (file.bad()) fail(path, "cannot read URDF file");
+  return text.str();
+}
+
+}  // namespace
+
+RobotModel load_urdf_file(const std::string& path, const UrdfOptions& options) {
+  return load_urdf_string(read_file(path), options, path);
+}
+
+RobotModel load_urdf_string(const std::string& xml, const UrdfOptions& options, const std::string& source) {
+  check_tree_structure(xml, source);
+  const urdf::ModelInterfaceSharedPtr urdf = parse_with_urdfdom(xml, source);
+  const urdf::LinkConstSharedPtr root = urdf->getRoot();
+
+  // The tip: the one asked for, or the single leaf.
+  std::string tip = options.tip_link;
+  if (tip.empty()) {
+    std::vector<std::string> leaves;
+    for (const auto& [name, link] : urdf->links_) {
+      if (link->child_joints.empty()) leaves.push_back(name);
+    }
+    if (leaves.size() != 1) {
+      fail(source, "the tree has " + std::to_string(leaves.size()) + " leaves (" + quoted_list(leaves) +
+                       "): choose the tip link with --tip");
+    }
+    tip = leaves.front();
+  }
+  if (!urdf->getLink(tip)) fail(source, "unknown tip link '" + tip + "'");
+
+  // The path root → tip, and which of its joints move.
+  std::vector<urdf::JointConstSharedPtr> path;
+  std::vector<std::string> path_links{tip};
+  for (auto link = urdf->getLink(tip); link->parent_joint; link = urdf->getLink(link->parent_joint->parent_link_name)) {
+    path.insert(path.begin(), link->parent_joint);
+    path_links.insert(path_links.begin(), link->parent_joint->parent_link_name);
+  }
+  ChainDescription d;
+  d.name = urdf->getName();
+  d.source = source;
+  d.base_link = root->name;
+  d.tip_link = tip;
+  d.gravity = options.gravity;
+  std::map<std::string, int> chain_joint;  // joint name → body index it starts (1..n)
+  for (const auto& j : path) {
+    const std::string where = "joint '" + j->name + "' on the chain is ";
+    switch (j->type) {
+      case urdf::Joint::REVOLUTE:
+      case urdf::Joint::CONTINUOUS:
+      case urdf::Joint::PRISMATIC: break;
+      case urdf::Joint::FIXED: continue;
+      case urdf::Joint::FLOATING: fail(source, where + "floating: chasles models fixed-base serial chains");
+      case urdf::Joint::PLANAR: fail(source, where + "planar: chasles models 1-dof joints only");
+      default: fail(source, where + "of unknown type");
+    }
+    if (j->mimic)
+      fail(source, where + "a mimic of '" + j->mimic->joint_name + "': mimic joints are not supported on the chain");
+    Joint joint;
+    joint.name = j->name;
+    joint.type = j->type == urdf::Joint::REVOLUTE     ? JointType::Revolute
+                 : j->type == urdf::Joint::CONTINUOUS ? JointType::Continuous
+                                                      : JointType::Prismatic;
+    const Vector3d axis(j->axis.x, j->axis.y, j->axis.z);
+    if (!axis.allFinite()) fail(source, "joint '" + j->name + "': axis is not finite");
+    if (axis.norm() < 1e-9) fail(source, "joint '" + j->name + "': axis is zero");
+    joint.axis = axis.normalized();
+    const double inf = std::numeric_limits<double>::infinity();
+    if (joint.type == JointType::Continuous) {
+      joint.limits = {-kPi, kPi, inf, inf};
+    } else if (!j->limits) {
+      fail(source, "joint '" + j->name + "': no <limit>");
+    } else {
+      joint.limits.lower = j->limits->lower;
+      joint.limits.upper = j->limits->upper;
+    }
+    if (j->limits) {
+      joint.limits.velocity = j->limits->velocity;
+      joint.limits.effort = j->limits->effort;
+      const double l[] = {j->limits->lower, j->limits->upper, j->limits->velocity, j->limits->effort};
+      for (double v : l) {
+        if (!std::isfinite(v)) fail(source, "joint '" + j->name + "': <limit> holds a non-finite number");
+      }
+      if (joint.limits.lower > joint.limits.upper) {
+        fail(source, "joint '" + j->name + "': lower limit " + std::to_string(joint.limits.lower) +
+                         " is above upper limit " + std::to_string(joint.limits.upper));
+      }
+    }
+    d.joints.push_back(joint);
+    chain_joint[j->name] = static_cast<int>(d.joints.size());
+  }
+  if (d.joints.empty()) fail(source, "no movable joint between '" + root->name + "' and '" + tip + "'");
+
+  // Place every link on a body: a chain joint starts a new body; every other joint is locked at
+  // 0, so its child rides on its parent's body.
+  struct Placement {
+    int body;
+    Transform T_body_link;
+  };
+  std::map<std::string, Placement> placement{{root->name, {0, Transform::Identity()}}};
+  d.inertia.assign(d.joints.size(), Matrix6d::Zero());
+  std::vector<urdf::LinkConstSharedPtr> stack{root};
+  while (!stack.empty()) {
+    const urdf::LinkConstSharedPtr link = stack.back();
+    stack.pop_back();
+    const Placement here = placement.at(link->name);
+    if (link->inertial && here.body > 0) {
+      const Matrix6d G_link = link_spatial_inertia(*link->inertial, link->name, source);
+      // G_body = [Ad_{T_link,body}]ᵀ G_link [Ad_{T_link,body}] (MR eq. 8.42).
+      const Matrix6d Ad = adjoint(inverse(here.T_body_link));
+      d.inertia[static_cast<size_t>(here.body - 1)] += Ad.transpose() * G_link * Ad;
+    } else if (link->inertial) {
+      link_spatial_inertia(*link->inertial, link->name, source);  // validated, though the base never moves
+    }
+    for (const auto& j : link->child_joints) {
+      if (!is_finite(j->parent_to_joint_origin_transform)) {
+        fail(source, "joint '" + j->name + "': origin is not finite");
+      }
+      const Transform T_parent_joint = here.T_body_link * to_transform(j->parent_to_joint_origin_transform);
+      const auto chain = chain_joint.find(j->name);
+      if (chain != chain_joint.end()) {
+        d.joints[static_cast<size_t>(chain->second - 1)].T_parent_joint = T_parent_joint;
+        placement[j->child_link_name] = {chain->second, Transform::Identity()};
+      } else {
+        placement[j->child_link_name] = {here.body, T_parent_joint};
+      }
+      stack.push_back(urdf->getLink(j->child_link_name));
+    }
+  }
+  for (const auto& name : path_links) {
+    const Placement& p = placement.at(name);
+    d.links.push_back({name, p.body, p.T_body_link});
+  }
+  d.T_last_tip = placement.at(tip).T_body_link;
+  return RobotModel(std::move(d));
+}
+
+}  // namespace chasles

@@ -1,0 +1,26 @@
+// Building a RobotModel from URDF (via urdfdom).
+#pragma once
+
+#include <string>
+
+#include "chasles/core/model/model.hpp"
+
+namespace chasles {
+
+struct UrdfOptions {
+  /// The link that ends the chain. Empty: the tree's single leaf (an error lists the leaves
+  /// when there are several).
+  std::string tip_link;
+  Vector3d gravity = Vector3d(0.0, 0.0, -9.81);
+};
+
+/// Loads the chain root → tip from a URDF file. Fixed joints are merged into their parent body;
+/// joints off the chain are locked at 0 and their links' inertia rides on the body they hang
+/// from. Meshes are ignored. Throws ModelError naming the file and the joint or link at fault.
+RobotModel load_urdf_file(const std::string& path, const UrdfOptions& options = {});
+
+/// The same from URDF text; `source` names it in error messages.
+RobotModel load_urdf_string(const std::string& xml, const UrdfOptions& options = {},
+                            const std::string& source = "<urdf string>");
+
+}  // namespace chasles

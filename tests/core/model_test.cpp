@@ -1,0 +1,279 @@
+// Loading RobotModel from URDF: the shared robots against the reference, and one test per kind
+// of bad input, each expecting an error that names the file and the joint or link.
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+#include <functional>
+#include <regex>
+
+#include "chasles/core/lie/se3.hpp"
+#include "chasles/core/model/urdf.hpp"
+#include "support/reference.hpp"
+
+namespace chasles {
+namespace {
+
+using testing::load_reference;
+using testing::matrices_near;
+
+RobotModel load_reference_model(const testing::Reference& ref) {
+  UrdfOptions options;
+  options.tip_link = ref.tip_link;
+  return load_urdf_file(ref.urdf, options);
+}
+
+class ReferenceRobot : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(ReferenceRobot, StructureMatchesTheReference) {
+  const auto ref = load_reference(GetParam());
+  const RobotModel model = load_reference_model(ref);
+  EXPECT_EQ(model.base_link(), ref.base_link);
+  EXPECT_EQ(model.tip_link(), ref.tip_link);
+  ASSERT_EQ(model.dof(), static_cast<int>(ref.joint_names.size()));
+  for (int i = 0; i < model.dof(); ++i) {
+    EXPECT_EQ(model.joint(i).name, ref.joint_names[static_cast<size_t>(i)]);
+    EXPECT_EQ(to_string(model.joint(i).type), ref.joint_types[static_cast<size_t>(i)]);
+    EXPECT_DOUBLE_EQ(model.joint(i).limits.lower, ref.lower(i));
+    EXPECT_DOUBLE_EQ(model.joint(i).limits.upper, ref.upper(i));
+  }
+  EXPECT_TRUE(matrices_near(model.gravity(), ref.gravity, 0.0));
+  std::vector<std::string> chain;
+  for (const auto& link : model.links()) chain.push_back(link.name);
+  std::vector<std::string> expected;
+  for (const auto& [name, T] : ref.cases.front().link_T) expected.push_back(name);
+  std::sort(chain.begin(), chain.end());
+  EXPECT_EQ(chain, expected);
+}
+
+TEST_P(ReferenceRobot, HomePoseAndScrewAxesMatchTheReference) {
+  const auto ref = load_reference(GetParam());
+  const RobotModel model = load_reference_model(ref);
+  EXPECT_TRUE(matrices_near(model.home_tip().matrix(), ref.home_T, 1e-10));
+  EXPECT_TRUE(matrices_near(model.space_axes(), ref.home_S, 1e-10));
+  // B_i = [Ad_{M⁻¹}] S_i.
+  EXPECT_TRUE(matrices_near(model.body_axes(), adjoint(inverse(model.home_tip())) * model.space_axes(), 1e-14));
+}
+
+TEST_P(ReferenceRobot, SpatialInertiasArePhysical) {
+  const auto ref = load_reference(GetParam());
+  const RobotModel model = load_reference_model(ref);
+  for (int i = 0; i < model.dof(); ++i) {
+    const Matrix6d& G = model.inertia(i);
+    EXPECT_TRUE(matrices_near(G, G.transpose(), 1e-15));
+    const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(G);
+    EXPECT_GT(eig.eigenvalues().minCoeff(), 0.0) << "body of " << model.joint(i).name;
+    EXPECT_TRUE(matrices_near(G.bottomRightCorner<3, 3>(), G(3, 3) * Matrix3d::Identity(), 1e-14));
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Robots, ReferenceRobot, ::testing::Values("ur5", "panda"));
+
+TEST(Model, PandaHandCarriesTheLockedFingers) {
+  // Body 7 is panda_link7 + link8 + hand + tcp + both fingers (URDF masses, summed by hand).
+  UrdfOptions options;
+  options.tip_link = "panda_hand";
+  const RobotModel model = load_urdf_file(testing::data_path("panda.urdf"), options);
+  const double mass_link7 = 0.735522, mass_hand = 0.73, mass_finger = 0.015;
+  EXPECT_NEAR(model.inertia(6)(3, 3), mass_link7 + mass_hand + 2 * mass_finger, 1e-12);
+}
+
+TEST(Model, SeveralLeavesNeedATip) {
+  try {
+    load_urdf_file(testing::data_path("panda.urdf"));
+    FAIL() << "expected an error";
+  } catch (const ModelError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("panda.urdf"), std::string::npos) << what;
+    for (const char* leaf : {"panda_hand_tcp", "panda_leftfinger", "panda_rightfinger"}) {
+      EXPECT_NE(what.find(leaf), std::string::npos) << what;
+    }
+    EXPECT_NE(what.find("--tip"), std::string::npos) << what;
+  }
+}
+
+// --- a small arm and its mutations ----------------------------------------------------------
+
+// Base → (revolute j1) → l1 → (fixed f) → l1b → (prismatic j2) → l2 → (revolute j3) → tip, and a
+// gripper finger off the chain on l2.
+std::string arm_urdf() {
+  return R"(<robot name="arm">
+  <link name="base"/>
+  <link name="l1"><inertial><origin xyz="0 0 0.1" rpy="0 0 0"/><mass value="2"/>
+    <inertia ixx="0.02" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.01"/></inertial></link>
+  <link name="l1b"/>
+  <link name="l2"><inertial><origin xyz="0.1 0 0" rpy="0 0 1.5707963267948966"/><mass value="1"/>
+    <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.002" iyz="0" izz="0.003"/></inertial></link>
+  <link name="tip"><inertial><mass value="0"/><inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/></inertial></link>
+  <link name="finger"><inertial><origin xyz="0 0 0"/><mass value="0.5"/>
+    <inertia ixx="1e-4" ixy="0" ixz="0" iyy="1e-4" iyz="0" izz="1e-4"/></inertial></link>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
+    <origin xyz="0 0 0.3" rpy="0 0 0"/><axis xyz="0 0 1"/>
+    <limit lower="-2" upper="2" effort="50" velocity="2"/></joint>
+  <joint name="f" type="fixed"><parent link="l1"/><child link="l1b"/><origin xyz="0 0 0.2" rpy="1.5707963267948966 0 0"/></joint>
+  <joint name="j2" type="prismatic"><parent link="l1b"/><child link="l2"/>
+    <origin xyz="0.1 0 0" rpy="0 0 0"/><axis xyz="1 0 0"/>
+    <limit lower="0" upper="0.5" effort="100" velocity="0.5"/></joint>
+  <joint name="j3" type="continuous"><parent link="l2"/><child link="tip"/>
+    <origin xyz="0.2 0 0" rpy="0 0.5 0"/><axis xyz="0 2 0"/></joint>
+  <joint name="finger_joint" type="prismatic"><parent link="l2"/><child link="finger"/>
+    <origin xyz="0 0.05 0"/><axis xyz="0 1 0"/><limit lower="0" upper="0.04" effort="10" velocity="0.1"/></joint>
+</robot>)";
+}
+
+std::string replace(std::string text, const std::string& from, const std::string& to) {
+  const size_t at = text.find(from);
+  if (at == std::string::npos) throw std::logic_error("test bug: '" + from + "' not in URDF");
+  return text.replace(at, from.size(), to);
+}
+
+RobotModel load_arm(const std::string& xml, const std::string& tip = "tip") {
+  UrdfOptions options;
+  options.tip_link = tip;
+  return load_urdf_string(xml, options, "arm.urdf");
+}
+
+TEST(Model, SmallArmStructure) {
+  const RobotModel model = load_arm(arm_urdf());
+  ASSERT_EQ(model.dof(), 3);
+  EXPECT_EQ(model.joint(2).type, JointType::Continuous);
+  EXPECT_TRUE(matrices_near(model.joint(2).axis, Vector3d::UnitY(), 0.0));  // normalised
+  EXPECT_DOUBLE_EQ(model.joint(2).limits.lower, -kPi);
+  EXPECT_EQ(model.joint(2).limits.effort, std::numeric_limits<double>::infinity());
+  // The fixed joint f is merged: M_{1,2} = origin(f) · origin(j2).
+  const Transform expected = make_transform(exp3(Vector3d(kPi / 2, 0, 0)), Vector3d(0, 0, 0.2)) *
+                             make_transform(Matrix3d::Identity(), Vector3d(0.1, 0, 0));
+  EXPECT_TRUE(matrices_near(model.joint(1).T_parent_joint.matrix(), expected.matrix(), 1e-15));
+  // Links on the chain, with l1b riding on body 1.
+  ASSERT_EQ(model.links().size(), 5u);
+  EXPECT_EQ(model.links()[2].name, "l1b");
+  EXPECT_EQ(model.links()[2].body, 1);
+  // Space screw axis of the prismatic joint: (0, R_{0,2} x̂).
+  EXPECT_TRUE(matrices_near(model.space_axes().col(1), (Vector6d() << 0, 0, 0, 1, 0, 0).finished(), 1e-15));
+}
+
+TEST(Model, InertialOriginXyzAndRpyApply) {
+  const RobotModel model = load_arm(arm_urdf());
+  // Body 2 = l2 (mass 1, CoM (0.1, 0, 0), principal axes turned 90° about z: Ixx ↔ Iyy) plus the
+  // finger (mass 0.5 at (0, 0.05, 0)).
+  const Matrix6d& G = model.inertia(1);
+  EXPECT_NEAR(G(3, 3), 1.5, 1e-15);
+  const Vector3d first_moment = 1.0 * Vector3d(0.1, 0, 0) + 0.5 * Vector3d(0, 0.05, 0);
+  EXPECT_TRUE(matrices_near(vee3(G.topRightCorner<3, 3>()), first_moment, 1e-15));
+  // Rotational inertia at the body origin: I_c turned, plus m(|c|²I − ccᵀ) per part.
+  Matrix3d I_o = Vector3d(0.002, 0.001, 0.003).asDiagonal();
+  I_o += 1.0 * (0.01 * Matrix3d::Identity() - Vector3d(0.1, 0, 0) * Vector3d(0.1, 0, 0).transpose());
+  I_o += 1e-4 * Matrix3d::Identity() +
+         0.5 * (0.0025 * Matrix3d::Identity() - Vector3d(0, 0.05, 0) * Vector3d(0, 0.05, 0).transpose());
+  EXPECT_TRUE(matrices_near(G.topLeftCorner<3, 3>(), I_o, 1e-15));
+}
+
+TEST(Model, TheSingleLeafIsTheDefaultTip) {
+  std::string xml = std::regex_replace(arm_urdf(), std::regex(R"(<joint name="finger_joint"[\s\S]*?</joint>)"), "");
+  xml = std::regex_replace(xml, std::regex(R"(<link name="finger">[\s\S]*?</link>)"), "");
+  const RobotModel model = load_urdf_string(xml, {}, "arm.urdf");
+  EXPECT_EQ(model.tip_link(), "tip");
+}
+
+TEST(Model, OffChainMimicJointIsLocked) {
+  const std::string xml =
+      replace(arm_urdf(), R"(<limit lower="0" upper="0.04" effort="10" velocity="0.1"/></joint>)",
+              R"(<limit lower="0" upper="0.04" effort="10" velocity="0.1"/><mimic joint="j2"/></joint>)");
+  EXPECT_EQ(load_arm(xml).dof(), 3);
+}
+
+// Every bad input: the mutation, and the words the message must contain besides the file name.
+struct BadInput {
+  std::string name;
+  std::function<std::string(const std::string&)> mutate;
+  std::vector<std::string> expected_words;
+  std::string tip = "tip";
+};
+
+class BadUrdf : public ::testing::TestWithParam<BadInput> {};
+
+TEST_P(BadUrdf, IsRejectedWithAClearMessage) {
+  const BadInput& bad = GetParam();
+  try {
+    load_arm(bad.mutate(arm_urdf()), bad.tip);
+    FAIL() << "expected a ModelError";
+  } catch (const ModelError& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.rfind("arm.urdf: ", 0), 0u) << what;
+    for (const auto& word : bad.expected_words) EXPECT_NE(what.find(word), std::string::npos) << what;
+  }
+}
+
+auto swap(const std::string& from, const std::string& to) {
+  return [from, to](const std::string& xml) { return replace(xml, from, to); };
+}
+
+const std::string kJ1Limit = R"(<limit lower="-2" upper="2" effort="50" velocity="2"/>)";
+
+INSTANTIATE_TEST_SUITE_P(
+    Cases, BadUrdf,
+    ::testing::Values(
+        BadInput{"Malformed", swap("</robot>", "<robot>"), {"malformed XML", "line"}},
+        BadInput{"NotARobot", [](const std::string&) { return std::string("<model/>"); }, {"<robot>"}},
+        BadInput{"UnknownTip", [](const std::string& x) { return x; }, {"unknown tip link 'hand'"}, "hand"},
+        BadInput{"SeveralLeaves", [](const std::string& x) { return x; }, {"leaves", "'tip'", "'finger'"}, ""},
+        BadInput{"FloatingOnChain",
+                 swap(R"(name="j2" type="prismatic")", R"(name="j2" type="floating")"),
+                 {"joint 'j2'", "floating"}},
+        BadInput{"PlanarOnChain",
+                 swap(R"(name="j2" type="prismatic")", R"(name="j2" type="planar")"),
+                 {"joint 'j2'", "planar"}},
+        BadInput{"MimicOnChain", swap(kJ1Limit, kJ1Limit + R"(<mimic joint="j3"/>)"), {"joint 'j1'", "mimic"}},
+        BadInput{"ZeroAxis", swap(R"(<axis xyz="0 2 0"/>)", R"(<axis xyz="0 0 0"/>)"), {"joint 'j3'", "axis is zero"}},
+        BadInput{"NegativeMass", swap(R"(<mass value="2"/>)", R"(<mass value="-2"/>)"), {"link 'l1'", "negative"}},
+        BadInput{"NanMass", swap(R"(<mass value="2"/>)", R"(<mass value="nan"/>)"), {"l1"}},
+        BadInput{
+            "InertiaNotPositiveDefinite", swap(R"(ixx="0.02")", R"(ixx="-0.02")"), {"link 'l1'", "positive definite"}},
+        BadInput{"ZeroInertiaWithMass",
+                 swap(R"(ixx="0.02" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.01")",
+                      R"(ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0")"),
+                 {"link 'l1'", "positive definite"}},
+        BadInput{"NanOrigin",
+                 swap(R"(<origin xyz="0 0 0.3" rpy="0 0 0"/>)", R"(<origin xyz="0 nan 0.3" rpy="0 0 0"/>)"),
+                 {"joint [j1]"}},
+        BadInput{
+            "InfiniteLimit", swap(kJ1Limit, R"(<limit lower="-inf" upper="2" effort="50" velocity="2"/>)"), {"j1"}},
+        BadInput{"HugeNumber", swap(R"(<mass value="1"/>)", R"(<mass value="1e999"/>)"), {"l2"}},
+        BadInput{"MissingLimits", swap(kJ1Limit, ""), {"j1", "limits"}},
+        BadInput{"LowerAboveUpper",
+                 swap(kJ1Limit, R"(<limit lower="2" upper="-2" effort="50" velocity="2"/>)"),
+                 {"joint 'j1'", "lower limit 2", "above upper limit -2"}},
+        BadInput{"UnknownChildLink",
+                 swap(R"(<child link="l2"/>)", R"(<child link="l9"/>)"),
+                 {"joint 'j2'", "child link 'l9'", "does not exist"}},
+        BadInput{"UnknownParentLink",
+                 swap(R"(<parent link="l1b"/>)", R"(<parent link="nowhere"/>)"),
+                 {"joint 'j2'", "parent link 'nowhere'"}},
+        BadInput{"Cycle",
+                 swap("</robot>",
+                      R"(<joint name="back" type="fixed"><parent link="tip"/><child link="base"/></joint></robot>)"),
+                 {"cycle", "'back'", "'j1'"}},
+        BadInput{"TwoParents",
+                 swap("</robot>",
+                      R"(<joint name="extra" type="fixed"><parent link="base"/><child link="l2"/></joint></robot>)"),
+                 {"link 'l2'", "two parent joints", "'j2'", "'extra'"}},
+        BadInput{"NoMovableJoint", [](const std::string& x) { return x; }, {"no movable joint"}, "base"}),
+    [](const ::testing::TestParamInfo<BadInput>& p) { return p.param.name; });
+
+TEST(Model, MissingFile) {
+  try {
+    load_urdf_file("/nonexistent/robot.urdf");
+    FAIL() << "expected an error";
+  } catch (const ModelError& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/robot.urdf: cannot open"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Model, MassZeroFramesLoad) {
+  // ur5's base, ee_link and tool0 carry mass 0 and zero inertia: valid.
+  UrdfOptions options;
+  options.tip_link = "tool0";
+  EXPECT_EQ(load_urdf_file(testing::data_path("ur5.urdf"), options).dof(), 6);
+}
+
+}  // namespace
+}  // namespace chasles

@@ -1,0 +1,52 @@
+// Reading the independent reference data in tests/data/ (see its README), and comparing
+// matrices with a message that names the first element that differs.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "chasles/core/model/model.hpp"
+
+namespace chasles::testing {
+
+/// Path of a file in tests/data.
+std::string data_path(const std::string& name);
+
+struct ReferenceCase {
+  Eigen::VectorXd q, qd, qdd;
+  Matrix4d T;
+  Eigen::MatrixXd J_s, J_b;
+  std::map<std::string, Matrix4d> link_T;
+  Eigen::VectorXd tau, g, c;
+  Eigen::MatrixXd M;
+};
+
+struct Reference {
+  std::string robot, urdf, base_link, tip_link;
+  std::vector<std::string> joint_names, joint_types;
+  Eigen::VectorXd lower, upper;
+  Vector3d gravity;
+  Matrix4d home_T;
+  Eigen::MatrixXd home_S;  ///< 6×n, one column per joint
+  std::vector<ReferenceCase> cases;
+};
+
+/// tests/data/<robot>.json, with `urdf` pointing at tests/data/<robot>.urdf.
+Reference load_reference(const std::string& robot);
+
+/// Largest absolute difference; also usable outside assertions.
+double max_abs_diff(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b);
+
+/// Passes when every |actual − expected| ≤ tolerance; otherwise names the first offending
+/// element, with both values.
+::testing::AssertionResult matrices_near(const Eigen::MatrixXd& actual, const Eigen::MatrixXd& expected,
+                                         double tolerance);
+
+/// The same with a relative tolerance: |a − e| ≤ tolerance · max(1, |e|_max).
+::testing::AssertionResult matrices_near_relative(const Eigen::MatrixXd& actual, const Eigen::MatrixXd& expected,
+                                                  double tolerance);
+
+}  // namespace chasles::testing

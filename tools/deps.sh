@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Installs the Debian packages chasles needs, and only those that are missing.
+# Sourced by demo.sh, test.sh and bench.sh; run alone it installs the full set.
+# As root it runs apt-get; otherwise it prints the exact command and fails.
+set -euo pipefail
+
+chasles_packages_build=(
+  build-essential cmake ninja-build pkg-config
+  libeigen3-dev liburdfdom-dev libceres-dev libgtest-dev
+  libcli11-dev nlohmann-json3-dev
+  liblcm-dev liblcm-bin libglib2.0-dev
+  iproute2 util-linux python3
+)
+
+chasles_install_missing() {
+  local missing=()
+  local p
+  for p in "$@"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  [ ${#missing[@]} -eq 0 ] && return 0
+  if [ "$(id -u)" -ne 0 ]; then
+    echo "chasles: missing Debian packages. Install them with:" >&2
+    echo "  sudo apt-get install -y ${missing[*]}" >&2
+    return 1
+  fi
+  echo "chasles: installing ${missing[*]}" >&2
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get install -y --no-install-recommends "${missing[@]}" >/dev/null ||
+    { apt-get update >/dev/null && apt-get install -y --no-install-recommends "${missing[@]}" >/dev/null; }
+}
+
+if [ "${BASH_SOURCE[0]}" = "$0" ]; then
+  chasles_install_missing "${chasles_packages_build[@]}" "$@"
+fi
