@@ -5,35 +5,32 @@
 #include "chasles/core/lie/se3.hpp"
 
 namespace chasles {
-namespace {
-
-void check_size(const RobotModel& model, const JointVector& q) {
-  if (q.size() != model.dof()) {
-    throw std::invalid_argument("q has " + std::to_string(q.size()) + " entries, the model has " +
+void check_joint_vector(const RobotModel& model, const JointVector& v, const char* name) {
+  if (v.size() != model.dof()) {
+    throw std::invalid_argument(std::string(name) + " has " + std::to_string(v.size()) + " entries, the model has " +
                                 std::to_string(model.dof()) + " joints");
   }
 }
 
-// exp([A_i] q_i) for A_i = (axis, 0) or (0, axis): a pure rotation or a pure translation.
-Transform joint_motion(const Joint& joint, double q) {
-  Transform T = Transform::Identity();
-  if (joint.type == JointType::Prismatic) {
-    T.translation() = joint.axis * q;
-  } else {
-    T.linear() = exp3_unit(joint.axis, q);
-  }
-  return T;
-}
-
-}  // namespace
-
-const Transform& forward_kinematics(const RobotModel& model, Data& data, const JointVector& q) {
-  check_size(model, q);
+void local_transforms(const RobotModel& model, Data& data, const JointVector& q) {
+  check_joint_vector(model, q, "q");
   for (int i = 0; i < model.dof(); ++i) {
     const Joint& joint = model.joint(i);
-    data.T_body[static_cast<size_t>(i) + 1] =
-        data.T_body[static_cast<size_t>(i)] * joint.T_parent_joint * joint_motion(joint, q(i));
+    Transform& T = data.T_local[static_cast<size_t>(i) + 1];
+    const Matrix3d& R_parent_joint = joint.T_parent_joint.linear();
+    if (joint.type == JointType::Prismatic) {
+      T.linear() = R_parent_joint;
+      T.translation() = joint.T_parent_joint.translation() + R_parent_joint * (joint.axis * q(i));
+    } else {
+      T.linear().noalias() = R_parent_joint * exp3_unit(joint.axis, q(i));
+      T.translation() = joint.T_parent_joint.translation();
+    }
   }
+}
+
+const Transform& forward_kinematics(const RobotModel& model, Data& data, const JointVector& q) {
+  local_transforms(model, data, q);
+  for (size_t i = 1; i < data.T_body.size(); ++i) data.T_body[i] = data.T_body[i - 1] * data.T_local[i];
   data.T_sb = data.T_body.back() * model.T_last_tip();
   return data.T_sb;
 }
@@ -48,14 +45,14 @@ const std::vector<Transform>& link_poses(const RobotModel& model, Data& data, co
 }
 
 Transform forward_kinematics_space(const RobotModel& model, const JointVector& q) {
-  check_size(model, q);
+  check_joint_vector(model, q, "q");
   Transform T = Transform::Identity();
   for (int i = 0; i < model.dof(); ++i) T = T * exp6(model.space_axes().col(i) * q(i));
   return T * model.home_tip();
 }
 
 Transform forward_kinematics_body(const RobotModel& model, const JointVector& q) {
-  check_size(model, q);
+  check_joint_vector(model, q, "q");
   Transform T = model.home_tip();
   for (int i = 0; i < model.dof(); ++i) T = T * exp6(model.body_axes().col(i) * q(i));
   return T;

@@ -8,6 +8,13 @@ namespace chasles {
 
 using JointVector = Eigen::Ref<const Eigen::VectorXd>;
 
+/// Throws std::invalid_argument unless v has one entry per joint; `name` names it ("q", "qd").
+void check_joint_vector(const RobotModel& model, const JointVector& v, const char* name);
+
+/// The joint transforms T_{i−1,i}(q_i) = M_{i−1,i} · exp([A_i] q_i) into data.T_local; the
+/// first step of forward kinematics and of every dynamics algorithm.
+void local_transforms(const RobotModel& model, Data& data, const JointVector& q);
+
 /// Tip pose T_sb and every body pose T_0i, by the local PoE recursion
 /// T_0i = T_0,i−1 · M_{i−1,i} · exp([A_i] q_i). The fast path the Jacobians and dynamics use.
 const Transform& forward_kinematics(const RobotModel& model, Data& data, const JointVector& q);

@@ -109,6 +109,15 @@ Vector6d adjoint_transpose_times(const Transform& T, const Eigen::MatrixBase<Der
   return out;
 }
 
+/// [Ad_{T⁻¹}]ᵀ F = (R m + p × R f, R f): moves a wrench F_b in frame b to frame a when T = T_ab.
+template <typename Derived>
+Vector6d adjoint_inverse_transpose_times(const Transform& T, const Eigen::MatrixBase<Derived>& F) {
+  const Vector3d f = T.linear() * F.template tail<3>();
+  Vector6d out;
+  out << T.linear() * F.template head<3>() + T.translation().cross(f), f;
+  return out;
+}
+
 /// [ad_V] = [[ [ω], 0 ], [ [v], [ω] ]] (MR definition 8.1): the Lie bracket with V.
 template <typename Derived>
 Matrix6d ad(const Eigen::MatrixBase<Derived>& V) {

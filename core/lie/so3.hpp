@@ -60,14 +60,19 @@ Matrix3d exp3(const Eigen::MatrixBase<Derived>& w) {
   return Matrix3d::Identity() + k.a * W + k.b * W * W;
 }
 
-/// Rotation by angle θ about a unit axis ω̂: exp([ω̂]θ), without normalising the axis again.
+/// Rotation by angle θ about a unit axis ω̂: cos θ I + sin θ [ω̂] + (1 − cos θ) ω̂ω̂ᵀ, the same
+/// Rodrigues formula arranged for a known unit axis (the joint-motion hot path).
 template <typename Derived>
 Matrix3d exp3_unit(const Eigen::MatrixBase<Derived>& w_hat, double theta) {
   const double s = std::sin(theta);
-  const double half_sin = std::sin(0.5 * theta);
-  const double one_minus_c = 2.0 * half_sin * half_sin;
-  const Matrix3d W = hat3(w_hat);
-  return Matrix3d::Identity() + s * W + one_minus_c * W * W;
+  const double c = std::cos(theta);
+  const Vector3d w = w_hat;
+  const Vector3d k = (1.0 - c) * w;
+  Matrix3d R;
+  R << c + k.x() * w.x(), k.x() * w.y() - s * w.z(), k.x() * w.z() + s * w.y(),  //
+      k.y() * w.x() + s * w.z(), c + k.y() * w.y(), k.y() * w.z() - s * w.x(),   //
+      k.z() * w.x() - s * w.y(), k.z() * w.y() + s * w.x(), c + k.z() * w.z();
+  return R;
 }
 
 /// log(R) as exponential coordinates ω̂θ with θ ∈ [0, π] (MR algorithm 3.2), accurate at every

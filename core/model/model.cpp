@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "chasles/core/lie/se3.hpp"
+#include "chasles/core/lie/so3.hpp"
 
 namespace chasles {
 
@@ -13,6 +14,16 @@ const char* to_string(JointType type) {
     case JointType::Prismatic: return "prismatic";
   }
   return "unknown";
+}
+
+Matrix6d SpatialInertia::matrix() const {
+  Matrix6d G;
+  G << I, hat3(h), hat3(h).transpose(), mass * Matrix3d::Identity();
+  return G;
+}
+
+SpatialInertia SpatialInertia::from_matrix(const Matrix6d& G) {
+  return {G(3, 3), vee3(G.topRightCorner<3, 3>()), G.topLeftCorner<3, 3>()};
 }
 
 namespace {
@@ -62,6 +73,7 @@ RobotModel::RobotModel(ChainDescription description) : d_(std::move(description)
   const int n = dof();
   M_body_.resize(static_cast<size_t>(n));
   A_.resize(static_cast<size_t>(n));
+  G_.resize(static_cast<size_t>(n));
   S_.resize(6, n);
   B_.resize(6, n);
   Transform M_i = Transform::Identity();
@@ -76,6 +88,7 @@ RobotModel::RobotModel(ChainDescription description) : d_(std::move(description)
       A << j.axis, Vector3d::Zero();
     }
     S_.col(i) = adjoint_times(M_i, A);  // S_i = [Ad_{M_i}] A_i
+    G_[static_cast<size_t>(i)] = SpatialInertia::from_matrix(d_.inertia[static_cast<size_t>(i)]);
   }
   M_ = M_i * d_.T_last_tip;
   for (int i = 0; i < n; ++i) B_.col(i) = adjoint_inverse_times(M_, S_.col(i));
@@ -89,10 +102,21 @@ int RobotModel::joint_index(const std::string& name) const {
 }
 
 Data::Data(const RobotModel& model)
-    : T_body(static_cast<size_t>(model.dof()) + 1, Transform::Identity()),
+    : T_local(static_cast<size_t>(model.dof()) + 1, Transform::Identity()),
+      T_body(static_cast<size_t>(model.dof()) + 1, Transform::Identity()),
       T_sb(Transform::Identity()),
       T_link(model.links().size(), Transform::Identity()),
       J_s(Matrix6Xd::Zero(6, model.dof())),
-      J_b(Matrix6Xd::Zero(6, model.dof())) {}
+      J_b(Matrix6Xd::Zero(6, model.dof())),
+      V(static_cast<size_t>(model.dof()) + 1, Vector6d::Zero()),
+      Vd(static_cast<size_t>(model.dof()) + 1, Vector6d::Zero()),
+      F(static_cast<size_t>(model.dof()) + 1, Vector6d::Zero()),
+      composite(static_cast<size_t>(model.dof()) + 1),
+      tau(Eigen::VectorXd::Zero(model.dof())),
+      g(Eigen::VectorXd::Zero(model.dof())),
+      c(Eigen::VectorXd::Zero(model.dof())),
+      M(Eigen::MatrixXd::Zero(model.dof(), model.dof())),
+      qdd(Eigen::VectorXd::Zero(model.dof())),
+      M_llt(model.dof()) {}
 
 }  // namespace chasles

@@ -3,6 +3,7 @@
 // its own Data, and no algorithm allocates afterwards.
 #pragma once
 
+#include <Eigen/Cholesky>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -31,6 +32,25 @@ struct JointLimits {
   double upper = 0.0;
   double velocity = 0.0;
   double effort = 0.0;
+};
+
+/// A body's spatial inertia in its own frame, in the compact form the recursive algorithms use:
+/// mass m, first moment h = m c (c the centre of mass) and rotational inertia I about the frame
+/// origin. As a 6×6 matrix in (ω, v) order, G = [[I, [h]], [[h]ᵀ, m 1]] (MR eq. 8.32).
+struct SpatialInertia {
+  double mass = 0.0;
+  Vector3d h = Vector3d::Zero();
+  Matrix3d I = Matrix3d::Zero();
+
+  /// The momentum G V of a body moving with twist V.
+  Vector6d operator*(const Vector6d& V) const {
+    const Vector3d w = V.head<3>(), v = V.tail<3>();
+    Vector6d P;
+    P << I * w + h.cross(v), mass * v - h.cross(w);
+    return P;
+  }
+  Matrix6d matrix() const;
+  static SpatialInertia from_matrix(const Matrix6d& G);
 };
 
 /// A movable joint of the chain. Body i is the child link of joint i with everything rigidly
@@ -83,6 +103,8 @@ class RobotModel {
   const Joint& joint(int i) const { return d_.joints[static_cast<size_t>(i)]; }
   const std::vector<ChainLink>& links() const { return d_.links; }
   const Matrix6d& inertia(int i) const { return d_.inertia[static_cast<size_t>(i)]; }
+  /// The same in compact form, for the recursive algorithms.
+  const SpatialInertia& body_inertia(int i) const { return G_[static_cast<size_t>(i)]; }
   const Transform& T_last_tip() const { return d_.T_last_tip; }
   const Vector3d& gravity() const { return d_.gravity; }
 
@@ -105,20 +127,34 @@ class RobotModel {
   Transform M_;
   std::vector<Transform> M_body_;
   std::vector<Vector6d> A_;
+  std::vector<SpatialInertia> G_;
   Matrix6Xd S_;
   Matrix6Xd B_;
 };
 
 /// Scratch and results of the algorithms for one model; one per thread. Sized on construction,
-/// never resized afterwards.
+/// never resized afterwards. Vectors indexed by body run 0..n with entry 0 the fixed base.
 struct Data {
   explicit Data(const RobotModel& model);
 
-  std::vector<Transform> T_body;  ///< T_0i, pose of body i in the base frame; T_body[0] = I
-  Transform T_sb;                 ///< tip pose in the base (space) frame
-  std::vector<Transform> T_link;  ///< pose of every chain link (RobotModel::links order)
-  Matrix6Xd J_s;                  ///< space Jacobian
-  Matrix6Xd J_b;                  ///< body Jacobian at the tip
+  // Kinematics.
+  std::vector<Transform> T_local;  ///< T_{i−1,i}(q_i) = M_{i−1,i} exp([A_i] q_i); entry 0 unused
+  std::vector<Transform> T_body;   ///< T_0i, pose of body i in the base frame; T_body[0] = I
+  Transform T_sb;                  ///< tip pose in the base (space) frame
+  std::vector<Transform> T_link;   ///< pose of every chain link (RobotModel::links order)
+  Matrix6Xd J_s;                   ///< space Jacobian
+  Matrix6Xd J_b;                   ///< body Jacobian at the tip
+
+  // Dynamics: body twists, their derivatives and the wrenches between bodies, each in the body's
+  // own frame; composite inertias of the subtree from each body outward.
+  std::vector<Vector6d> V, Vd, F;
+  std::vector<SpatialInertia> composite;
+  Eigen::VectorXd tau;  ///< inverse dynamics
+  Eigen::VectorXd g;    ///< gravity torques
+  Eigen::VectorXd c;    ///< velocity product C(q, q̇) q̇
+  Eigen::MatrixXd M;    ///< mass matrix
+  Eigen::VectorXd qdd;  ///< forward dynamics
+  Eigen::LLT<Eigen::MatrixXd> M_llt;
 };
 
 }  // namespace chasles

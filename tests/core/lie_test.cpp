@@ -129,6 +129,15 @@ TEST(Lie, LogOfExpIsIdentityBelowPi) {
   }
 }
 
+TEST(Lie, ExpAboutAUnitAxisIsExp) {
+  Random r;
+  for (int i = 0; i < kSamples; ++i) {
+    const Vector3d axis = r.unit3();
+    const double theta = r.angle(-10.0, 10.0);
+    EXPECT_TRUE(matrices_near(exp3_unit(axis, theta), exp3(axis * theta), 1e-14));
+  }
+}
+
 TEST(Lie, ExpOfZeroIsIdentityAndLogOfIdentityIsZero) {
   EXPECT_EQ(exp6(Vector6d::Zero()).matrix(), Matrix4d::Identity());
   EXPECT_EQ(log6(Transform::Identity()), Vector6d::Zero());
@@ -175,6 +184,7 @@ TEST(Lie, MatrixFreeFormsMatchTheMatrices) {
     EXPECT_TRUE(matrices_near(adjoint_times(T, V1), adjoint(T) * V1, 1e-14));
     EXPECT_TRUE(matrices_near(adjoint_inverse_times(T, V1), adjoint(inverse(T)) * V1, 1e-14));
     EXPECT_TRUE(matrices_near(adjoint_transpose_times(T, V1), adjoint(T).transpose() * V1, 1e-14));
+    EXPECT_TRUE(matrices_near(adjoint_inverse_transpose_times(T, V1), adjoint(inverse(T)).transpose() * V1, 1e-14));
     EXPECT_TRUE(matrices_near(ad_times(V1, V2), ad(V1) * V2, 1e-14));
     EXPECT_TRUE(matrices_near(ad_transpose_times(V1, V2), ad(V1).transpose() * V2, 1e-14));
   }

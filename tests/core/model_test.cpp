@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
+#include <fstream>
 #include <functional>
 #include <regex>
+#include <sstream>
 
 #include "chasles/core/lie/se3.hpp"
 #include "chasles/core/model/urdf.hpp"
@@ -93,31 +95,13 @@ TEST(Model, SeveralLeavesNeedATip) {
 
 // --- a small arm and its mutations ----------------------------------------------------------
 
-// Base → (revolute j1) → l1 → (fixed f) → l1b → (prismatic j2) → l2 → (revolute j3) → tip, and a
-// gripper finger off the chain on l2.
+// tests/data/arm.urdf: base → (revolute j1) → l1 → (fixed f) → l1b → (prismatic j2) → l2 →
+// (continuous j3) → tip, and a gripper finger off the chain on l2.
 std::string arm_urdf() {
-  return R"(<robot name="arm">
-  <link name="base"/>
-  <link name="l1"><inertial><origin xyz="0 0 0.1" rpy="0 0 0"/><mass value="2"/>
-    <inertia ixx="0.02" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.01"/></inertial></link>
-  <link name="l1b"/>
-  <link name="l2"><inertial><origin xyz="0.1 0 0" rpy="0 0 1.5707963267948966"/><mass value="1"/>
-    <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.002" iyz="0" izz="0.003"/></inertial></link>
-  <link name="tip"><inertial><mass value="0"/><inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/></inertial></link>
-  <link name="finger"><inertial><origin xyz="0 0 0"/><mass value="0.5"/>
-    <inertia ixx="1e-4" ixy="0" ixz="0" iyy="1e-4" iyz="0" izz="1e-4"/></inertial></link>
-  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
-    <origin xyz="0 0 0.3" rpy="0 0 0"/><axis xyz="0 0 1"/>
-    <limit lower="-2" upper="2" effort="50" velocity="2"/></joint>
-  <joint name="f" type="fixed"><parent link="l1"/><child link="l1b"/><origin xyz="0 0 0.2" rpy="1.5707963267948966 0 0"/></joint>
-  <joint name="j2" type="prismatic"><parent link="l1b"/><child link="l2"/>
-    <origin xyz="0.1 0 0" rpy="0 0 0"/><axis xyz="1 0 0"/>
-    <limit lower="0" upper="0.5" effort="100" velocity="0.5"/></joint>
-  <joint name="j3" type="continuous"><parent link="l2"/><child link="tip"/>
-    <origin xyz="0.2 0 0" rpy="0 0.5 0"/><axis xyz="0 2 0"/></joint>
-  <joint name="finger_joint" type="prismatic"><parent link="l2"/><child link="finger"/>
-    <origin xyz="0 0.05 0"/><axis xyz="0 1 0"/><limit lower="0" upper="0.04" effort="10" velocity="0.1"/></joint>
-</robot>)";
+  std::ifstream file(testing::data_path("arm.urdf"));
+  std::stringstream text;
+  text << file.rdbuf();
+  return text.str();
 }
 
 std::string replace(std::string text, const std::string& from, const std::string& to) {

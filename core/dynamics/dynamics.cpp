@@ -1,0 +1,177 @@
+#include "chasles/core/dynamics/dynamics.hpp"
+
+#include "chasles/core/lie/se3.hpp"
+
+namespace chasles {
+namespace {
+
+size_t body(int joint_index) { return static_cast<size_t>(joint_index) + 1; }
+
+// The local screw axis A_i = (axis, 0) or (0, axis) applied to a joint rate: A_i x.
+Vector6d axis_times(const Joint& joint, double x) {
+  Vector6d V;
+  if (joint.type == JointType::Prismatic) {
+    V << Vector3d::Zero(), joint.axis * x;
+  } else {
+    V << joint.axis * x, Vector3d::Zero();
+  }
+  return V;
+}
+
+// A_iᵀ F: the joint's share of a wrench.
+double axis_dot(const Joint& joint, const Vector6d& F) {
+  return joint.type == JointType::Prismatic ? joint.axis.dot(F.tail<3>()) : joint.axis.dot(F.head<3>());
+}
+
+// RNEA (MR eq. 8.50–8.53) with the terms that are zero left out at compile time. Gravity enters
+// as a base acceleration V̇_0 = (0, −g). Expects data.T_local to be current.
+template <bool kVelocity, bool kAcceleration>
+void rnea(const RobotModel& model, Data& data, const double* qd, const double* qdd, const Vector3d& gravity,
+          const Vector6d& F_tip, Eigen::VectorXd& tau) {
+  const int n = model.dof();
+  data.Vd[0] << Vector3d::Zero(), -gravity;
+  for (int i = 0; i < n; ++i) {
+    const Joint& joint = model.joint(i);
+    const Transform& T = data.T_local[body(i)];
+    Vector6d& Vd = data.Vd[body(i)];
+    Vd = adjoint_inverse_times(T, data.Vd[body(i) - 1]);
+    if constexpr (kVelocity) {
+      const Vector6d A_qd = axis_times(joint, qd[i]);
+      data.V[body(i)] = adjoint_inverse_times(T, data.V[body(i) - 1]) + A_qd;
+      Vd += ad_times(data.V[body(i)], A_qd);
+    }
+    if constexpr (kAcceleration) Vd += axis_times(joint, qdd[i]);
+  }
+  Vector6d F = adjoint_inverse_transpose_times(model.T_last_tip(), F_tip);
+  for (int i = n - 1; i >= 0; --i) {
+    const SpatialInertia& G = model.body_inertia(i);
+    F += G * data.Vd[body(i)];
+    if constexpr (kVelocity) {
+      const Vector6d& V = data.V[body(i)];
+      F -= ad_transpose_times(V, G * V);
+    }
+    data.F[body(i)] = F;
+    tau(i) = axis_dot(model.joint(i), F);
+    F = adjoint_inverse_transpose_times(data.T_local[body(i)], F);
+  }
+}
+
+// The composite inertia of body i expressed in the frame of its parent, T = T_{i−1,i}
+// (Featherstone's inertia transform, in (m, h, I) form).
+SpatialInertia to_parent(const Transform& T, const SpatialInertia& G) {
+  const Matrix3d& R = T.linear();
+  const Vector3d& p = T.translation();
+  const Vector3d h = R * G.h;
+  const Matrix3d P = hat3(p), H = hat3(h);
+  SpatialInertia out;
+  out.mass = G.mass;
+  out.h = h + G.mass * p;
+  out.I.noalias() = R * G.I * R.transpose();
+  out.I -= H * P + P * H + G.mass * P * P;
+  return out;
+}
+
+void add(SpatialInertia& a, const SpatialInertia& b) {
+  a.mass += b.mass;
+  a.h += b.h;
+  a.I += b.I;
+}
+
+// G A_i: the momentum of a body moving with unit rate about joint i.
+Vector6d inertia_times_axis(const SpatialInertia& G, const Joint& joint) {
+  const Vector3d& a = joint.axis;
+  Vector6d P;
+  if (joint.type == JointType::Prismatic) {
+    P << G.h.cross(a), G.mass * a;
+  } else {
+    P << G.I * a, a.cross(G.h);
+  }
+  return P;
+}
+
+}  // namespace
+
+const Eigen::VectorXd& inverse_dynamics(const RobotModel& model, Data& data, const JointVector& q,
+                                        const JointVector& qd, const JointVector& qdd, const Vector6d& F_tip) {
+  check_joint_vector(model, qd, "qd");
+  check_joint_vector(model, qdd, "qdd");
+  local_transforms(model, data, q);
+  rnea<true, true>(model, data, qd.data(), qdd.data(), model.gravity(), F_tip, data.tau);
+  return data.tau;
+}
+
+const Eigen::VectorXd& gravity_torques(const RobotModel& model, Data& data, const JointVector& q) {
+  local_transforms(model, data, q);
+  rnea<false, false>(model, data, nullptr, nullptr, model.gravity(), Vector6d::Zero(), data.g);
+  return data.g;
+}
+
+const Eigen::VectorXd& velocity_product(const RobotModel& model, Data& data, const JointVector& q,
+                                        const JointVector& qd) {
+  check_joint_vector(model, qd, "qd");
+  local_transforms(model, data, q);
+  rnea<true, false>(model, data, qd.data(), nullptr, Vector3d::Zero(), Vector6d::Zero(), data.c);
+  return data.c;
+}
+
+const Eigen::MatrixXd& mass_matrix(const RobotModel& model, Data& data, const JointVector& q) {
+  local_transforms(model, data, q);
+  const int n = model.dof();
+  // Composite inertias, tip to base (MR §8.4, Featherstone's CRBA).
+  data.composite[body(n - 1)] = model.body_inertia(n - 1);
+  for (int i = n - 1; i > 0; --i) {
+    data.composite[body(i - 1)] = model.body_inertia(i - 1);
+    add(data.composite[body(i - 1)], to_parent(data.T_local[body(i)], data.composite[body(i)]));
+  }
+  // Column i: the wrench needed to accelerate joint i alone, carried down toward the base.
+  for (int i = 0; i < n; ++i) {
+    Vector6d F = inertia_times_axis(data.composite[body(i)], model.joint(i));
+    data.M(i, i) = axis_dot(model.joint(i), F);
+    for (int j = i; j > 0; --j) {
+      F = adjoint_inverse_transpose_times(data.T_local[body(j)], F);
+      data.M(j - 1, i) = data.M(i, j - 1) = axis_dot(model.joint(j - 1), F);
+    }
+  }
+  return data.M;
+}
+
+const Eigen::VectorXd& forward_dynamics(const RobotModel& model, Data& data, const JointVector& q,
+                                        const JointVector& qd, const JointVector& tau, const Vector6d& F_tip) {
+  check_joint_vector(model, qd, "qd");
+  check_joint_vector(model, tau, "tau");
+  mass_matrix(model, data, q);  // also sets data.T_local
+  rnea<true, false>(model, data, qd.data(), nullptr, model.gravity(), F_tip, data.qdd);
+  data.qdd = tau - data.qdd;
+  data.M_llt.compute(data.M);
+  if (data.M_llt.info() != Eigen::Success) {
+    throw std::domain_error("mass matrix is not positive definite: some joint moves no mass");
+  }
+  data.M_llt.solveInPlace(data.qdd);
+  return data.qdd;
+}
+
+double kinetic_energy(const RobotModel& model, Data& data, const JointVector& q, const JointVector& qd) {
+  check_joint_vector(model, qd, "qd");
+  local_transforms(model, data, q);
+  double energy = 0.0;
+  for (int i = 0; i < model.dof(); ++i) {
+    Vector6d& V = data.V[body(i)];
+    V = adjoint_inverse_times(data.T_local[body(i)], data.V[body(i) - 1]) + axis_times(model.joint(i), qd(i));
+    energy += 0.5 * V.dot(model.body_inertia(i) * V);
+  }
+  return energy;
+}
+
+double potential_energy(const RobotModel& model, Data& data, const JointVector& q) {
+  forward_kinematics(model, data, q);
+  double energy = 0.0;
+  for (int i = 0; i < model.dof(); ++i) {
+    // m_i c_i in the base frame: m_i p_0i + R_0i h_i.
+    const Transform& T = data.T_body[body(i)];
+    const SpatialInertia& G = model.body_inertia(i);
+    energy -= model.gravity().dot(G.mass * T.translation() + T.linear() * G.h);
+  }
+  return energy;
+}
+
+}  // namespace chasles

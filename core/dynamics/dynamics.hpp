@@ -1,0 +1,41 @@
+// Rigid-body dynamics of the chain in the PoE form of Modern Robotics ch. 8: inverse dynamics by
+// recursive Newton-Euler, the mass matrix by composite rigid bodies, forward dynamics by a
+// Cholesky solve. Every function allocates nothing and writes its result into Data.
+//
+// The equations of motion are τ = M(q) q̈ + c(q, q̇) + g(q) + J_bᵀ(q) F_tip, where F_tip is the
+// wrench the tip applies to the environment, in the tip frame, (m, f) order (MR eq. 8.1, 8.54).
+#pragma once
+
+#include "chasles/core/kinematics/kinematics.hpp"
+
+namespace chasles {
+
+/// τ = ID(q, q̇, q̈, F_tip) by RNEA with the model's gravity (MR §8.3.2).
+const Eigen::VectorXd& inverse_dynamics(const RobotModel& model, Data& data, const JointVector& q,
+                                        const JointVector& qd, const JointVector& qdd,
+                                        const Vector6d& F_tip = Vector6d::Zero());
+
+/// g(q): the torques that hold the arm still against gravity.
+const Eigen::VectorXd& gravity_torques(const RobotModel& model, Data& data, const JointVector& q);
+
+/// c(q, q̇) = C(q, q̇) q̇: Coriolis and centripetal torques (no gravity).
+const Eigen::VectorXd& velocity_product(const RobotModel& model, Data& data, const JointVector& q,
+                                        const JointVector& qd);
+
+/// M(q) by the composite-rigid-body algorithm; the full symmetric matrix.
+const Eigen::MatrixXd& mass_matrix(const RobotModel& model, Data& data, const JointVector& q);
+
+/// q̈ = FD(q, q̇, τ, F_tip) = M⁻¹(τ − c − g − J_bᵀ F_tip), by a Cholesky factorisation of M kept in
+/// data.M_llt (so a second solve at the same q is cheap).
+const Eigen::VectorXd& forward_dynamics(const RobotModel& model, Data& data, const JointVector& q,
+                                        const JointVector& qd, const JointVector& tau,
+                                        const Vector6d& F_tip = Vector6d::Zero());
+
+/// ½ q̇ᵀ M(q) q̇, summed body by body as ½ Σ V_iᵀ G_i V_i.
+double kinetic_energy(const RobotModel& model, Data& data, const JointVector& q, const JointVector& qd);
+
+/// −Σ m_i gᵀ c_i: the potential energy of gravity, zero when every centre of mass is at the base
+/// origin's height along g.
+double potential_energy(const RobotModel& model, Data& data, const JointVector& q);
+
+}  // namespace chasles
