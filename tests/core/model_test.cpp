@@ -173,6 +173,8 @@ struct BadInput {
   std::string tip = "tip";
 };
 
+void PrintTo(const BadInput& bad, std::ostream* out) { *out << bad.name; }
+
 class BadUrdf : public ::testing::TestWithParam<BadInput> {};
 
 TEST_P(BadUrdf, IsRejectedWithAClearMessage) {

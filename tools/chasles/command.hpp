@@ -1,0 +1,42 @@
+// The pieces every chasles subcommand shares. A subcommand is a register_<name>() function that
+// adds a CLI11 subcommand with its options and returns a Command whose run() builds the whole
+// JSON answer; main prints it only once it is complete, so an error never leaves half a document.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <functional>
+#include <string>
+
+#include "chasles/core/model/model.hpp"
+#include "json_io.hpp"
+
+namespace chasles::cli {
+
+struct Command {
+  CLI::App* app = nullptr;    ///< the CLI11 subcommand
+  std::function<Json()> run;  ///< the answer; throws InputError or ModelError on bad input
+};
+
+/// --urdf FILE and --tip LINK, as every model-based subcommand takes them.
+struct ModelOptions {
+  std::string urdf;
+  std::string tip;
+};
+
+/// Adds --urdf (required) and --tip to `command`, stored in `options`.
+void add_model_options(CLI::App& command, ModelOptions& options);
+
+/// The model the options name; throws ModelError naming the file and the joint or link at fault.
+RobotModel load_model(const ModelOptions& options);
+
+/// A comma-separated list of exactly n finite numbers ("0.1,-2,3e-1"), the form single-shot
+/// commands take joint vectors in; `option` names it in errors ("--q").
+Eigen::VectorXd parse_list(const std::string& text, Eigen::Index n, const std::string& option);
+
+// The subcommands, in the order --help lists them.
+Command register_inspect(CLI::App& app);
+Command register_eval(CLI::App& app);
+Command register_rnea(CLI::App& app);
+Command register_fd(CLI::App& app);
+
+}  // namespace chasles::cli

@@ -1,0 +1,91 @@
+// chasles: the model's answers as JSON on stdout. Errors: one line "chasles: ..." on stderr,
+// nothing on stdout; exit 2 for a usage error, 1 for bad input (URDF, cases file).
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "command.hpp"
+
+namespace {
+
+// Messages come from several libraries; keep each on one line.
+std::string one_line(std::string text) {
+  while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();
+  for (char& c : text) {
+    if (c == '\n' || c == '\r') c = ' ';
+  }
+  return text;
+}
+
+int fail(const std::string& message, int code) {
+  std::cerr << "chasles: " << one_line(message) << std::endl;
+  return code;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace chasles::cli;
+
+  CLI::App app("chasles: kinematics and dynamics of a serial robot arm from its URDF, answered as JSON", "chasles");
+  app.set_version_flag("--version", std::string("chasles ") + CHASLES_VERSION);
+  bool pretty = false;
+  app.add_flag("--pretty", pretty, "Indent the JSON output (default: one line)");
+  app.require_subcommand(1);
+  app.fallthrough();  // global flags may also follow the subcommand
+  app.footer(
+      "Conventions: Lynch & Park; twists and screw axes (w, v), angular first; SI units.\n"
+      "Numbers are printed in shortest round-trip form (exact doubles); no limit prints as null.\n"
+      "Examples:\n"
+      "  chasles inspect --urdf ur5.urdf --tip tool0\n"
+      "  chasles --pretty eval --urdf ur5.urdf --tip tool0 --cases cases.json\n"
+      "Run 'chasles COMMAND --help' for a command's input and output.");
+
+  const std::vector<Command> commands = {register_inspect(app), register_eval(app), register_rnea(app),
+                                         register_fd(app)};
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::Success& e) {  // --help, --version
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::string help = "chasles --help";
+    for (const CLI::App* sub : app.get_subcommands()) help = "chasles " + sub->get_name() + " --help";
+    if (app.get_subcommands().empty()) {
+      std::string names;
+      for (const Command& command : commands) names += (names.empty() ? "" : ", ") + command.app->get_name();
+      // CLI11 says "A subcommand is required" for a misspelt one too: name it when it is the first
+      // word after the global flags.
+      for (int i = 1; i < argc; ++i) {
+        const std::string arg = argv[i];
+        if (arg == "--pretty") continue;
+        if (!arg.empty() && arg[0] != '-') {
+          return fail("unknown command '" + arg + "' (commands: " + names + "; see '" + help + "')", 2);
+        }
+        break;
+      }
+      return fail(std::string(e.what()) + " (commands: " + names + "; see '" + help + "')", 2);
+    }
+    return fail(std::string(e.what()) + " (see '" + help + "')", 2);
+  }
+
+  try {
+    for (const Command& command : commands) {
+      if (!command.app->parsed()) continue;
+      const std::string text = dump(command.run(), pretty);  // complete before anything is printed
+      std::cout << text << '\n';
+      std::cout.flush();
+      if (!std::cout) return fail("cannot write the output", 1);
+      return 0;
+    }
+    return fail("no command given (see 'chasles --help')", 2);
+  } catch (const chasles::ModelError& e) {
+    return fail(e.what(), 1);
+  } catch (const InputError& e) {
+    return fail(e.what(), 1);
+  } catch (const std::bad_alloc&) {
+    return fail("out of memory", 1);
+  } catch (const std::exception& e) {
+    return fail(std::string("internal error: ") + e.what(), 1);
+  }
+}
