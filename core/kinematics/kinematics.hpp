@@ -19,7 +19,7 @@ void local_transforms(const RobotModel& model, Data& data, const JointVector& q)
 /// T_0i = T_0,i−1 · M_{i−1,i} · exp([A_i] q_i). The fast path the Jacobians and dynamics use.
 const Transform& forward_kinematics(const RobotModel& model, Data& data, const JointVector& q);
 
-/// Every chain link's pose (data.T_link, in RobotModel::links order), after forward_kinematics.
+/// Every chain link's pose (data.T_link, in RobotModel::links order); runs forward_kinematics.
 const std::vector<Transform>& link_poses(const RobotModel& model, Data& data, const JointVector& q);
 
 /// Space form T = e^[S_1 q_1] ⋯ e^[S_n q_n] M (MR eq. 4.14).
