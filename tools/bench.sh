@@ -47,7 +47,10 @@ import sys
 
 report_path, as_json = sys.argv[1], sys.argv[2] == "1"
 with open(report_path) as f:
-    report = json.load(f)
+    text = f.read()
+if not text.strip():
+    sys.exit("bench: chasles_bench ran no benchmark (did --benchmark_filter match nothing?)")
+report = json.loads(text)
 
 robots = ["ur5", "panda"]
 quantities = ["fk", "jacobian_space", "jacobian_body", "rnea", "gravity", "mass_matrix", "forward_dynamics"]
