@@ -14,7 +14,9 @@ options=(-DCHASLES_WERROR=ON)
 if [ "${1:-}" = "--sanitize" ]; then
   shift
   build="$root/build-sanitize"
-  options+=(-DCHASLES_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo)
+  # Warnings are enforced by the normal build; GCC 12 reports false maybe-uninitialized warnings
+  # inside libstdc++ (std::regex) under -fsanitize, so they are not errors here.
+  options=(-DCHASLES_WERROR=OFF -DCHASLES_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo)
 fi
 
 cmake -S "$root" -B "$build" -G Ninja "${options[@]}" >/dev/null

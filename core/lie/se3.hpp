@@ -82,7 +82,7 @@ inline Matrix6d adjoint(const Transform& T) {
 
 /// [Ad_T] V without forming the 6×6 matrix: changes the frame of a twist or screw axis.
 template <typename Derived>
-Vector6d adjoint_times(const Transform& T, const Eigen::MatrixBase<Derived>& V) {
+CHASLES_ALWAYS_INLINE Vector6d adjoint_times(const Transform& T, const Eigen::MatrixBase<Derived>& V) {
   const Vector3d w = T.linear() * V.template head<3>();
   Vector6d out;
   out << w, T.translation().cross(w) + T.linear() * V.template tail<3>();
@@ -91,7 +91,7 @@ Vector6d adjoint_times(const Transform& T, const Eigen::MatrixBase<Derived>& V) 
 
 /// [Ad_{T⁻¹}] V = [Ad_T]⁻¹ V without inverting T.
 template <typename Derived>
-Vector6d adjoint_inverse_times(const Transform& T, const Eigen::MatrixBase<Derived>& V) {
+CHASLES_ALWAYS_INLINE Vector6d adjoint_inverse_times(const Transform& T, const Eigen::MatrixBase<Derived>& V) {
   const Matrix3d& R = T.linear();
   const Vector3d w = V.template head<3>();
   Vector6d out;
@@ -101,7 +101,7 @@ Vector6d adjoint_inverse_times(const Transform& T, const Eigen::MatrixBase<Deriv
 
 /// [Ad_T]ᵀ F: moves a wrench F_b in frame b to frame a when T = T_ba (MR eq. 3.98).
 template <typename Derived>
-Vector6d adjoint_transpose_times(const Transform& T, const Eigen::MatrixBase<Derived>& F) {
+CHASLES_ALWAYS_INLINE Vector6d adjoint_transpose_times(const Transform& T, const Eigen::MatrixBase<Derived>& F) {
   const Matrix3d& R = T.linear();
   const Vector3d f = F.template tail<3>();
   Vector6d out;
@@ -111,7 +111,7 @@ Vector6d adjoint_transpose_times(const Transform& T, const Eigen::MatrixBase<Der
 
 /// [Ad_{T⁻¹}]ᵀ F = (R m + p × R f, R f): moves a wrench F_b in frame b to frame a when T = T_ab.
 template <typename Derived>
-Vector6d adjoint_inverse_transpose_times(const Transform& T, const Eigen::MatrixBase<Derived>& F) {
+CHASLES_ALWAYS_INLINE Vector6d adjoint_inverse_transpose_times(const Transform& T, const Eigen::MatrixBase<Derived>& F) {
   const Vector3d f = T.linear() * F.template tail<3>();
   Vector6d out;
   out << T.linear() * F.template head<3>() + T.translation().cross(f), f;
@@ -129,7 +129,7 @@ Matrix6d ad(const Eigen::MatrixBase<Derived>& V) {
 
 /// [ad_V1] V2 = (ω1 × ω2, ω1 × v2 + v1 × ω2) without forming the 6×6 matrix.
 template <typename D1, typename D2>
-Vector6d ad_times(const Eigen::MatrixBase<D1>& V1, const Eigen::MatrixBase<D2>& V2) {
+CHASLES_ALWAYS_INLINE Vector6d ad_times(const Eigen::MatrixBase<D1>& V1, const Eigen::MatrixBase<D2>& V2) {
   const Vector3d w1 = V1.template head<3>();
   const Vector3d w2 = V2.template head<3>();
   Vector6d out;
@@ -140,7 +140,7 @@ Vector6d ad_times(const Eigen::MatrixBase<D1>& V1, const Eigen::MatrixBase<D2>& 
 /// [ad_V]ᵀ F = (m × ω + f × v, f × ω): the velocity-product term of the Newton-Euler equations
 /// (MR eq. 8.42).
 template <typename D1, typename D2>
-Vector6d ad_transpose_times(const Eigen::MatrixBase<D1>& V, const Eigen::MatrixBase<D2>& F) {
+CHASLES_ALWAYS_INLINE Vector6d ad_transpose_times(const Eigen::MatrixBase<D1>& V, const Eigen::MatrixBase<D2>& F) {
   const Vector3d w = V.template head<3>();
   const Vector3d v = V.template tail<3>();
   const Vector3d m = F.template head<3>();

@@ -63,7 +63,7 @@ Matrix3d exp3(const Eigen::MatrixBase<Derived>& w) {
 /// Rotation by angle θ about a unit axis ω̂: cos θ I + sin θ [ω̂] + (1 − cos θ) ω̂ω̂ᵀ, the same
 /// Rodrigues formula arranged for a known unit axis (the joint-motion hot path).
 template <typename Derived>
-Matrix3d exp3_unit(const Eigen::MatrixBase<Derived>& w_hat, double theta) {
+CHASLES_ALWAYS_INLINE Matrix3d exp3_unit(const Eigen::MatrixBase<Derived>& w_hat, double theta) {
   const double s = std::sin(theta);
   const double c = std::cos(theta);
   const Vector3d w = w_hat;

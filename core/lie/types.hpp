@@ -16,6 +16,10 @@ using Matrix4d = Eigen::Matrix4d;
 // inverts as a rigid transform (no general 4x4 arithmetic).
 using Transform = Eigen::Isometry3d;
 
+// The 6-vector helpers of the recursive algorithms are a few flops each; called out of line their
+// results travel through the stack, which the benchmarks showed costing more than the arithmetic.
+#define CHASLES_ALWAYS_INLINE inline __attribute__((always_inline))
+
 inline constexpr double kPi = 3.141592653589793238462643383279502884;
 
 }  // namespace chasles

@@ -43,7 +43,7 @@ struct SpatialInertia {
   Matrix3d I = Matrix3d::Zero();
 
   /// The momentum G V of a body moving with twist V.
-  Vector6d operator*(const Vector6d& V) const {
+  CHASLES_ALWAYS_INLINE Vector6d operator*(const Vector6d& V) const {
     const Vector3d w = V.head<3>(), v = V.tail<3>();
     Vector6d P;
     P << I * w + h.cross(v), mass * v - h.cross(w);

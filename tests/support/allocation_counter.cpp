@@ -12,8 +12,10 @@ inline void note_allocation() {
 }  // namespace
 
 #if defined(__SANITIZE_ADDRESS__)
-// Under ASan the sanitizer owns malloc; it offers a hook instead of interposition.
-#include <sanitizer/allocator_interface.h>
+// Under ASan the sanitizer owns malloc; it offers a hook instead of interposition. Declared here
+// because GCC does not ship <sanitizer/allocator_interface.h>.
+extern "C" int __sanitizer_install_malloc_and_free_hooks(void (*malloc_hook)(const volatile void*, size_t),
+                                                         void (*free_hook)(const volatile void*));
 namespace {
 void on_malloc(const volatile void*, size_t) { note_allocation(); }
 void on_free(const volatile void*) {}
