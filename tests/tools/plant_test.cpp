@@ -1,0 +1,413 @@
+// chasles_plant run as a real process and driven over LCM the way a controller drives it. The test
+// binary runs inside its own network namespace (tools/netns.sh is its launcher, see
+// CMakeLists.txt), so the multicast traffic never leaves the machine and tests running in
+// parallel do not hear each other.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chasles/joint_torque_command_t.hpp>
+#include <chasles/robot_state_t.hpp>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <fstream>
+#include <lcm/lcm-cpp.hpp>
+#include <limits>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "chasles/core/dynamics/dynamics.hpp"
+#include "chasles/core/model/urdf.hpp"
+#include "support/reference.hpp"
+
+namespace chasles::testing {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+constexpr char kLcmUrl[] = "udpm://239.255.76.67:7667?ttl=0";  // the URL tools/netns.sh documents
+constexpr char kPrefix[] = "TEST_";
+constexpr double kDt = 1e-3;  // the plant's default 1000 Hz
+
+RobotModel panda() {
+  UrdfOptions options;
+  options.tip_link = "panda_hand";
+  return load_urdf_file(data_path("panda.urdf"), options);
+}
+
+// A bent pose, within the Panda's limits, where gravity pulls hard on the shoulder and elbow.
+Eigen::VectorXd bent_pose() {
+  Eigen::VectorXd q(7);
+  q << 0.0, 0.5, 0.0, -1.2, 0.0, 1.0, 0.0;
+  return q;
+}
+
+std::string list(const Eigen::VectorXd& v) {
+  std::ostringstream text;
+  text.precision(17);
+  for (Eigen::Index i = 0; i < v.size(); ++i) text << (i > 0 ? "," : "") << v[i];
+  return text.str();
+}
+
+Eigen::VectorXd vector_of(const std::vector<double>& v) {
+  return Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
+}
+
+// chasles_plant with `args` (plus the test's LCM URL and channel prefix); stderr goes to a file.
+class PlantProcess {
+ public:
+  explicit PlantProcess(std::vector<std::string> args)
+      : stderr_path_(::testing::TempDir() + "plant_test_" + std::to_string(::getpid()) + "_" +
+                     std::to_string(++count_) + "_stderr") {
+    std::vector<std::string> argv_strings{CHASLES_PLANT, "--lcm-url", kLcmUrl, "--channel-prefix", kPrefix};
+    argv_strings.insert(argv_strings.end(), args.begin(), args.end());
+    std::vector<char*> argv;
+    for (auto& s : argv_strings) argv.push_back(s.data());
+    argv.push_back(nullptr);
+    std::fflush(nullptr);
+    pid_ = ::fork();
+    if (pid_ == 0) {
+      const int null = ::open("/dev/null", O_RDWR);
+      const int err = ::open(stderr_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+      if (null < 0 || err < 0) ::_exit(126);
+      ::dup2(null, 0);
+      ::dup2(null, 1);
+      ::dup2(err, 2);
+      ::execv(argv[0], argv.data());
+      ::_exit(127);
+    }
+  }
+  ~PlantProcess() {
+    if (pid_ > 0 && exit_code_ < 0) stop();
+    std::remove(stderr_path_.c_str());
+  }
+  PlantProcess(const PlantProcess&) = delete;
+  PlantProcess& operator=(const PlantProcess&) = delete;
+
+  bool running() const { return pid_ > 0 && ::waitpid(pid_, nullptr, WNOHANG) == 0; }
+
+  /// SIGTERM, then the exit code (128 + signal if it died of one).
+  int stop() {
+    if (exit_code_ >= 0) return exit_code_;
+    ::kill(pid_, SIGTERM);
+    int status = 0;
+    ::waitpid(pid_, &status, 0);
+    exit_code_ = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    return exit_code_;
+  }
+
+  /// Waits for the process to end by itself.
+  int wait() {
+    int status = 0;
+    ::waitpid(pid_, &status, 0);
+    exit_code_ = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    return exit_code_;
+  }
+
+  std::string stderr_text() const {
+    std::ifstream file(stderr_path_);
+    std::ostringstream text;
+    text << file.rdbuf();
+    return text.str();
+  }
+
+ private:
+  static inline int count_ = 0;
+  std::string stderr_path_;
+  pid_t pid_ = -1;
+  int exit_code_ = -1;
+};
+
+// The test's end of the wire: what a controller sees and sends.
+class Controller {
+ public:
+  Controller() : lcm_(kLcmUrl) {
+    EXPECT_TRUE(lcm_.good()) << "LCM did not start: is the test running under tools/netns.sh?";
+    lcm_.subscribe(std::string(kPrefix) + "STATE", &Controller::on_state, this);
+  }
+
+  /// Waits for a state with seq ≥ min_seq; the latest one received, or nothing on timeout.
+  std::optional<robot_state_t> wait_state(int64_t min_seq, double timeout_s = 5.0) {
+    const auto deadline = Clock::now() + std::chrono::duration<double>(timeout_s);
+    while (!latest_ || latest_->seq < min_seq) {
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+      if (left <= 0) return std::nullopt;
+      lcm_.handleTimeout(static_cast<int>(left));
+    }
+    return latest_;
+  }
+
+  /// Handles whatever arrives for `seconds`.
+  void listen(double seconds) {
+    const auto deadline = Clock::now() + std::chrono::duration<double>(seconds);
+    while (true) {
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+      if (left <= 0) return;
+      lcm_.handleTimeout(static_cast<int>(left));
+    }
+  }
+
+  void send(int64_t state_seq, const Eigen::VectorXd& tau) {
+    joint_torque_command_t command;
+    command.utime = 0;
+    command.seq = ++command_seq_;
+    command.state_seq = state_seq;
+    command.num_joints = static_cast<int32_t>(tau.size());
+    command.torque.assign(tau.data(), tau.data() + tau.size());
+    lcm_.publish(std::string(kPrefix) + "COMMAND", &command);
+  }
+
+  void send_bytes(const std::vector<uint8_t>& bytes) {
+    lcm_.publish(std::string(kPrefix) + "COMMAND", bytes.data(), static_cast<unsigned>(bytes.size()));
+  }
+
+  /// Every state received, in order of arrival.
+  const std::vector<robot_state_t>& states() const { return states_; }
+
+ private:
+  void on_state(const lcm::ReceiveBuffer*, const std::string&, const robot_state_t* state) {
+    latest_ = *state;
+    states_.push_back(*state);
+  }
+
+  lcm::LCM lcm_;
+  std::optional<robot_state_t> latest_;
+  std::vector<robot_state_t> states_;
+  int64_t command_seq_ = 0;
+};
+
+// Lockstep: answers state k with tau(k) for `steps` steps; returns every state 0..steps in order.
+template <class Torque>
+std::vector<robot_state_t> drive_lockstep(Controller& controller, int steps, Torque tau) {
+  std::vector<robot_state_t> trajectory;
+  for (int k = 0; k <= steps; ++k) {
+    const std::optional<robot_state_t> state = controller.wait_state(k);
+    if (!state) {
+      ADD_FAILURE() << "no state " << k << " from the plant";
+      break;
+    }
+    EXPECT_EQ(state->seq, k) << "lockstep must step once per command";
+    trajectory.push_back(*state);
+    if (k < steps) controller.send(k, tau(*state));
+  }
+  return trajectory;
+}
+
+// Classic RK4 on (q, q̇) with constant τ, written here independently of the plant's, for
+// reference integrations at a much smaller step.
+void rk4_reference(const RobotModel& model, Eigen::VectorXd& q, Eigen::VectorXd& qd, const Eigen::VectorXd& tau,
+                   double h, int steps) {
+  Data data(model);
+  const auto qdd = [&](const Eigen::VectorXd& x, const Eigen::VectorXd& v) -> Eigen::VectorXd {
+    return forward_dynamics(model, data, x, v, tau);
+  };
+  for (int i = 0; i < steps; ++i) {
+    const Eigen::VectorXd v1 = qd, a1 = qdd(q, v1);
+    const Eigen::VectorXd v2 = qd + 0.5 * h * a1, a2 = qdd(q + 0.5 * h * v1, v2);
+    const Eigen::VectorXd v3 = qd + 0.5 * h * a2, a3 = qdd(q + 0.5 * h * v2, v3);
+    const Eigen::VectorXd v4 = qd + h * a3, a4 = qdd(q + h * v3, v4);
+    q += h / 6.0 * (v1 + 2.0 * v2 + 2.0 * v3 + v4);
+    qd += h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4);
+  }
+}
+
+double energy(const RobotModel& model, Data& data, const robot_state_t& state) {
+  const Eigen::VectorXd q = vector_of(state.position), qd = vector_of(state.velocity);
+  return kinetic_energy(model, data, q, qd) + potential_energy(model, data, q);
+}
+
+// (a) With zero torque and no damping the arm falls. After 0.5 s (500 steps) the plant's state
+// equals an RK4 integration at a 100 times smaller step: RK4's error at 1 ms was measured at
+// 8e-9 rad, so 1e-6 rad and 1e-5 rad/s leave room for other machines' rounding while catching
+// any first- or second-order integrator. Total energy, never used by the plant, stays within
+// 1e-5 J of its start (measured drift: 2e-5 J over 10 s).
+TEST(plant, LockstepFallMatchesAFineIntegrationAndConservesEnergy) {
+  const RobotModel model = panda();
+  const Eigen::VectorXd q0 = bent_pose(), zero = Eigen::VectorXd::Zero(7);
+  Controller controller;
+  PlantProcess plant({"--robot", data_path("panda.urdf"), "--tip", "panda_hand", "--lockstep", "--q0", list(q0)});
+  constexpr int kSteps = 500;
+  const std::vector<robot_state_t> trajectory =
+      drive_lockstep(controller, kSteps, [&](const robot_state_t&) { return zero; });
+  ASSERT_EQ(trajectory.size(), static_cast<size_t>(kSteps + 1));
+
+  Eigen::VectorXd q = q0, qd = zero;
+  rk4_reference(model, q, qd, zero, kDt / 100, kSteps * 100);
+  const robot_state_t& last = trajectory.back();
+  EXPECT_GT(max_abs_diff(vector_of(last.position), q0), 0.1) << "the arm should have fallen";
+  EXPECT_TRUE(matrices_near(vector_of(last.position), q, 1e-6));
+  EXPECT_TRUE(matrices_near(vector_of(last.velocity), qd, 1e-5));
+  EXPECT_TRUE(matrices_near(vector_of(last.effort), zero, 0.0));
+
+  Data data(model);
+  const double e0 = energy(model, data, trajectory.front());
+  double drift = 0.0;
+  for (const robot_state_t& state : trajectory) drift = std::max(drift, std::abs(energy(model, data, state) - e0));
+  EXPECT_LT(drift, 1e-5) << "total energy drifted by " << drift << " J from " << e0 << " J";
+  EXPECT_EQ(plant.stop(), 0) << plant.stderr_text();
+}
+
+// Lockstep is deterministic, and so is the seeded sensor noise.
+TEST(plant, LockstepWithSeededNoiseRepeatsExactly) {
+  const Eigen::VectorXd q0 = bent_pose(), zero = Eigen::VectorXd::Zero(7);
+  const auto run = [&](const std::string& seed, double noise) {
+    Controller controller;
+    PlantProcess plant({"--robot", data_path("panda.urdf"), "--tip", "panda_hand", "--lockstep", "--q0", list(q0),
+                        "--seed", seed, "--noise", std::to_string(noise)});
+    const auto trajectory = drive_lockstep(controller, 100, [&](const robot_state_t&) { return zero; });
+    EXPECT_EQ(plant.stop(), 0) << plant.stderr_text();
+    return trajectory;
+  };
+  const auto first = run("3", 1e-3), again = run("3", 1e-3), clean = run("3", 0.0);
+  ASSERT_EQ(first.size(), 101u);
+  ASSERT_EQ(again.size(), 101u);
+  ASSERT_EQ(clean.size(), 101u);
+  double noise_seen = 0.0;
+  for (size_t k = 0; k < first.size(); ++k) {
+    EXPECT_EQ(first[k].position, again[k].position) << "state " << k;
+    EXPECT_EQ(first[k].velocity, clean[k].velocity) << "noise is on the sent position only";
+    noise_seen = std::max(noise_seen, max_abs_diff(vector_of(first[k].position), vector_of(clean[k].position)));
+  }
+  EXPECT_GT(noise_seen, 1e-4);
+  EXPECT_LT(noise_seen, 1e-2);
+}
+
+// (b) Commanding exactly the gravity torques g(q0) holds the arm at rest.
+TEST(plant, GravityTorquesHoldTheArmStill) {
+  const RobotModel model = panda();
+  Data data(model);
+  const Eigen::VectorXd q0 = bent_pose();
+  const Eigen::VectorXd g = gravity_torques(model, data, q0);
+  Controller controller;
+  PlantProcess plant({"--robot", data_path("panda.urdf"), "--tip", "panda_hand", "--lockstep", "--q0", list(q0)});
+  const auto trajectory = drive_lockstep(controller, 1000, [&](const robot_state_t&) { return g; });
+  ASSERT_EQ(trajectory.size(), 1001u);
+  double drift = 0.0;
+  for (const robot_state_t& state : trajectory) drift = std::max(drift, max_abs_diff(vector_of(state.position), q0));
+  EXPECT_LT(drift, 1e-6);
+  EXPECT_TRUE(matrices_near(vector_of(trajectory.back().effort), g, 1e-12));
+  EXPECT_EQ(plant.stop(), 0) << plant.stderr_text();
+}
+
+std::vector<uint8_t> encode(const joint_torque_command_t& command) {
+  std::vector<uint8_t> bytes(static_cast<size_t>(command.getEncodedSize()));
+  command.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+  return bytes;
+}
+
+// (c) Malformed commands are refused, counted and reported, never applied: the lockstep plant
+// does not step on them, and the next valid command steps from where the arm was.
+TEST(plant, MalformedCommandsAreRejectedNotApplied) {
+  const RobotModel model = panda();
+  Data data(model);
+  const Eigen::VectorXd q0 = bent_pose();
+  const Eigen::VectorXd g = gravity_torques(model, data, q0);
+  Controller controller;
+  PlantProcess plant({"--robot", data_path("panda.urdf"), "--tip", "panda_hand", "--lockstep", "--q0", list(q0)});
+  ASSERT_TRUE(controller.wait_state(0));
+
+  controller.send(0, Eigen::VectorXd::Constant(3, 50.0));  // too few joints
+  controller.send(0, Eigen::VectorXd::Constant(8, 0.0));   // too many
+  Eigen::VectorXd bad = g;
+  bad[2] = std::numeric_limits<double>::quiet_NaN();
+  controller.send(0, bad);
+  bad[2] = -std::numeric_limits<double>::infinity();
+  controller.send(0, bad);
+
+  joint_torque_command_t command;
+  command.utime = command.seq = command.state_seq = 0;
+  command.num_joints = 7;
+  command.torque.assign(g.data(), g.data() + g.size());
+  std::vector<uint8_t> bytes = encode(command);
+  bytes[0] ^= 0x01;  // another type's fingerprint
+  controller.send_bytes(bytes);
+  // The right size with a forged joint count: the decoder must never see it (it would try to
+  // allocate 2^31 doubles, or -1).
+  for (const uint8_t high : {0x7f, 0xff}) {
+    bytes = encode(command);
+    bytes[32] = high;
+    bytes[33] = bytes[34] = bytes[35] = 0xff;
+    controller.send_bytes(bytes);
+  }
+  constexpr int kRejected = 7;
+
+  controller.listen(0.1);  // the plant only repeats state 0
+  ASSERT_TRUE(controller.wait_state(0));
+  EXPECT_FALSE(controller.wait_state(1, 0.0).has_value()) << "the plant stepped on a malformed command";
+  ASSERT_TRUE(plant.running()) << plant.stderr_text();
+
+  controller.send(0, g);
+  const std::optional<robot_state_t> next = controller.wait_state(1);
+  ASSERT_TRUE(next);
+  EXPECT_EQ(next->seq, 1);
+  EXPECT_LT(max_abs_diff(vector_of(next->position), q0), 1e-6);
+  EXPECT_TRUE(matrices_near(vector_of(next->effort), g, 1e-12));
+
+  EXPECT_EQ(plant.stop(), 0);
+  const std::string err = plant.stderr_text();
+  // Reports are rate-limited: the first arrives at once (it may cover a few), the total at exit.
+  EXPECT_NE(err.find("chasles_plant: rejected "), std::string::npos) << err;
+  EXPECT_NE(err.find(" on TEST_COMMAND (last: "), std::string::npos) << err;
+  EXPECT_NE(err.find("commands rejected " + std::to_string(kRejected) + ","), std::string::npos) << err;
+}
+
+// (d) Real time: when commands stop, the watchdog brakes the falling arm to rest.
+TEST(plant, WatchdogBrakesToRestWhenCommandsStop) {
+  const Eigen::VectorXd q0 = bent_pose(), zero = Eigen::VectorXd::Zero(7);
+  Controller controller;
+  PlantProcess plant(
+      {"--robot", data_path("panda.urdf"), "--tip", "panda_hand", "--q0", list(q0), "--timeout-ms", "50"});
+  std::optional<robot_state_t> state = controller.wait_state(0);
+  ASSERT_TRUE(state);
+  // Zero torque, answering every state, for 0.15 s: the arm falls.
+  const auto release = Clock::now() + std::chrono::milliseconds(150);
+  while (Clock::now() < release) {
+    state = controller.wait_state(state->seq + 1, 1.0);
+    ASSERT_TRUE(state);
+    controller.send(state->seq, zero);
+  }
+  const double falling_speed = vector_of(state->velocity).cwiseAbs().maxCoeff();
+  EXPECT_GT(falling_speed, 0.3) << "the arm should be falling";
+
+  // Silence: after the 50 ms timeout the brake takes the velocity down with a 50 ms time constant
+  // (slower at first where the effort limits clamp it): 0.7 s is ten time constants and more.
+  controller.listen(0.7);
+  state = controller.wait_state(0);
+  const double final_speed = vector_of(state->velocity).cwiseAbs().maxCoeff();
+  EXPECT_LT(final_speed, 1e-3) << "falling at " << falling_speed << " rad/s, still " << final_speed << " after 0.7 s";
+  EXPECT_EQ(plant.stop(), 0);
+  const std::string err = plant.stderr_text();
+  EXPECT_NE(err.find("no valid command on TEST_COMMAND for 50 ms: braking to rest"), std::string::npos) << err;
+}
+
+// --seconds ends the run by itself; bad input and usage errors are one line and an exit code.
+TEST(plant, StopsAfterSecondsAndFailsCleanly) {
+  PlantProcess timed({"--robot", data_path("panda.urdf"), "--tip", "panda_hand", "--seconds", "0.2"});
+  EXPECT_EQ(timed.wait(), 0) << timed.stderr_text();
+
+  const auto expect_failure = [](std::vector<std::string> args, int code, const std::string& needle) {
+    PlantProcess plant(std::move(args));
+    EXPECT_EQ(plant.wait(), code);
+    const std::string err = plant.stderr_text();
+    EXPECT_EQ(err.rfind("chasles_plant: ", 0), 0u) << err;
+    EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+    EXPECT_NE(err.find(needle), std::string::npos) << err;
+  };
+  expect_failure({"--robot", data_path("panda.urdf")}, 1, "--tip");
+  expect_failure({"--robot", data_path("panda.urdf"), "--tip", "panda_hand", "--q0", "0,0,0,0,0,0,0"}, 1,
+                 "panda_joint4");
+  expect_failure({"--robot", data_path("panda.urdf"), "--tip", "panda_hand", "--damping", "1,2"}, 1, "--damping");
+  expect_failure({"--robot", data_path("panda.urdf"), "--rate", "0"}, 2, "--rate");
+  expect_failure({"--robot", data_path("panda.urdf"), "--drop", "1.5"}, 2, "--drop");
+  expect_failure({"--robot", data_path("panda.urdf"), "--no-such-option"}, 2, "no-such-option");
+}
+
+}  // namespace
+}  // namespace chasles::testing

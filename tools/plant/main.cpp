@@ -1,0 +1,411 @@
+// chasles_plant: a simulated arm on LCM. It integrates the arm's forward dynamics under the latest
+// joint_torque_command_t (zero-order hold) and publishes robot_state_t after every step, either
+// in real time or in lockstep with its controller. It keeps itself safe: without a valid command
+// for --timeout-ms it brakes to rest against gravity.
+//
+// Errors: one line "chasles_plant: ..." on stderr; exit 2 for a usage error, 1 for bad input
+// (URDF, --q0, --damping) or when LCM cannot start. SIGINT and SIGTERM end it cleanly (exit 0).
+#include <poll.h>
+#include <sys/prctl.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <iostream>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "chasles/core/model/urdf.hpp"
+#include "clock.hpp"
+#include "messaging.hpp"
+#include "plant.hpp"
+
+namespace chasles::plant {
+namespace {
+
+/// A bad value in an option that parsed (exit 1, like a bad URDF).
+class InputError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct Options {
+  std::string robot;
+  std::string tip;
+  double rate_hz = 1000.0;
+  int substeps = 1;
+  std::string damping = "0";
+  std::string q0;
+  bool lockstep = false;
+  double timeout_ms = 50.0;
+  std::string prefix = "CHASLES_";
+  std::string lcm_url;
+  Faults faults;
+  double seconds = 0.0;
+};
+
+// Before the first command, and whenever the answer to a state is lost, a lockstep plant sends
+// its latest state again this often, so a controller can start (or resume).
+constexpr int64_t kLockstepRepeatNs = 10'000'000;
+// The brake's velocity time constant. It is held over a step like any torque, so it must be
+// several steps long to stay stable at low rates.
+constexpr double kBrakeTimeConstant = 0.05;
+constexpr int kBrakeStepsPerTimeConstant = 10;
+
+volatile std::sig_atomic_t g_stop = 0;
+void on_signal(int) { g_stop = 1; }
+
+std::vector<double> parse_numbers(const std::string& text, const std::string& option) {
+  std::vector<double> values;
+  size_t start = 0;
+  while (true) {
+    const size_t end = text.find(',', start);
+    const std::string item = text.substr(start, end == std::string::npos ? std::string::npos : end - start);
+    size_t used = 0;
+    double value = 0.0;
+    try {
+      value = std::stod(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || item.find_first_not_of(" \t", used) != std::string::npos || !std::isfinite(value)) {
+      throw InputError(option + ": entry " + std::to_string(values.size()) + " ('" + item +
+                       "') is not a finite number");
+    }
+    values.push_back(value);
+    if (end == std::string::npos) return values;
+    start = end + 1;
+  }
+}
+
+// --q0, checked against the position limits; by default zero, moved into the limits for joints
+// whose range excludes it (the Panda's fourth joint).
+Eigen::VectorXd initial_position(const RobotModel& model, const std::string& text) {
+  const int n = model.dof();
+  Eigen::VectorXd q0(n);
+  if (text.empty()) {
+    for (int i = 0; i < n; ++i) q0[i] = std::clamp(0.0, model.joint(i).limits.lower, model.joint(i).limits.upper);
+    return q0;
+  }
+  const std::vector<double> values = parse_numbers(text, "--q0");
+  if (static_cast<int>(values.size()) != n) {
+    throw InputError("--q0 has " + std::to_string(values.size()) + " entries; the arm has " + std::to_string(n) +
+                     " joints (one per joint, comma-separated)");
+  }
+  for (int i = 0; i < n; ++i) {
+    const JointLimits& limits = model.joint(i).limits;
+    q0[i] = values[static_cast<size_t>(i)];
+    if (q0[i] < limits.lower || q0[i] > limits.upper) {
+      throw InputError("--q0: joint " + model.joint(i).name + " = " + std::to_string(q0[i]) +
+                       " is outside its limits [" + std::to_string(limits.lower) + ", " + std::to_string(limits.upper) +
+                       "]");
+    }
+  }
+  return q0;
+}
+
+Eigen::VectorXd joint_damping(const RobotModel& model, const std::string& text) {
+  const int n = model.dof();
+  const std::vector<double> values = parse_numbers(text, "--damping");
+  if (values.size() != 1 && static_cast<int>(values.size()) != n) {
+    throw InputError("--damping has " + std::to_string(values.size()) + " entries; give one for every joint or " +
+                     "one for all (the arm has " + std::to_string(n) + " joints)");
+  }
+  Eigen::VectorXd damping(n);
+  for (int i = 0; i < n; ++i) {
+    damping[i] = values.size() == 1 ? values[0] : values[static_cast<size_t>(i)];
+    if (damping[i] < 0.0) throw InputError("--damping: joint " + model.joint(i).name + " has negative damping");
+  }
+  return damping;
+}
+
+// The simulation, its LCM link and its bookkeeping; run() is the loop of the chosen mode.
+class Simulation {
+ public:
+  Simulation(const Options& options, const RobotModel& model, const Eigen::VectorXd& q0, const Eigen::VectorXd& damping,
+             lcm::LCM& lcm)
+      : options_(options),
+        lcm_(lcm),
+        plant_(model, q0, damping),
+        inbox_(lcm, command_channel_, model.dof()),
+        publisher_(lcm, options.prefix + "STATE", model.dof(), options.faults, max_in_flight(options)),
+        dt_(1.0 / options.rate_hz),
+        period_ns_(static_cast<int64_t>(std::llround(1e9 / options.rate_hz))),
+        brake_time_constant_(std::max(kBrakeTimeConstant, kBrakeStepsPerTimeConstant * dt_)) {}
+
+  void run() {
+    start_ns_ = monotonic_ns();
+    end_ns_ = options_.seconds > 0.0 ? start_ns_ + static_cast<int64_t>(options_.seconds * 1e9)
+                                     : std::numeric_limits<int64_t>::max();
+    publisher_.encode(realtime_us(), seq_, plant_.q(), plant_.qd(), plant_.effort());
+    publisher_.send(start_ns_);
+    if (options_.lockstep) {
+      run_lockstep();
+    } else {
+      run_real_time();
+    }
+  }
+
+  void print_summary() const {
+    std::fprintf(stderr,
+                 "chasles_plant: stopped after %lld steps (%.3f s simulated); commands rejected %lld, stale %lld; "
+                 "states not sent %lld; overruns %lld; watchdog brakes %lld\n",
+                 static_cast<long long>(seq_), static_cast<double>(seq_) * dt_,
+                 static_cast<long long>(inbox_.rejected()), static_cast<long long>(stale_),
+                 static_cast<long long>(publisher_.dropped()), static_cast<long long>(overruns_),
+                 static_cast<long long>(brakes_));
+  }
+
+ private:
+  // Delayed states wait in a fixed queue: at most the steps of one delay, plus the lockstep
+  // repeats, plus slack.
+  static int max_in_flight(const Options& options) {
+    const double per_second = options.rate_hz + 1e9 / kLockstepRepeatNs;
+    return static_cast<int>(std::ceil(options.faults.delay_ms * 1e-3 * per_second)) + 4;
+  }
+
+  void step_and_publish(const Eigen::Ref<const Eigen::VectorXd>& tau, int64_t now_ns) {
+    plant_.step(tau, dt_, options_.substeps);
+    ++seq_;
+    publisher_.encode(realtime_us(), seq_, plant_.q(), plant_.qd(), plant_.effort());
+    publisher_.send(now_ns);
+    last_send_ns_ = now_ns;
+  }
+
+  static Eigen::Map<const Eigen::VectorXd> torque_of(const joint_torque_command_t& command) {
+    return {command.torque.data(), static_cast<Eigen::Index>(command.torque.size())};
+  }
+
+  // Real time: one step per period on an absolute CLOCK_MONOTONIC schedule, with the latest
+  // command held. A wake-up more than a period late is an overrun; the schedule restarts from
+  // then rather than racing to catch up.
+  void run_real_time() {
+    prctl(PR_SET_TIMERSLACK, 1UL);  // the default 50 µs slack is most of the wake-up jitter
+    int64_t next_ns = start_ns_;
+    while (!g_stop) {
+      next_ns += period_ns_;
+      const timespec wake{static_cast<time_t>(next_ns / 1'000'000'000), static_cast<long>(next_ns % 1'000'000'000)};
+      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &wake, nullptr);  // a stop signal interrupts it
+      const int64_t now_ns = monotonic_ns();
+      if (g_stop || now_ns >= end_ns_) break;
+      if (now_ns - next_ns > period_ns_) {
+        ++overruns_;
+        next_ns = now_ns;
+      }
+      while (lcm_.handleTimeout(0) > 0) {
+      }
+      update_brake(now_ns);
+      if (braking_) {
+        step_and_publish(plant_.brake_torque(brake_time_constant_), now_ns);
+      } else {
+        step_and_publish(torque_of(inbox_.take()), now_ns);
+      }
+      publisher_.flush(now_ns);
+      inbox_.report_rejections(now_ns);
+    }
+  }
+
+  // The watchdog: brake while no valid command has arrived for the timeout, and until the first.
+  void update_brake(int64_t now_ns) {
+    const auto timeout_ns = static_cast<int64_t>(options_.timeout_ms * 1e6);
+    const bool brake = !inbox_.any() || now_ns - inbox_.latest_arrival_ns() > timeout_ns;
+    if (brake == braking_) return;
+    braking_ = brake;
+    if (brake) {
+      ++brakes_;
+      std::fprintf(stderr, "chasles_plant: no valid command on %s for %g ms: braking to rest\n",
+                   command_channel_.c_str(), options_.timeout_ms);
+    } else {
+      std::fprintf(stderr, "chasles_plant: commands on %s: brake released\n", command_channel_.c_str());
+    }
+  }
+
+  // Lockstep: one step per command that answers the latest state (state_seq == seq), applied at
+  // once; time stands still in between, so there is no watchdog. Commands answering an older
+  // state are ignored as stale.
+  void run_lockstep() {
+    last_send_ns_ = start_ns_;
+    pollfd lcm_fd{lcm_.getFileno(), POLLIN, 0};
+    while (!g_stop) {
+      const int64_t now_ns = monotonic_ns();
+      if (now_ns >= end_ns_) break;
+      const int64_t next_delayed_ns = publisher_.flush(now_ns);
+      const int64_t wake_ns = std::min({last_send_ns_ + kLockstepRepeatNs, next_delayed_ns, end_ns_});
+      const int timeout_ms = static_cast<int>(std::max<int64_t>(0, (wake_ns - now_ns + 999'999) / 1'000'000));
+      if (poll(&lcm_fd, 1, timeout_ms) > 0) {
+        while (lcm_.handleTimeout(0) > 0) {
+          if (!inbox_.fresh()) continue;
+          const joint_torque_command_t& command = inbox_.take();
+          if (command.state_seq != seq_) {
+            ++stale_;
+            continue;
+          }
+          step_and_publish(torque_of(command), monotonic_ns());
+        }
+      }
+      const int64_t after_ns = monotonic_ns();
+      if (after_ns - last_send_ns_ >= kLockstepRepeatNs) {
+        publisher_.send(after_ns);
+        last_send_ns_ = after_ns;
+      }
+      publisher_.flush(after_ns);
+      inbox_.report_rejections(after_ns);
+    }
+  }
+
+  const Options& options_;
+  const std::string command_channel_ = options_.prefix + "COMMAND";
+  lcm::LCM& lcm_;
+  Plant plant_;
+  CommandInbox inbox_;
+  StatePublisher publisher_;
+  const double dt_;
+  const int64_t period_ns_;
+  const double brake_time_constant_;
+  int64_t start_ns_ = 0, end_ns_ = 0, last_send_ns_ = 0;
+  int64_t seq_ = 0, stale_ = 0, overruns_ = 0, brakes_ = 0;
+  bool braking_ = true;  // real time: held until the first command
+};
+
+// Messages come from several libraries; keep each on one line.
+std::string one_line(std::string text) {
+  while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();
+  std::replace(text.begin(), text.end(), '\n', ' ');
+  std::replace(text.begin(), text.end(), '\r', ' ');
+  return text;
+}
+
+int fail(const std::string& message, int code) {
+  std::cerr << "chasles_plant: " << one_line(message) << std::endl;
+  return code;
+}
+
+void add_options(CLI::App& app, Options& o) {
+  app.add_option("--robot", o.robot, "Robot description (URDF file)")->required()->type_name("FILE");
+  app.add_option("--tip", o.tip, "Link that ends the chain; needed when the URDF tree has several leaves")
+      ->type_name("LINK");
+  app.add_option("--rate", o.rate_hz, "Steps per second; one robot_state_t per step")
+      ->check(CLI::PositiveNumber)
+      ->type_name("HZ")
+      ->capture_default_str();
+  app.add_option("--substeps", o.substeps, "RK4 steps per step")->check(CLI::Range(1, 1000))->capture_default_str();
+  app.add_option("--damping", o.damping, "Viscous joint damping, N*m*s/rad or N*s/m: one value, or one per joint")
+      ->type_name("D[,D...]")
+      ->capture_default_str();
+  app.add_option("--q0", o.q0,
+                 "Initial joint positions, rad or m, within the limits (default: zero, or the nearest limit "
+                 "where zero is outside)")
+      ->type_name("Q,Q,...");
+  app.add_flag("--lockstep", o.lockstep,
+               "One step per command answering the latest state (deterministic); until then the state is "
+               "sent again every 10 ms. Default: real time");
+  app.add_option("--timeout-ms", o.timeout_ms, "Real time: brake after this long without a valid command")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--channel-prefix", o.prefix, "Channels are PREFIX STATE and PREFIX COMMAND")
+      ->check(
+          [](const std::string& prefix) {
+            // LCM subscribes by regular expression: only characters that match themselves.
+            const bool plain = std::all_of(prefix.begin(), prefix.end(), [](char c) {
+              return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '/';
+            });
+            return plain ? std::string() : "letters, digits, '_', '-' and '/' only";
+          },
+          "PREFIX")
+      ->capture_default_str();
+  app.add_option("--lcm-url", o.lcm_url, "LCM provider URL (default: $LCM_DEFAULT_URL, else LCM's default)")
+      ->type_name("URL");
+  app.add_option("--seed", o.faults.seed, "Seed of the injected faults")->capture_default_str();
+  app.add_option("--drop", o.faults.drop, "Probability of not sending a state")
+      ->check(CLI::Range(0.0, 1.0))
+      ->type_name("P");
+  app.add_option("--delay-ms", o.faults.delay_ms, "Send every state this long after it is produced")
+      ->check(CLI::NonNegativeNumber)
+      ->type_name("D");
+  app.add_option("--noise", o.faults.noise, "Std. deviation of gaussian noise on the sent position, rad or m")
+      ->check(CLI::NonNegativeNumber)
+      ->type_name("SIGMA");
+  app.add_option("--seconds", o.seconds, "Stop after this much wall-clock time (default: run until a signal)")
+      ->check(CLI::NonNegativeNumber)
+      ->type_name("N");
+}
+
+}  // namespace
+}  // namespace chasles::plant
+
+int main(int argc, char** argv) {
+  using namespace chasles::plant;
+
+  CLI::App app("chasles_plant: a simulated robot arm on LCM: joint torques in, joint states out", "chasles_plant");
+  Options options;
+  add_options(app, options);
+  app.footer(
+      "Publishes chasles.robot_state_t on PREFIX STATE after every step; applies the latest valid\n"
+      "chasles.joint_torque_command_t from PREFIX COMMAND (zero-order hold, clamped to the URDF effort\n"
+      "limits). Dynamics: M(q) qdd = tau - c - g - D qd, RK4. Real time: without a valid command for\n"
+      "--timeout-ms the arm brakes to rest, tau = g(q) - M(q) qd / T.\n"
+      "Examples:\n"
+      "  tools/netns.sh chasles_plant --robot ur5.urdf --tip tool0 \\\n"
+      "      --lcm-url 'udpm://239.255.76.67:7667?ttl=0'\n"
+      "  chasles_plant --robot panda.urdf --tip panda_hand --lockstep --q0 0,0.5,0,-1.2,0,1,0\n"
+      "  chasles_plant --robot panda.urdf --tip panda_hand --seed 7 --drop 0.01 --delay-ms 2 --noise 1e-4");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::Success& e) {  // --help
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    return fail(std::string(e.what()) + " (see 'chasles_plant --help')", 2);
+  }
+
+  try {
+    chasles::UrdfOptions urdf_options;
+    urdf_options.tip_link = options.tip;
+    const chasles::RobotModel model = chasles::load_urdf_file(options.robot, urdf_options);
+    const Eigen::VectorXd q0 = initial_position(model, options.q0);
+    const Eigen::VectorXd damping = joint_damping(model, options.damping);
+
+    // SIGINT and SIGTERM stop the loop. They are blocked while LCM starts its receive thread, which
+    // inherits the mask, so they always reach (and interrupt) the simulation thread.
+    struct sigaction action {};
+    action.sa_handler = on_signal;
+    sigemptyset(&action.sa_mask);
+    sigaction(SIGINT, &action, nullptr);
+    sigaction(SIGTERM, &action, nullptr);
+    sigset_t stop_signals;
+    sigemptyset(&stop_signals);
+    sigaddset(&stop_signals, SIGINT);
+    sigaddset(&stop_signals, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
+
+    lcm::LCM lcm(options.lcm_url);
+    if (!lcm.good()) {
+      return fail("cannot start LCM" + (options.lcm_url.empty() ? std::string() : " on " + options.lcm_url) +
+                      ": is there a multicast route? Run inside tools/netns.sh with "
+                      "--lcm-url 'udpm://239.255.76.67:7667?ttl=0'",
+                  1);
+    }
+    Simulation simulation(options, model, q0, damping, lcm);
+    pthread_sigmask(SIG_UNBLOCK, &stop_signals, nullptr);
+
+    std::fprintf(stderr, "chasles_plant: %s, %d joints to %s, %g Hz %s; state on %sSTATE, commands on %sCOMMAND\n",
+                 model.name().c_str(), model.dof(), model.tip_link().c_str(), options.rate_hz,
+                 options.lockstep ? "lockstep" : "real time (braked until the first command)", options.prefix.c_str(),
+                 options.prefix.c_str());
+    simulation.run();
+    simulation.print_summary();
+    return 0;
+  } catch (const chasles::ModelError& e) {
+    return fail(e.what(), 1);
+  } catch (const InputError& e) {
+    return fail(e.what(), 1);
+  } catch (const std::bad_alloc&) {
+    return fail("out of memory", 1);
+  } catch (const std::exception& e) {
+    return fail(std::string("internal error: ") + e.what(), 1);
+  }
+}

@@ -1,0 +1,138 @@
+#include "messaging.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include "clock.hpp"
+
+namespace chasles::plant {
+
+namespace {
+
+// lcm-gen's decoder resizes the torque vector to the received num_joints before it checks that
+// the buffer holds that many, so an untrusted count must be read and checked first. It follows
+// the 8-byte fingerprint and the int64 fields utime, seq and state_seq (joint_torque_command_t.lcm).
+constexpr int kNumJointsOffset = 8 + 3 * 8;
+
+}  // namespace
+
+CommandInbox::CommandInbox(lcm::LCM& lcm, const std::string& channel, int num_joints)
+    : lcm_(lcm), channel_(channel), num_joints_(num_joints) {
+  for (joint_torque_command_t* message : {&latest_, &incoming_}) {
+    message->utime = message->seq = 0;
+    message->state_seq = -1;
+    message->num_joints = num_joints;
+    message->torque.assign(static_cast<size_t>(num_joints), 0.0);
+  }
+  expected_size_ = latest_.getEncodedSize();
+  // The C interface hands the channel over as a char*; the C++ one builds a std::string for every
+  // message, which may allocate.
+  subscription_ = lcm_subscribe(lcm_.getUnderlyingLCM(), channel_.c_str(), &CommandInbox::on_message, this);
+}
+
+CommandInbox::~CommandInbox() {
+  if (subscription_ != nullptr) lcm_unsubscribe(lcm_.getUnderlyingLCM(), subscription_);
+}
+
+void CommandInbox::on_message(const lcm_recv_buf_t* rbuf, const char*, void* self) {
+  static_cast<CommandInbox*>(self)->receive(rbuf->data, static_cast<int>(rbuf->data_size));
+}
+
+void CommandInbox::receive(const void* data, int size) {
+  int64_t fingerprint = 0;
+  int32_t count = 0;
+  if (__int64_t_decode_array(data, 0, size, &fingerprint, 1) < 0 || fingerprint != joint_torque_command_t::getHash()) {
+    return reject("a message that is not a joint_torque_command_t (wrong fingerprint)");
+  }
+  if (__int32_t_decode_array(data, kNumJointsOffset, size, &count, 1) < 0) {
+    return reject("a truncated command of %lld bytes", size);
+  }
+  if (count != num_joints_) return reject("a command for %lld joints; the arm has %lld", count, num_joints_);
+  if (size != expected_size_) {
+    return reject("a command of %lld bytes; a command for this arm has %lld", size, expected_size_);
+  }
+  if (incoming_.decode(data, 0, size) != size) return reject("a command that does not decode");
+  for (int i = 0; i < num_joints_; ++i) {
+    if (!std::isfinite(incoming_.torque[static_cast<size_t>(i)])) {
+      return reject("a command with a non-finite torque for joint %lld of %lld", i + 1, num_joints_);
+    }
+  }
+  std::swap(latest_, incoming_);
+  fresh_ = true;
+  arrival_ns_ = monotonic_ns();
+  ++received_;
+}
+
+void CommandInbox::reject(const char* format, long long a, long long b) {
+  ++rejected_;
+  ++unreported_;
+  std::snprintf(reason_, sizeof(reason_), format, a, b);
+}
+
+void CommandInbox::report_rejections(int64_t now_ns) {
+  if (unreported_ == 0 || now_ns - last_report_ns_ < 1'000'000'000) return;
+  std::fprintf(stderr, "chasles_plant: rejected %lld command%s on %s (last: %s); not applied\n",
+               static_cast<long long>(unreported_), unreported_ == 1 ? "" : "s", channel_.c_str(), reason_);
+  unreported_ = 0;
+  last_report_ns_ = now_ns;
+}
+
+StatePublisher::StatePublisher(lcm::LCM& lcm, std::string channel, int num_joints, const Faults& faults,
+                               int max_in_flight)
+    : lcm_(lcm), channel_(std::move(channel)), faults_(faults), rng_(faults.seed) {
+  message_.utime = message_.seq = 0;
+  message_.num_joints = num_joints;
+  for (auto* v : {&message_.position, &message_.velocity, &message_.effort}) {
+    v->assign(static_cast<size_t>(num_joints), 0.0);
+  }
+  bytes_.resize(static_cast<size_t>(message_.getEncodedSize()));
+  queue_.resize(faults.delay_ms > 0.0 ? static_cast<size_t>(max_in_flight) : 0);
+  for (Delayed& slot : queue_) slot.bytes.resize(bytes_.size());
+}
+
+void StatePublisher::encode(int64_t utime, int64_t seq, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                            const Eigen::VectorXd& effort) {
+  message_.utime = utime;
+  message_.seq = seq;
+  for (size_t i = 0; i < message_.position.size(); ++i) {
+    const auto j = static_cast<Eigen::Index>(i);
+    message_.position[i] = q[j] + (faults_.noise > 0.0 ? faults_.noise * gaussian_(rng_) : 0.0);
+    message_.velocity[i] = qd[j];
+    message_.effort[i] = effort[j];
+  }
+  message_.encode(bytes_.data(), 0, static_cast<int>(bytes_.size()));
+}
+
+void StatePublisher::send(int64_t now_ns) {
+  if (faults_.drop > 0.0 && uniform_(rng_) < faults_.drop) {
+    ++dropped_;
+    return;
+  }
+  if (queue_.empty()) return publish(bytes_);
+  if (size_ == queue_.size()) {  // more in flight than the delay can hold: lost, as on a full link
+    ++dropped_;
+    return;
+  }
+  Delayed& slot = queue_[(head_ + size_) % queue_.size()];
+  slot.due_ns = now_ns + static_cast<int64_t>(faults_.delay_ms * 1e6);
+  std::copy(bytes_.begin(), bytes_.end(), slot.bytes.begin());
+  ++size_;
+}
+
+int64_t StatePublisher::flush(int64_t now_ns) {
+  while (size_ > 0 && queue_[head_].due_ns <= now_ns) {
+    publish(queue_[head_].bytes);
+    head_ = (head_ + 1) % queue_.size();
+    --size_;
+  }
+  return size_ > 0 ? queue_[head_].due_ns : std::numeric_limits<int64_t>::max();
+}
+
+void StatePublisher::publish(const std::vector<uint8_t>& bytes) {
+  // A send that fails is a lost message, as on a real network; the receiver sees the seq gap.
+  if (lcm_.publish(channel_, bytes.data(), static_cast<unsigned>(bytes.size())) != 0) ++dropped_;
+}
+
+}  // namespace chasles::plant

@@ -1,0 +1,109 @@
+// The plant's side of the wire: commands in, states out, through the injected faults. Both
+// classes preallocate every buffer on construction; receiving, encoding and publishing allocate
+// nothing afterwards.
+#pragma once
+
+#include <Eigen/Core>
+#include <chasles/joint_torque_command_t.hpp>
+#include <chasles/robot_state_t.hpp>
+#include <cstdint>
+#include <lcm/lcm-cpp.hpp>
+#include <random>
+#include <string>
+#include <vector>
+
+namespace chasles::plant {
+
+/// Keeps the latest valid joint_torque_command_t for an n-joint arm. Every message passes the
+/// same checks, in order — fingerprint, joint count, exact size, encoding, finite torques — and
+/// one that fails is counted and reported on stderr (at most once a second), never kept.
+class CommandInbox {
+ public:
+  CommandInbox(lcm::LCM& lcm, const std::string& channel, int num_joints);
+  ~CommandInbox();
+  CommandInbox(const CommandInbox&) = delete;
+  CommandInbox& operator=(const CommandInbox&) = delete;
+
+  bool any() const { return received_ > 0; }
+  /// A valid command arrived since the last take().
+  bool fresh() const { return fresh_; }
+  /// The latest valid command; clears fresh().
+  const joint_torque_command_t& take() {
+    fresh_ = false;
+    return latest_;
+  }
+  const joint_torque_command_t& latest() const { return latest_; }
+  /// CLOCK_MONOTONIC time the latest valid command arrived, ns.
+  int64_t latest_arrival_ns() const { return arrival_ns_; }
+  int64_t rejected() const { return rejected_; }
+
+  /// Writes one stderr line about the rejections since the last report, at most once a second.
+  void report_rejections(int64_t now_ns);
+
+ private:
+  static void on_message(const lcm_recv_buf_t* rbuf, const char* channel, void* self);
+  void receive(const void* data, int size);
+  void reject(const char* format, long long a = 0, long long b = 0);
+
+  lcm::LCM& lcm_;
+  lcm_subscription_t* subscription_ = nullptr;
+  std::string channel_;
+  int num_joints_;
+  int expected_size_;
+  joint_torque_command_t latest_, incoming_;
+  bool fresh_ = false;
+  int64_t arrival_ns_ = 0;
+  int64_t received_ = 0;
+  int64_t rejected_ = 0;
+  int64_t unreported_ = 0;
+  int64_t last_report_ns_ = 0;
+  char reason_[160] = {};
+};
+
+/// Seeded fault injection on outgoing states.
+struct Faults {
+  double drop = 0.0;      ///< probability that a state message is not sent
+  double delay_ms = 0.0;  ///< every state message is sent this long after it is produced
+  double noise = 0.0;     ///< standard deviation of gaussian noise added to the sent position, rad or m
+  uint64_t seed = 0;
+};
+
+/// Encodes robot_state_t into a preallocated buffer and publishes it, dropped, delayed and
+/// noisy as `faults` asks.
+class StatePublisher {
+ public:
+  /// `max_in_flight`: how many delayed messages can wait at once; one more is dropped.
+  StatePublisher(lcm::LCM& lcm, std::string channel, int num_joints, const Faults& faults, int max_in_flight);
+
+  /// Encodes a state; the position gets the sensor noise here, so a state sent again is
+  /// the same message.
+  void encode(int64_t utime, int64_t seq, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+              const Eigen::VectorXd& effort);
+  /// Sends the last encoded state: dropped with probability faults.drop, else now or after the delay.
+  void send(int64_t now_ns);
+  /// Publishes the delayed states that are due; returns when the next one is due (INT64_MAX: none).
+  int64_t flush(int64_t now_ns);
+  /// States not delivered: dropped on purpose, lost to a full delay queue or a failed send.
+  int64_t dropped() const { return dropped_; }
+
+ private:
+  struct Delayed {
+    int64_t due_ns = 0;
+    std::vector<uint8_t> bytes;
+  };
+  void publish(const std::vector<uint8_t>& bytes);
+
+  lcm::LCM& lcm_;
+  std::string channel_;
+  Faults faults_;
+  robot_state_t message_;
+  std::vector<uint8_t> bytes_;
+  std::vector<Delayed> queue_;  // a ring: head_ is the oldest, size_ entries
+  size_t head_ = 0, size_ = 0;
+  std::mt19937_64 rng_;
+  std::uniform_real_distribution<double> uniform_{0.0, 1.0};
+  std::normal_distribution<double> gaussian_{0.0, 1.0};
+  int64_t dropped_ = 0;
+};
+
+}  // namespace chasles::plant
