@@ -60,6 +60,25 @@ constexpr int kBrakeStepsPerTimeConstant = 10;
 volatile std::sig_atomic_t g_stop = 0;
 void on_signal(int) { g_stop = 1; }
 
+std::string number(double x) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%g", x);
+  return text;
+}
+
+// CLI11's own range validators print the limits of double; these say what is wrong in words.
+CLI::Validator at_least(double lower, bool inclusive, const char* words) {
+  return CLI::Validator(
+      [=](const std::string& text) {
+        double x = 0.0;
+        const bool ok = CLI::detail::lexical_cast(text, x) && std::isfinite(x) && (inclusive ? x >= lower : x > lower);
+        return ok ? std::string() : "'" + text + "' is not " + words;
+      },
+      "");
+}
+const CLI::Validator kPositive = at_least(0.0, false, "a positive number");
+const CLI::Validator kNonNegative = at_least(0.0, true, "a non-negative number");
+
 std::vector<double> parse_numbers(const std::string& text, const std::string& option) {
   std::vector<double> values;
   size_t start = 0;
@@ -101,9 +120,8 @@ Eigen::VectorXd initial_position(const RobotModel& model, const std::string& tex
     const JointLimits& limits = model.joint(i).limits;
     q0[i] = values[static_cast<size_t>(i)];
     if (q0[i] < limits.lower || q0[i] > limits.upper) {
-      throw InputError("--q0: joint " + model.joint(i).name + " = " + std::to_string(q0[i]) +
-                       " is outside its limits [" + std::to_string(limits.lower) + ", " + std::to_string(limits.upper) +
-                       "]");
+      throw InputError("--q0: joint " + model.joint(i).name + " = " + number(q0[i]) + " is outside its limits [" +
+                       number(limits.lower) + ", " + number(limits.upper) + "]");
     }
   }
   return q0;
@@ -290,7 +308,7 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--tip", o.tip, "Link that ends the chain; needed when the URDF tree has several leaves")
       ->type_name("LINK");
   app.add_option("--rate", o.rate_hz, "Steps per second; one robot_state_t per step")
-      ->check(CLI::PositiveNumber)
+      ->check(kPositive)
       ->type_name("HZ")
       ->capture_default_str();
   app.add_option("--substeps", o.substeps, "RK4 steps per step")->check(CLI::Range(1, 1000))->capture_default_str();
@@ -305,7 +323,7 @@ void add_options(CLI::App& app, Options& o) {
                "One step per command answering the latest state (deterministic); until then the state is "
                "sent again every 10 ms. Default: real time");
   app.add_option("--timeout-ms", o.timeout_ms, "Real time: brake after this long without a valid command")
-      ->check(CLI::PositiveNumber)
+      ->check(kPositive)
       ->capture_default_str();
   app.add_option("--channel-prefix", o.prefix, "Channels are PREFIX STATE and PREFIX COMMAND")
       ->check(
@@ -325,13 +343,13 @@ void add_options(CLI::App& app, Options& o) {
       ->check(CLI::Range(0.0, 1.0))
       ->type_name("P");
   app.add_option("--delay-ms", o.faults.delay_ms, "Send every state this long after it is produced")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->type_name("D");
   app.add_option("--noise", o.faults.noise, "Std. deviation of gaussian noise on the sent position, rad or m")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->type_name("SIGMA");
   app.add_option("--seconds", o.seconds, "Stop after this much wall-clock time (default: run until a signal)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->type_name("N");
 }
 
