@@ -57,17 +57,21 @@ void rnea(const RobotModel& model, Data& data, const double* qd, const double* q
 }
 
 // The composite inertia of body i expressed in the frame of its parent, T = T_{i−1,i}
-// (Featherstone's inertia transform, in (m, h, I) form).
-SpatialInertia to_parent(const Transform& T, const SpatialInertia& G) {
+// (Featherstone's inertia transform, in (m, h, I) form): h' = R h + m p and
+// I' = R I Rᵀ − [h][p] − [p][h] − m[p]², with h = R h; since [a][b] = b aᵀ − (a·b)1 the last three
+// terms are −p h'ᵀ − h pᵀ + p·(h + h') 1, outer products instead of 3×3 products.
+CHASLES_ALWAYS_INLINE SpatialInertia to_parent(const Transform& T, const SpatialInertia& G) {
   const Matrix3d& R = T.linear();
   const Vector3d& p = T.translation();
-  const Vector3d h = R * G.h;
-  const Matrix3d P = hat3(p), H = hat3(h);
   SpatialInertia out;
   out.mass = G.mass;
+  const Vector3d h = R * G.h;
   out.h = h + G.mass * p;
-  out.I.noalias() = R * G.I * R.transpose();
-  out.I -= H * P + P * H + G.mass * P * P;
+  const Matrix3d RI = R * G.I;
+  out.I.noalias() = RI * R.transpose();
+  out.I.noalias() -= p * out.h.transpose();
+  out.I.noalias() -= h * p.transpose();
+  out.I.diagonal().array() += p.dot(h + out.h);
   return out;
 }
 

@@ -1,5 +1,6 @@
 #include "chasles/core/kinematics/kinematics.hpp"
 
+#include <cmath>
 #include <string>
 
 #include "chasles/core/lie/se3.hpp"
@@ -12,6 +13,26 @@ void check_joint_vector(const RobotModel& model, const JointVector& v, const cha
   }
 }
 
+namespace {
+
+// R exp([â]θ) for a unit axis â. URDF axes are nearly always ±x, ±y or ±z, and then the product
+// only mixes two columns of R (12 flops, against 45 for Rodrigues followed by a 3×3 product).
+CHASLES_ALWAYS_INLINE void rotate_about_axis(const Matrix3d& R, const Vector3d& axis, double theta, Matrix3d& out) {
+  for (int k = 0; k < 3; ++k) {
+    const int i = (k + 1) % 3, j = (k + 2) % 3;
+    if (axis(i) == 0.0 && axis(j) == 0.0) {
+      const double s = axis(k) * std::sin(theta), c = std::cos(theta);  // axis(k) = ±1
+      out.col(i) = c * R.col(i) + s * R.col(j);
+      out.col(j) = c * R.col(j) - s * R.col(i);
+      out.col(k) = R.col(k);
+      return;
+    }
+  }
+  out.noalias() = R * exp3_unit(axis, theta);
+}
+
+}  // namespace
+
 void local_transforms(const RobotModel& model, Data& data, const JointVector& q) {
   check_joint_vector(model, q, "q");
   for (int i = 0; i < model.dof(); ++i) {
@@ -20,9 +41,10 @@ void local_transforms(const RobotModel& model, Data& data, const JointVector& q)
     const Matrix3d& R_parent_joint = joint.T_parent_joint.linear();
     if (joint.type == JointType::Prismatic) {
       T.linear() = R_parent_joint;
-      T.translation() = joint.T_parent_joint.translation() + R_parent_joint * (joint.axis * q(i));
+      T.translation().noalias() = R_parent_joint * (joint.axis * q(i));
+      T.translation() += joint.T_parent_joint.translation();
     } else {
-      T.linear().noalias() = R_parent_joint * exp3_unit(joint.axis, q(i));
+      rotate_about_axis(R_parent_joint, joint.axis, q(i), T.linear());
       T.translation() = joint.T_parent_joint.translation();
     }
   }

@@ -24,12 +24,7 @@ Vector6d vee6(const Eigen::MatrixBase<Derived>& X) {
 }
 
 /// A transform from a rotation and a translation (MR RpToTrans).
-inline Transform make_transform(const Matrix3d& R, const Vector3d& p) {
-  Transform T = Transform::Identity();
-  T.linear() = R;
-  T.translation() = p;
-  return T;
-}
+inline Transform make_transform(const Matrix3d& R, const Vector3d& p) { return Transform(R, p); }
 
 /// exp([V]) for a twist V = (ω, v) taken over unit time, so θ = |ω| (MR eq. 3.88 with
 /// G(θ) = Iθ + (1 − cos θ)[ω̂] + (θ − sin θ)[ω̂]² written for the unnormalised ω).
@@ -83,9 +78,10 @@ inline Matrix6d adjoint(const Transform& T) {
 /// [Ad_T] V without forming the 6×6 matrix: changes the frame of a twist or screw axis.
 template <typename Derived>
 CHASLES_ALWAYS_INLINE Vector6d adjoint_times(const Transform& T, const Eigen::MatrixBase<Derived>& V) {
-  const Vector3d w = T.linear() * V.template head<3>();
   Vector6d out;
-  out << w, T.translation().cross(w) + T.linear() * V.template tail<3>();
+  out.head<3>().noalias() = T.linear() * V.template head<3>();
+  out.tail<3>().noalias() = T.linear() * V.template tail<3>();
+  out.tail<3>() += T.translation().cross(out.head<3>());
   return out;
 }
 
@@ -94,8 +90,10 @@ template <typename Derived>
 CHASLES_ALWAYS_INLINE Vector6d adjoint_inverse_times(const Transform& T, const Eigen::MatrixBase<Derived>& V) {
   const Matrix3d& R = T.linear();
   const Vector3d w = V.template head<3>();
+  const Vector3d v = V.template tail<3>() - T.translation().cross(w);
   Vector6d out;
-  out << R.transpose() * w, R.transpose() * (V.template tail<3>() - T.translation().cross(w));
+  out.head<3>().noalias() = R.transpose() * w;
+  out.tail<3>().noalias() = R.transpose() * v;
   return out;
 }
 
@@ -104,17 +102,20 @@ template <typename Derived>
 CHASLES_ALWAYS_INLINE Vector6d adjoint_transpose_times(const Transform& T, const Eigen::MatrixBase<Derived>& F) {
   const Matrix3d& R = T.linear();
   const Vector3d f = F.template tail<3>();
+  const Vector3d m = F.template head<3>() + f.cross(T.translation());
   Vector6d out;
-  out << R.transpose() * (F.template head<3>() + f.cross(T.translation())), R.transpose() * f;
+  out.head<3>().noalias() = R.transpose() * m;
+  out.tail<3>().noalias() = R.transpose() * f;
   return out;
 }
 
 /// [Ad_{T⁻¹}]ᵀ F = (R m + p × R f, R f): moves a wrench F_b in frame b to frame a when T = T_ab.
 template <typename Derived>
 CHASLES_ALWAYS_INLINE Vector6d adjoint_inverse_transpose_times(const Transform& T, const Eigen::MatrixBase<Derived>& F) {
-  const Vector3d f = T.linear() * F.template tail<3>();
   Vector6d out;
-  out << T.linear() * F.template head<3>() + T.translation().cross(f), f;
+  out.tail<3>().noalias() = T.linear() * F.template tail<3>();
+  out.head<3>().noalias() = T.linear() * F.template head<3>();
+  out.head<3>() += T.translation().cross(out.tail<3>());
   return out;
 }
 
@@ -133,7 +134,8 @@ CHASLES_ALWAYS_INLINE Vector6d ad_times(const Eigen::MatrixBase<D1>& V1, const E
   const Vector3d w1 = V1.template head<3>();
   const Vector3d w2 = V2.template head<3>();
   Vector6d out;
-  out << w1.cross(w2), w1.cross(V2.template tail<3>()) + V1.template tail<3>().cross(w2);
+  out.head<3>() = w1.cross(w2);
+  out.tail<3>() = w1.cross(V2.template tail<3>()) + V1.template tail<3>().cross(w2);
   return out;
 }
 
@@ -146,7 +148,8 @@ CHASLES_ALWAYS_INLINE Vector6d ad_transpose_times(const Eigen::MatrixBase<D1>& V
   const Vector3d m = F.template head<3>();
   const Vector3d f = F.template tail<3>();
   Vector6d out;
-  out << m.cross(w) + f.cross(v), f.cross(w);
+  out.head<3>() = m.cross(w) + f.cross(v);
+  out.tail<3>() = f.cross(w);
   return out;
 }
 

@@ -12,9 +12,46 @@ using Matrix3d = Eigen::Matrix3d;
 using Vector6d = Eigen::Matrix<double, 6, 1>;
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 using Matrix4d = Eigen::Matrix4d;
-// A rigid transform T_ab: rotation R_ab and translation p_ab. Eigen's Isometry3d multiplies and
-// inverts as a rigid transform (no general 4x4 arithmetic).
-using Transform = Eigen::Isometry3d;
+/// A rigid transform T_ab ∈ SE(3): the pose of frame b in frame a, rotation R_ab and translation
+/// p_ab. Stored as the two (no 4×4 matrix with a constant bottom row), like Sophus's SE3 and
+/// Pinocchio's SE3, so that every product is a plain fixed-size 3×3 or 3×1 operation; the
+/// interface is the part of Eigen::Isometry3d the code uses.
+class Transform {
+ public:
+  /// The identity.
+  Transform() : R_(Matrix3d::Identity()), p_(Vector3d::Zero()) {}
+  Transform(const Matrix3d& R, const Vector3d& p) : R_(R), p_(p) {}
+  static Transform Identity() { return Transform(); }
+
+  Matrix3d& linear() { return R_; }
+  const Matrix3d& linear() const { return R_; }
+  Vector3d& translation() { return p_; }
+  const Vector3d& translation() const { return p_; }
+
+  /// The homogeneous 4×4 matrix [[R, p], [0, 1]].
+  Matrix4d matrix() const {
+    Matrix4d T = Matrix4d::Identity();
+    T.topLeftCorner<3, 3>() = R_;
+    T.topRightCorner<3, 1>() = p_;
+    return T;
+  }
+
+  /// T_ab T_bc = T_ac.
+  Transform operator*(const Transform& other) const {
+    Transform out;
+    out.R_.noalias() = R_ * other.R_;
+    out.p_.noalias() = R_ * other.p_;
+    out.p_ += p_;
+    return out;
+  }
+
+  /// Maps a point given in frame b to frame a.
+  Vector3d operator*(const Vector3d& point) const { return R_ * point + p_; }
+
+ private:
+  Matrix3d R_;
+  Vector3d p_;
+};
 
 // The 6-vector helpers of the recursive algorithms are a few flops each; called out of line their
 // results travel through the stack, which the benchmarks showed costing more than the arithmetic.

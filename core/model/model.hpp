@@ -46,7 +46,9 @@ struct SpatialInertia {
   CHASLES_ALWAYS_INLINE Vector6d operator*(const Vector6d& V) const {
     const Vector3d w = V.head<3>(), v = V.tail<3>();
     Vector6d P;
-    P << I * w + h.cross(v), mass * v - h.cross(w);
+    P.head<3>().noalias() = I * w;
+    P.head<3>() += h.cross(v);
+    P.tail<3>() = mass * v - h.cross(w);
     return P;
   }
   Matrix6d matrix() const;

@@ -76,11 +76,7 @@ Matrix4d exp6_long_double(const Vector6d& V) {
   return T.cast<double>();
 }
 
-Transform to_transform(const Matrix4d& m) {
-  Transform T;
-  T.matrix() = m;
-  return T;
-}
+Transform to_transform(const Matrix4d& m) { return Transform(m.topLeftCorner<3, 3>(), m.topRightCorner<3, 1>()); }
 
 // --- so(3) and se(3) basics ---------------------------------------------------------------
 
