@@ -1,0 +1,198 @@
+#include "chasles/controller/controller.hpp"
+
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "chasles/core/dynamics/dynamics.hpp"
+
+namespace chasles::controller {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Peak speed of a rest-to-rest quintic over distance d in time T (at s = 1/2).
+constexpr double kQuinticPeakSpeed = 1.875;
+
+void format_into(char (&buffer)[192], const char* format, va_list args) {
+  std::vsnprintf(buffer, sizeof(buffer), format, args);
+}
+
+}  // namespace
+
+const char* to_string(Mode mode) {
+  switch (mode) {
+    case Mode::kWaiting:
+      return "WAITING";
+    case Mode::kRunning:
+      return "RUNNING";
+    case Mode::kHolding:
+      return "HOLDING";
+    case Mode::kFault:
+      return "FAULT";
+  }
+  return "?";
+}
+
+Config Config::critically_damped(int dof, double omega) {
+  Config config;
+  config.kp = Eigen::VectorXd::Constant(dof, omega * omega);
+  config.kd = Eigen::VectorXd::Constant(dof, 2.0 * omega);
+  return config;
+}
+
+void Config::validate(int dof) const {
+  auto check_gains = [dof](const Eigen::VectorXd& k, const char* name) {
+    if (k.size() != dof) {
+      throw std::invalid_argument(std::string(name) + " has " + std::to_string(k.size()) + " entries, the arm has " +
+                                  std::to_string(dof) + " joints");
+    }
+    if (!k.allFinite() || (k.array() < 0.0).any()) {
+      throw std::invalid_argument(std::string(name) + " must be finite and non-negative");
+    }
+  };
+  check_gains(kp, "kp");
+  check_gains(kd, "kd");
+  if (!(period > 0.0) || !std::isfinite(period)) throw std::invalid_argument("the period must be positive");
+  if (stale_ns <= 0) throw std::invalid_argument("the stale-state timeout must be positive");
+  if (!(torque_ramp > 0.0)) throw std::invalid_argument("the torque ramp time must be positive");
+}
+
+Controller::Controller(const RobotModel& model, const Config& config)
+    : model_(model),
+      config_(config),
+      data_(model),
+      effort_limit_(model.dof()),
+      rate_limit_per_tick_(model.dof()),
+      q_(Eigen::VectorXd::Zero(model.dof())),
+      qd_(Eigen::VectorXd::Zero(model.dof())),
+      qdd_ref_(Eigen::VectorXd::Zero(model.dof())),
+      error_(Eigen::VectorXd::Zero(model.dof())),
+      tau_(Eigen::VectorXd::Zero(model.dof())),
+      tau_prev_(Eigen::VectorXd::Zero(model.dof())),
+      ref_(model.dof()),
+      trajectory_(model.dof()) {
+  config_.validate(model.dof());
+  for (int i = 0; i < model.dof(); ++i) {
+    const double effort = model.joint(i).limits.effort;
+    effort_limit_(i) = effort > 0.0 ? effort : kInf;
+    rate_limit_per_tick_(i) = effort_limit_(i) / config_.torque_ramp * config_.period;
+  }
+}
+
+bool Controller::refuse(const char* format, ...) {
+  va_list args;
+  va_start(args, format);
+  format_into(rejection_, format, args);
+  va_end(args);
+  ++rejected_targets_;
+  return false;
+}
+
+void Controller::fault(const char* format, ...) {
+  va_list args;
+  va_start(args, format);
+  format_into(fault_reason_, format, args);
+  va_end(args);
+  if (mode_ != Mode::kFault) ++faults_;
+  mode_ = Mode::kFault;
+}
+
+void Controller::hold_at(const Eigen::VectorXd& q) {
+  ref_.hold(q);
+  mode_ = Mode::kHolding;
+}
+
+bool Controller::set_target(const Target& target, int64_t now_ns) {
+  if (mode_ == Mode::kWaiting) return refuse("no robot state has arrived yet");
+  if (mode_ == Mode::kFault) return refuse("the controller is in FAULT (%s)", fault_reason_);
+  const int n = model_.dof();
+  switch (target.mode) {
+    case Target::kHold:
+      hold_at(q_);
+      return true;
+    case Target::kCartesian:
+      return refuse("Cartesian targets need the inverse-kinematics solver, which this build does not have yet");
+    case Target::kJoint:
+      break;
+    default:
+      return refuse("unknown target mode %d", target.mode);
+  }
+  if (target.num_joints != n) return refuse("a joint target for %d joints; the arm has %d", target.num_joints, n);
+  if (!(target.duration > 0.0) || !std::isfinite(target.duration)) {
+    return refuse("a joint target needs a positive, finite duration (got %g s)", target.duration);
+  }
+  for (int i = 0; i < n; ++i) {
+    const Joint& joint = model_.joint(i);
+    const double goal = target.q(i);
+    if (!std::isfinite(goal)) return refuse("joint %s: target %g is not finite", joint.name.c_str(), goal);
+    // Continuous joints wrap, so any finite angle is a position they can take.
+    if (joint.type != JointType::Continuous && (goal < joint.limits.lower || goal > joint.limits.upper)) {
+      return refuse("joint %s: target %g is outside its limits [%g, %g]", joint.name.c_str(), goal,
+                    joint.limits.lower, joint.limits.upper);
+    }
+    const double speed = kQuinticPeakSpeed * std::abs(goal - ref_.q(i)) / target.duration;
+    if (speed > joint.limits.velocity) {
+      return refuse("joint %s: reaching %g in %g s needs %g rad/s, over its velocity limit %g; allow at least %g s",
+                    joint.name.c_str(), goal, target.duration, speed, joint.limits.velocity,
+                    target.duration * speed / joint.limits.velocity);
+    }
+  }
+  trajectory_.start(ref_, target.q, target.duration);
+  motion_start_ns_ = now_ns;
+  mode_ = Mode::kRunning;
+  return true;
+}
+
+void Controller::update_reference(int64_t now_ns) {
+  if (mode_ != Mode::kRunning) return;
+  const double t = 1e-9 * static_cast<double>(now_ns - motion_start_ns_);
+  trajectory_.sample(t, ref_);
+  if (t >= trajectory_.duration()) mode_ = Mode::kHolding;  // sample() has set the goal at rest
+}
+
+bool Controller::tick(int64_t now_ns, const JointState* state) {
+  if (state == nullptr) return false;
+  if (now_ns - state->arrival_ns > config_.stale_ns) {
+    ++stale_ticks_;
+    if (mode_ != Mode::kWaiting) {
+      fault("no fresh robot state: the latest is %.1f ms old (limit %.1f ms)",
+            1e-6 * static_cast<double>(now_ns - state->arrival_ns), 1e-6 * static_cast<double>(config_.stale_ns));
+    }
+    return false;
+  }
+  if (state->q.size() != model_.dof() || state->qd.size() != model_.dof() || !state->q.allFinite() ||
+      !state->qd.allFinite()) {
+    fault("a robot state of the wrong size or with non-finite values reached the control law");
+    return false;
+  }
+  q_ = state->q;
+  qd_ = state->qd;
+
+  if (mode_ == Mode::kWaiting || mode_ == Mode::kFault) {
+    // (Re-)entering HOLD where the arm is now. The torque-rate limit starts from g(q), which is
+    // what a plant applies while it brakes or waits, so the first commands do not jump.
+    hold_at(q_);
+    tau_prev_ = gravity_torques(model_, data_, q_);
+  }
+  update_reference(now_ns);
+
+  // Computed torque (MR eq. 11.35): one RNEA with q̈ = q̈_d + K_d ė + K_p e gives M q̈ + c + g.
+  error_ = ref_.q - q_;
+  qdd_ref_ = ref_.qdd + config_.kd.cwiseProduct(ref_.qd - qd_) + config_.kp.cwiseProduct(error_);
+  tau_ = inverse_dynamics(model_, data_, q_, qd_, qdd_ref_);
+
+  if (!tau_.allFinite()) {
+    fault("the control law produced a non-finite torque");
+    return false;
+  }
+  tau_ = tau_.cwiseMax(-effort_limit_).cwiseMin(effort_limit_);
+  tau_ = tau_.cwiseMax(tau_prev_ - rate_limit_per_tick_).cwiseMin(tau_prev_ + rate_limit_per_tick_);
+  tau_prev_ = tau_;
+  return true;
+}
+
+}  // namespace chasles::controller

@@ -1,0 +1,105 @@
+// The control logic of one tick, free of threads, clocks and transport so that it can be tested
+// directly: validated state and targets in, joint torques out, through one safety pipeline.
+//
+//   state age / size / finiteness → reference (hold | quintic joint motion)
+//   → computed torque τ = M(q)(q̈_d + K_d ė + K_p e) + c(q, q̇) + g(q), by one RNEA call
+//   → non-finite refused → effort limits → torque-rate limit → command
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+
+#include "chasles/controller/trajectory.hpp"
+#include "chasles/core/model/model.hpp"
+
+namespace chasles::controller {
+
+struct Config {
+  Eigen::VectorXd kp;  ///< position gains K_p, 1/s², one per joint
+  Eigen::VectorXd kd;  ///< velocity gains K_d, 1/s
+  double period = 1e-3;           ///< tick period, s
+  int64_t stale_ns = 10'000'000;  ///< a state older than this stops the commands: FAULT
+  /// Time to ramp through a joint's full effort range, s: the torque-rate limit is
+  /// effort_limit / torque_ramp per joint (infinite where the URDF gives no effort limit).
+  double torque_ramp = 0.05;
+
+  /// K_p = ω², K_d = 2ω (critically damped error dynamics at the natural frequency ω, rad/s).
+  static Config critically_damped(int dof, double omega);
+  /// Throws std::invalid_argument naming what is wrong (sizes, signs, non-finite values).
+  void validate(int dof) const;
+};
+
+/// A measured joint state, already checked for size and finiteness by whoever decoded it.
+struct JointState {
+  int64_t seq = -1;         ///< the sender's counter
+  int64_t utime = 0;        ///< the sender's timestamp, µs
+  int64_t arrival_ns = 0;   ///< CLOCK_MONOTONIC time it arrived here
+  Eigen::VectorXd q, qd;
+  explicit JointState(int n = 0) : q(Eigen::VectorXd::Zero(n)), qd(Eigen::VectorXd::Zero(n)) {}
+};
+
+/// A goal as received (arm_target_t's content); checked by Controller::set_target.
+struct Target {
+  enum Mode : int8_t { kHold = 0, kJoint = 1, kCartesian = 2 };
+  int8_t mode = kHold;
+  int num_joints = 0;  ///< entries of q the sender filled
+  Eigen::VectorXd q;   ///< capacity for the arm's joints
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  Eigen::Vector4d quaternion = Eigen::Vector4d(1, 0, 0, 0);  ///< (w, x, y, z)
+  double duration = 0.0;
+  explicit Target(int n = 0) : q(Eigen::VectorXd::Zero(n)) {}
+};
+
+enum class Mode : int8_t { kWaiting = 0, kRunning = 1, kHolding = 2, kFault = 3 };
+const char* to_string(Mode mode);
+
+class Controller {
+ public:
+  /// Keeps a reference to `model`. Throws std::invalid_argument for a bad config.
+  Controller(const RobotModel& model, const Config& config);
+
+  /// Takes a new goal, or refuses it (returns false, counts it, says why in last_rejection()) and
+  /// keeps the current one. A goal arriving before the first state is refused too.
+  bool set_target(const Target& target, int64_t now_ns);
+
+  /// One tick at time now_ns with the latest state (nullptr: none has arrived yet). Returns true
+  /// when a command is to be sent: torque() then holds it. Allocates nothing.
+  bool tick(int64_t now_ns, const JointState* state);
+
+  Mode mode() const { return mode_; }
+  /// Why the controller is in FAULT (or was, last).
+  const char* fault_reason() const { return fault_reason_; }
+  /// Why the last refused target was refused.
+  const char* last_rejection() const { return rejection_; }
+  const Eigen::VectorXd& torque() const { return tau_; }
+  const Reference& reference() const { return ref_; }
+  /// e = q_d − q at the last commanding tick.
+  const Eigen::VectorXd& error() const { return error_; }
+
+  int64_t faults() const { return faults_; }
+  int64_t stale_ticks() const { return stale_ticks_; }
+  int64_t rejected_targets() const { return rejected_targets_; }
+
+ private:
+  bool refuse(const char* format, ...) __attribute__((format(printf, 2, 3)));
+  void fault(const char* format, ...) __attribute__((format(printf, 2, 3)));
+  void hold_at(const Eigen::VectorXd& q);
+  /// The reference at now_ns; finishing a motion turns RUNNING into HOLDING.
+  void update_reference(int64_t now_ns);
+
+  const RobotModel& model_;
+  Config config_;
+  Data data_;
+  Eigen::VectorXd effort_limit_, rate_limit_per_tick_;
+  Eigen::VectorXd q_, qd_, qdd_ref_, error_, tau_, tau_prev_;
+  Reference ref_;
+  QuinticTrajectory trajectory_;
+  int64_t motion_start_ns_ = 0;
+  Mode mode_ = Mode::kWaiting;
+  // Fixed buffers: the reasons are formatted on the real-time thread, which must not allocate.
+  char fault_reason_[192] = {};
+  char rejection_[192] = {};
+  int64_t faults_ = 0, stale_ticks_ = 0, rejected_targets_ = 0;
+};
+
+}  // namespace chasles::controller

@@ -1,0 +1,154 @@
+#include "chasles/controller/lcm_io.hpp"
+
+#include <cmath>
+#include <utility>
+
+#include "chasles/controller/clock.hpp"
+
+namespace chasles::controller {
+namespace {
+
+// Byte offsets of num_joints: after the 8-byte fingerprint and the fields before it in the .lcm
+// contract (robot_state_t: utime, seq; arm_target_t: utime, mode).
+constexpr int kStateCountOffset = 8 + 8 + 8;
+constexpr int kTargetCountOffset = 8 + 8 + 1;
+
+/// Checks the fingerprint of Message and reads its num_joints field; empty string when both can be read.
+template <typename Message>
+std::string read_header(const void* data, int size, int count_offset, int32_t& count) {
+  int64_t fingerprint = 0;
+  if (__int64_t_decode_array(data, 0, size, &fingerprint, 1) < 0 || fingerprint != Message::getHash()) {
+    return std::string("not a ") + Message::getTypeName() + " (wrong fingerprint)";
+  }
+  if (__int32_t_decode_array(data, count_offset, size, &count, 1) < 0) {
+    return "truncated: " + std::to_string(size) + " bytes";
+  }
+  return {};
+}
+
+bool all_finite(const std::vector<double>& v) {
+  for (double x : v) {
+    if (!std::isfinite(x)) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+void Rejections::add(const std::string& reason) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    last_ = reason;
+  }
+  count_.fetch_add(1, std::memory_order_relaxed);
+}
+
+std::string Rejections::last() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return last_;
+}
+
+StateReceiver::StateReceiver(lcm_t* lcm, const std::string& channel, int num_joints, Mailbox<JointState>& mailbox,
+                             Rejections& rejections)
+    : lcm_(lcm), num_joints_(num_joints), mailbox_(mailbox), rejections_(rejections) {
+  message_.num_joints = num_joints;
+  for (auto* v : {&message_.position, &message_.velocity, &message_.effort}) v->assign(size_t(num_joints), 0.0);
+  if (lcm_ != nullptr) subscription_ = lcm_subscribe(lcm_, channel.c_str(), &StateReceiver::on_message, this);
+}
+
+StateReceiver::~StateReceiver() {
+  if (subscription_ != nullptr) lcm_unsubscribe(lcm_, subscription_);
+}
+
+void StateReceiver::on_message(const lcm_recv_buf_t* rbuf, const char*, void* self) {
+  auto* receiver = static_cast<StateReceiver*>(self);
+  const std::string why = receiver->receive(rbuf->data, static_cast<int>(rbuf->data_size), monotonic_ns());
+  if (!why.empty()) receiver->rejections_.add("robot state " + why);
+}
+
+std::string StateReceiver::receive(const void* data, int size, int64_t arrival_ns) {
+  int32_t count = 0;
+  if (std::string why = read_header<robot_state_t>(data, size, kStateCountOffset, count); !why.empty()) return why;
+  if (count != num_joints_) {
+    return "for " + std::to_string(count) + " joints; the arm has " + std::to_string(num_joints_);
+  }
+  message_.num_joints = count;
+  if (size != message_.getEncodedSize()) {
+    return "of " + std::to_string(size) + " bytes; expected " + std::to_string(message_.getEncodedSize());
+  }
+  if (message_.decode(data, 0, size) != size) return "does not decode";
+  if (!all_finite(message_.position) || !all_finite(message_.velocity)) return "with non-finite position or velocity";
+
+  JointState& state = mailbox_.back();
+  state.seq = message_.seq;
+  state.utime = message_.utime;
+  state.arrival_ns = arrival_ns;
+  state.q = Eigen::Map<const Eigen::VectorXd>(message_.position.data(), num_joints_);
+  state.qd = Eigen::Map<const Eigen::VectorXd>(message_.velocity.data(), num_joints_);
+  mailbox_.publish();
+  return {};
+}
+
+TargetReceiver::TargetReceiver(lcm_t* lcm, const std::string& channel, int num_joints, Mailbox<Target>& mailbox,
+                               Rejections& rejections)
+    : lcm_(lcm), num_joints_(num_joints), target_(num_joints), mailbox_(mailbox), rejections_(rejections) {
+  message_.joint_position.reserve(size_t(num_joints));
+  if (lcm_ != nullptr) subscription_ = lcm_subscribe(lcm_, channel.c_str(), &TargetReceiver::on_message, this);
+}
+
+TargetReceiver::~TargetReceiver() {
+  if (subscription_ != nullptr) lcm_unsubscribe(lcm_, subscription_);
+}
+
+void TargetReceiver::on_message(const lcm_recv_buf_t* rbuf, const char*, void* self) {
+  auto* receiver = static_cast<TargetReceiver*>(self);
+  const std::string why = receiver->receive(rbuf->data, static_cast<int>(rbuf->data_size));
+  if (!why.empty()) receiver->rejections_.add("target " + why);
+}
+
+std::string TargetReceiver::receive(const void* data, int size) {
+  int32_t count = 0;
+  if (std::string why = read_header<arm_target_t>(data, size, kTargetCountOffset, count); !why.empty()) return why;
+  // 0 entries (HOLD, CARTESIAN) or the arm's count; the controller says which the mode needs.
+  if (count < 0 || count > num_joints_) {
+    return "for " + std::to_string(count) + " joints; the arm has " + std::to_string(num_joints_);
+  }
+  message_.num_joints = count;
+  message_.joint_position.resize(size_t(count));
+  if (size != message_.getEncodedSize()) {
+    return "of " + std::to_string(size) + " bytes; expected " + std::to_string(message_.getEncodedSize());
+  }
+  if (message_.decode(data, 0, size) != size) return "does not decode";
+  target_.mode = message_.mode;
+  target_.num_joints = count;
+  target_.q.setZero();
+  for (int i = 0; i < count; ++i) target_.q(i) = message_.joint_position[size_t(i)];
+  target_.position = Eigen::Map<const Eigen::Vector3d>(message_.tip_position);
+  target_.quaternion = Eigen::Map<const Eigen::Vector4d>(message_.tip_quaternion);
+  target_.duration = message_.duration;
+  mailbox_.write(target_);
+  return {};
+}
+
+CommandPublisher::CommandPublisher(lcm_t* lcm, std::string channel, int num_joints)
+    : lcm_(lcm), channel_(std::move(channel)) {
+  message_.utime = message_.seq = 0;
+  message_.state_seq = -1;
+  message_.num_joints = num_joints;
+  message_.torque.assign(size_t(num_joints), 0.0);
+  bytes_.resize(size_t(message_.getEncodedSize()));
+}
+
+void CommandPublisher::encode(int64_t utime, int64_t seq, int64_t state_seq, const Eigen::VectorXd& torque) {
+  message_.utime = utime;
+  message_.seq = seq;
+  message_.state_seq = state_seq;
+  Eigen::Map<Eigen::VectorXd>(message_.torque.data(), message_.num_joints) = torque;
+  message_.encode(bytes_.data(), 0, static_cast<int>(bytes_.size()));  // the buffer fits by construction
+}
+
+bool CommandPublisher::send() {
+  return lcm_ != nullptr && lcm_publish(lcm_, channel_.c_str(), bytes_.data(), static_cast<unsigned>(bytes_.size())) == 0;
+}
+
+}  // namespace chasles::controller

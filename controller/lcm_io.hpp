@@ -1,0 +1,114 @@
+// The controller's side of the wire. Receivers run on the LCM thread and hand validated values
+// to the real-time thread through mailboxes; the command publisher runs on the real-time thread
+// and allocates nothing.
+//
+// Every received message is untrusted. lcm-gen's decoder resizes its arrays to the num_joints it
+// reads before checking that the buffer holds that many, so a forged count could make it
+// allocate gigabytes: the fingerprint and the count are read and checked from the raw bytes
+// first, then the exact size, then the decoder runs, then the values are checked for finiteness.
+#pragma once
+
+#include <lcm/lcm.h>
+
+#include <atomic>
+#include <chasles/arm_target_t.hpp>
+#include <chasles/joint_torque_command_t.hpp>
+#include <chasles/robot_state_t.hpp>
+#include <cstdint>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "chasles/controller/controller.hpp"
+#include "chasles/controller/mailbox.hpp"
+
+namespace chasles::controller {
+
+/// Channel names: a configurable prefix, so several arms can share one network.
+struct Channels {
+  std::string state, command, target, status;
+  explicit Channels(const std::string& prefix = "CHASLES_")
+      : state(prefix + "STATE"), command(prefix + "COMMAND"), target(prefix + "TARGET"), status(prefix + "STATUS") {}
+};
+
+/// Counts rejected messages and keeps the latest reason, for the status report.
+class Rejections {
+ public:
+  void add(const std::string& reason);
+  int64_t count() const { return count_.load(std::memory_order_relaxed); }
+  std::string last() const;
+
+ private:
+  std::atomic<int64_t> count_{0};
+  mutable std::mutex mutex_;  // never taken on the real-time thread
+  std::string last_;
+};
+
+/// robot_state_t on `channel` → validated JointState in `mailbox`.
+class StateReceiver {
+ public:
+  StateReceiver(lcm_t* lcm, const std::string& channel, int num_joints, Mailbox<JointState>& mailbox,
+                Rejections& rejections);
+  ~StateReceiver();
+  StateReceiver(const StateReceiver&) = delete;
+  StateReceiver& operator=(const StateReceiver&) = delete;
+
+  /// Checks and decodes one message; returns an empty string or why it was refused. Public so
+  /// that tests can feed it bytes directly.
+  std::string receive(const void* data, int size, int64_t arrival_ns);
+
+ private:
+  static void on_message(const lcm_recv_buf_t* rbuf, const char* channel, void* self);
+
+  lcm_t* lcm_;
+  lcm_subscription_t* subscription_ = nullptr;
+  int num_joints_;
+  robot_state_t message_;
+  Mailbox<JointState>& mailbox_;
+  Rejections& rejections_;
+};
+
+/// arm_target_t on `channel` → Target in `mailbox` (structure checked here; meaning — limits,
+/// durations, mode — by Controller::set_target).
+class TargetReceiver {
+ public:
+  TargetReceiver(lcm_t* lcm, const std::string& channel, int num_joints, Mailbox<Target>& mailbox,
+                 Rejections& rejections);
+  ~TargetReceiver();
+  TargetReceiver(const TargetReceiver&) = delete;
+  TargetReceiver& operator=(const TargetReceiver&) = delete;
+
+  std::string receive(const void* data, int size);
+
+ private:
+  static void on_message(const lcm_recv_buf_t* rbuf, const char* channel, void* self);
+
+  lcm_t* lcm_;
+  lcm_subscription_t* subscription_ = nullptr;
+  int num_joints_;
+  arm_target_t message_;
+  Target target_;
+  Mailbox<Target>& mailbox_;
+  Rejections& rejections_;
+};
+
+/// joint_torque_command_t, encoded into a buffer sized once and sent with lcm_publish (LCM's C++
+/// publish(channel, msg*) allocates a buffer per call).
+class CommandPublisher {
+ public:
+  CommandPublisher(lcm_t* lcm, std::string channel, int num_joints);
+  /// Encodes a command into the buffer.
+  void encode(int64_t utime, int64_t seq, int64_t state_seq, const Eigen::VectorXd& torque);
+  /// Sends the encoded command; false if LCM failed to.
+  bool send();
+  /// The bytes of the last command encoded.
+  const std::vector<uint8_t>& bytes() const { return bytes_; }
+
+ private:
+  lcm_t* lcm_;
+  std::string channel_;
+  joint_torque_command_t message_;
+  std::vector<uint8_t> bytes_;
+};
+
+}  // namespace chasles::controller

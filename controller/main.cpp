@@ -1,0 +1,207 @@
+// chasles_controller: the real-time control daemon. It loads the arm from URDF, then every period
+// turns the latest robot_state_t into a joint_torque_command_t by computed torque, following the
+// targets (arm_target_t) it receives, and reports controller_status_t for monitors.
+//
+// Errors: one line "chasles_controller: ..." on stderr; exit 2 for a usage error, 1 for bad input
+// (URDF, gains, config file) or when LCM cannot start. SIGINT and SIGTERM stop it cleanly (exit
+// 0), after the summary is written.
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+#include <string>
+
+#include "chasles/controller/daemon.hpp"
+#include "chasles/core/model/urdf.hpp"
+
+namespace {
+
+using chasles::controller::DaemonOptions;
+using chasles::controller::Summary;
+using Json = nlohmann::json;
+
+std::atomic<bool> g_stop{false};
+void on_signal(int) { g_stop.store(true); }
+
+/// A gain option: one number for every joint or a comma list of n.
+Eigen::VectorXd gains(const std::string& text, int n, const std::string& name) {
+  std::vector<double> values;
+  std::stringstream stream(text);
+  std::string item;
+  while (std::getline(stream, item, ',')) {
+    size_t used = 0;
+    double x = 0.0;
+    try {
+      x = std::stod(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != item.size() || !std::isfinite(x)) {
+      throw std::invalid_argument(name + ": '" + item + "' is not a finite number");
+    }
+    values.push_back(x);
+  }
+  if (values.size() == 1) return Eigen::VectorXd::Constant(n, values[0]);
+  if (static_cast<int>(values.size()) != n) {
+    throw std::invalid_argument(name + " has " + std::to_string(values.size()) + " entries; give one or " +
+                                std::to_string(n));
+  }
+  return Eigen::Map<Eigen::VectorXd>(values.data(), n);
+}
+
+std::string gains_text(const Json& value, const std::string& name) {
+  if (value.is_number()) return std::to_string(value.get<double>());
+  if (!value.is_array()) throw std::invalid_argument(name + ": expected a number or a list of numbers");
+  std::string text;
+  for (const auto& x : value) {
+    if (!x.is_number()) throw std::invalid_argument(name + ": expected a number or a list of numbers");
+    text += (text.empty() ? "" : ",") + std::to_string(x.get<double>());
+  }
+  return text;
+}
+
+struct Flags {
+  std::string robot, tip, config, summary;
+  double rate = 1000.0, stale_ms = 10.0, torque_ramp_ms = 50.0, omega = 20.0;
+  std::string kp, kd;
+};
+
+/// Settings from a JSON config file ({"kp": .., "kd": .., "rate": .., "stale_ms": ..,
+/// "torque_ramp_ms": ..}); flags given on the command line win.
+void apply_config(const std::string& path, Flags& flags, const CLI::App& app) {
+  std::ifstream in(path);
+  if (!in) throw std::invalid_argument("cannot read config file " + path);
+  Json config;
+  try {
+    config = Json::parse(in);
+  } catch (const Json::parse_error& e) {
+    throw std::invalid_argument("config file " + path + " is not valid JSON: " + e.what());
+  }
+  if (!config.is_object()) throw std::invalid_argument("config file " + path + ": expected a JSON object");
+  for (const auto& [key, value] : config.items()) {
+    const bool given = app.count("--" + key) > 0 || (key == "stale_ms" && app.count("--stale-ms") > 0) ||
+                       (key == "torque_ramp_ms" && app.count("--torque-ramp-ms") > 0);
+    if (given) continue;
+    const std::string where = "config file " + path + ": " + key;
+    if (key == "kp") {
+      flags.kp = gains_text(value, where);
+    } else if (key == "kd") {
+      flags.kd = gains_text(value, where);
+    } else if (key == "rate" || key == "stale_ms" || key == "torque_ramp_ms") {
+      if (!value.is_number() || !(value.get<double>() > 0.0)) throw std::invalid_argument(where + ": expected a positive number");
+      (key == "rate" ? flags.rate : key == "stale_ms" ? flags.stale_ms : flags.torque_ramp_ms) = value.get<double>();
+    } else {
+      throw std::invalid_argument(where + ": unknown setting (known: kp, kd, rate, stale_ms, torque_ramp_ms)");
+    }
+  }
+}
+
+Json to_json(const chasles::controller::Percentiles& p) { return {{"p50", p.p50}, {"p99", p.p99}, {"max", p.max}}; }
+
+/// Written to a temporary file beside the target and renamed over it, so a reader never sees half.
+void write_summary(const std::string& path, const Summary& s) {
+  const Json json = {{"ticks", s.ticks},
+                     {"rate_hz", s.rate_hz},
+                     {"seconds", s.seconds},
+                     {"overruns", s.overruns},
+                     {"jitter_us", to_json(s.jitter_us)},
+                     {"compute_us", to_json(s.compute_us)},
+                     {"publish_us", to_json(s.publish_us)},
+                     {"latency_us", to_json(s.latency_us)},
+                     {"tracking_error", {{"rms", s.tracking_rms}, {"max", s.tracking_max}}},
+                     {"commands", s.commands},
+                     {"send_failures", s.send_failures},
+                     {"stale_states", s.stale_states},
+                     {"rejected_messages", s.rejected_messages},
+                     {"faults", s.faults},
+                     {"realtime", s.realtime_granted}};
+  const std::string tmp = path + ".tmp." + std::to_string(getpid());
+  {
+    std::ofstream out(tmp);
+    out << json.dump(2) << "\n";
+    out.flush();
+    if (!out) throw std::runtime_error("cannot write the summary to " + tmp);
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    throw std::runtime_error("cannot write the summary to " + path);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"chasles_controller: computed-torque control of an arm over LCM, at a fixed rate"};
+  app.footer(
+      "Example (in a private network namespace, with chasles_plant running):\n"
+      "  chasles_controller --robot tests/data/panda.urdf --realtime --seconds 10 --summary run.json");
+  Flags flags;
+  DaemonOptions options;
+  app.add_option("--robot", flags.robot, "URDF of the arm")->required()->check(CLI::ExistingFile);
+  app.add_option("--tip", flags.tip, "tip link (default: the URDF's single leaf)");
+  app.add_option("--rate", flags.rate, "control rate, Hz (default 1000)")->check(CLI::PositiveNumber);
+  app.add_option("--kp", flags.kp, "position gains K_p, 1/s²: one number or one per joint (default ω²)");
+  app.add_option("--kd", flags.kd, "velocity gains K_d, 1/s: one number or one per joint (default 2ω)");
+  app.add_option("--omega", flags.omega, "natural frequency ω of the default gains, rad/s (default 20)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--config", flags.config, "JSON file with kp, kd, rate, stale_ms, torque_ramp_ms (flags win)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--stale-ms", flags.stale_ms, "a robot state older than this is a FAULT (default 10)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--torque-ramp-ms", flags.torque_ramp_ms,
+                 "torque-rate limit: time to ramp through a joint's effort range, ms (default 50)")
+      ->check(CLI::PositiveNumber);
+  app.add_flag("--realtime", options.realtime, "SCHED_FIFO, mlockall and --cpu for the loop (warns if refused)");
+  app.add_option("--priority", options.priority, "SCHED_FIFO priority with --realtime (default 80)")
+      ->check(CLI::Range(1, 99));
+  app.add_option("--cpu", options.cpu, "pin the loop to this CPU with --realtime");
+  app.add_option("--channel-prefix", options.channel_prefix, "prefix of the LCM channels (default CHASLES_)");
+  app.add_option("--lcm-url", options.lcm_url, "LCM URL (default: LCM's, or $LCM_DEFAULT_URL)");
+  app.add_option("--seconds", options.seconds, "stop after this long (default: run until SIGINT/SIGTERM)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--summary", flags.summary, "on exit, write the run's figures here as JSON");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) return app.exit(e);
+    std::fprintf(stderr, "chasles_controller: %s\n", e.what());
+    return 2;
+  }
+
+  try {
+    if (!flags.config.empty()) apply_config(flags.config, flags, app);
+    chasles::UrdfOptions urdf;
+    urdf.tip_link = flags.tip;
+    const chasles::RobotModel model = chasles::load_urdf_file(flags.robot, urdf);
+    const int n = model.dof();
+    options.control = chasles::controller::Config::critically_damped(n, flags.omega);
+    if (!flags.kp.empty()) options.control.kp = gains(flags.kp, n, "--kp");
+    if (!flags.kd.empty()) options.control.kd = gains(flags.kd, n, "--kd");
+    options.control.period = 1.0 / flags.rate;
+    options.control.stale_ns = static_cast<int64_t>(flags.stale_ms * 1e6);
+    options.control.torque_ramp = flags.torque_ramp_ms * 1e-3;
+
+    std::signal(SIGINT, on_signal);
+    std::signal(SIGTERM, on_signal);
+    chasles::controller::Daemon daemon(model, options);
+    std::fprintf(stderr, "chasles_controller: %s, %d joints, %g Hz on %sSTATE -> %sCOMMAND\n", model.name().c_str(), n,
+                 flags.rate, options.channel_prefix.c_str(), options.channel_prefix.c_str());
+    const Summary summary = daemon.run(g_stop);
+    std::fprintf(stderr,
+                 "chasles_controller: %lld ticks at %.1f Hz, %lld overruns, jitter p99 %.0f us, compute p99 %.0f us, "
+                 "latency p99 %.0f us, %lld faults\n",
+                 static_cast<long long>(summary.ticks), summary.rate_hz, static_cast<long long>(summary.overruns),
+                 summary.jitter_us.p99, summary.compute_us.p99, summary.latency_us.p99,
+                 static_cast<long long>(summary.faults));
+    if (!flags.summary.empty()) write_summary(flags.summary, summary);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "chasles_controller: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
