@@ -20,7 +20,8 @@ std::string read_header(const void* data, int size, int count_offset, int32_t& c
   if (__int64_t_decode_array(data, 0, size, &fingerprint, 1) < 0 || fingerprint != Message::getHash()) {
     return std::string("not a ") + Message::getTypeName() + " (wrong fingerprint)";
   }
-  if (__int32_t_decode_array(data, count_offset, size, &count, 1) < 0) {
+  // LCM's decode functions take the bytes left after the offset, not the buffer's size.
+  if (size < count_offset || __int32_t_decode_array(data, count_offset, size - count_offset, &count, 1) < 0) {
     return "truncated: " + std::to_string(size) + " bytes";
   }
   return {};

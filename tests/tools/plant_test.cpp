@@ -2,9 +2,7 @@
 // binary runs inside its own network namespace (tools/netns.sh is its launcher, see
 // CMakeLists.txt), so the multicast traffic never leaves the machine and tests running in
 // parallel do not hear each other.
-#include <fcntl.h>
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -25,6 +23,7 @@
 
 #include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/model/urdf.hpp"
+#include "support/process.hpp"
 #include "support/reference.hpp"
 
 namespace chasles::testing {
@@ -60,69 +59,17 @@ Eigen::VectorXd vector_of(const std::vector<double>& v) {
   return Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
 }
 
-// chasles_plant with `args` (plus the test's LCM URL and channel prefix); stderr goes to a file.
-class PlantProcess {
+// chasles_plant with `args` (plus the test's LCM URL and channel prefix).
+class PlantProcess : public ChildProcess {
  public:
-  explicit PlantProcess(std::vector<std::string> args)
-      : stderr_path_(::testing::TempDir() + "plant_test_" + std::to_string(::getpid()) + "_" +
-                     std::to_string(++count_) + "_stderr") {
-    std::vector<std::string> argv_strings{CHASLES_PLANT, "--lcm-url", kLcmUrl, "--channel-prefix", kPrefix};
-    argv_strings.insert(argv_strings.end(), args.begin(), args.end());
-    std::vector<char*> argv;
-    for (auto& s : argv_strings) argv.push_back(s.data());
-    argv.push_back(nullptr);
-    std::fflush(nullptr);
-    pid_ = ::fork();
-    if (pid_ == 0) {
-      const int null = ::open("/dev/null", O_RDWR);
-      const int err = ::open(stderr_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-      if (null < 0 || err < 0) ::_exit(126);
-      ::dup2(null, 0);
-      ::dup2(null, 1);
-      ::dup2(err, 2);
-      ::execv(argv[0], argv.data());
-      ::_exit(127);
-    }
-  }
-  ~PlantProcess() {
-    if (pid_ > 0 && exit_code_ < 0) stop();
-    std::remove(stderr_path_.c_str());
-  }
-  PlantProcess(const PlantProcess&) = delete;
-  PlantProcess& operator=(const PlantProcess&) = delete;
-
-  bool running() const { return pid_ > 0 && ::waitpid(pid_, nullptr, WNOHANG) == 0; }
-
-  /// SIGTERM, then the exit code (128 + signal if it died of one).
-  int stop() {
-    if (exit_code_ >= 0) return exit_code_;
-    ::kill(pid_, SIGTERM);
-    int status = 0;
-    ::waitpid(pid_, &status, 0);
-    exit_code_ = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    return exit_code_;
-  }
-
-  /// Waits for the process to end by itself.
-  int wait() {
-    int status = 0;
-    ::waitpid(pid_, &status, 0);
-    exit_code_ = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    return exit_code_;
-  }
-
-  std::string stderr_text() const {
-    std::ifstream file(stderr_path_);
-    std::ostringstream text;
-    text << file.rdbuf();
-    return text.str();
-  }
+  explicit PlantProcess(const std::vector<std::string>& args) : ChildProcess(command_line(args)) {}
 
  private:
-  static inline int count_ = 0;
-  std::string stderr_path_;
-  pid_t pid_ = -1;
-  int exit_code_ = -1;
+  static std::vector<std::string> command_line(const std::vector<std::string>& args) {
+    std::vector<std::string> argv{CHASLES_PLANT, "--lcm-url", kLcmUrl, "--channel-prefix", kPrefix};
+    argv.insert(argv.end(), args.begin(), args.end());
+    return argv;
+  }
 };
 
 // The test's end of the wire: what a controller sees and sends.

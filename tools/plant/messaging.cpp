@@ -46,7 +46,9 @@ void CommandInbox::receive(const void* data, int size) {
   if (__int64_t_decode_array(data, 0, size, &fingerprint, 1) < 0 || fingerprint != joint_torque_command_t::getHash()) {
     return reject("a message that is not a joint_torque_command_t (wrong fingerprint)");
   }
-  if (__int32_t_decode_array(data, kNumJointsOffset, size, &count, 1) < 0) {
+  // LCM's decode functions take the bytes left after the offset, not the buffer's size.
+  if (size < kNumJointsOffset ||
+      __int32_t_decode_array(data, kNumJointsOffset, size - kNumJointsOffset, &count, 1) < 0) {
     return reject("a truncated command of %lld bytes", size);
   }
   if (count != num_joints_) return reject("a command for %lld joints; the arm has %lld", count, num_joints_);
