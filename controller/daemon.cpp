@@ -92,7 +92,7 @@ struct Daemon::Impl {
   Lcm lcm_rx, lcm_command, lcm_status;
   Rejections rejections;
   Mailbox<JointState> states;
-  Mailbox<Target> targets;
+  SpscRing<Target> targets;
   Mailbox<Snapshot> snapshots;
   SpscRing<TickRecord> records{8192};
   StateReceiver state_receiver;
@@ -118,7 +118,7 @@ struct Daemon::Impl {
         lcm_command(o.lcm_url),
         lcm_status(o.lcm_url),
         states(JointState(m.dof())),
-        targets(Target(m.dof())),
+        targets(16, Target(m.dof())),
         snapshots(Snapshot(m.dof())),
         state_receiver(lcm_rx.get(), channels.state, m.dof(), states, rejections),
         target_receiver(lcm_rx.get(), channels.target, m.dof(), targets, rejections),
@@ -153,7 +153,7 @@ struct Daemon::Impl {
       record.jitter_us = 1e-3 * static_cast<double>(wake - next);
 
       if (states.read(state)) have_state = true;
-      if (targets.read(target)) controller.set_target(target, wake);
+      while (targets.pop(target)) controller.set_target(target, wake);
       const bool command = controller.tick(wake, have_state ? &state : nullptr);
       if (command) command_publisher.encode(realtime_us(), ++seq, state.seq, controller.torque());
       const int64_t computed = monotonic_ns();
@@ -240,7 +240,12 @@ struct Daemon::Impl {
         reported = s.mode;
       }
       if (s.rejected_targets != reported_rejections) {
-        std::fprintf(stderr, "chasles_controller: target refused: %s\n", s.rejection);
+        const auto count = static_cast<long long>(s.rejected_targets - reported_rejections);
+        if (count == 1) {
+          std::fprintf(stderr, "chasles_controller: target refused: %s\n", s.rejection);
+        } else {
+          std::fprintf(stderr, "chasles_controller: %lld targets refused, last: %s\n", count, s.rejection);
+        }
         reported_rejections = s.rejected_targets;
       }
       if (rejections.count() != reported_wire) {

@@ -90,9 +90,9 @@ std::string StateReceiver::receive(const void* data, int size, int64_t arrival_n
   return {};
 }
 
-TargetReceiver::TargetReceiver(lcm_t* lcm, const std::string& channel, int num_joints, Mailbox<Target>& mailbox,
+TargetReceiver::TargetReceiver(lcm_t* lcm, const std::string& channel, int num_joints, SpscRing<Target>& queue,
                                Rejections& rejections)
-    : lcm_(lcm), num_joints_(num_joints), target_(num_joints), mailbox_(mailbox), rejections_(rejections) {
+    : lcm_(lcm), num_joints_(num_joints), target_(num_joints), queue_(queue), rejections_(rejections) {
   message_.joint_position.reserve(size_t(num_joints));
   if (lcm_ != nullptr) subscription_ = lcm_subscribe(lcm_, channel.c_str(), &TargetReceiver::on_message, this);
 }
@@ -127,7 +127,7 @@ std::string TargetReceiver::receive(const void* data, int size) {
   target_.position = Eigen::Map<const Eigen::Vector3d>(message_.tip_position);
   target_.quaternion = Eigen::Map<const Eigen::Vector4d>(message_.tip_quaternion);
   target_.duration = message_.duration;
-  mailbox_.write(target_);
+  if (!queue_.push(target_)) return "not taken: the controller has not caught up with the targets before it";
   return {};
 }
 

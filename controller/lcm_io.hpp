@@ -68,11 +68,12 @@ class StateReceiver {
   Rejections& rejections_;
 };
 
-/// arm_target_t on `channel` → Target in `mailbox` (structure checked here; meaning — limits,
-/// durations, mode — by Controller::set_target).
+/// arm_target_t on `channel` → Target in `queue` (structure checked here; meaning — limits,
+/// durations, mode — by Controller::set_target). A queue, not a mailbox: every target is judged
+/// and answered, even two sent within one tick.
 class TargetReceiver {
  public:
-  TargetReceiver(lcm_t* lcm, const std::string& channel, int num_joints, Mailbox<Target>& mailbox,
+  TargetReceiver(lcm_t* lcm, const std::string& channel, int num_joints, SpscRing<Target>& queue,
                  Rejections& rejections);
   ~TargetReceiver();
   TargetReceiver(const TargetReceiver&) = delete;
@@ -88,7 +89,7 @@ class TargetReceiver {
   int num_joints_;
   arm_target_t message_;
   Target target_;
-  Mailbox<Target>& mailbox_;
+  SpscRing<Target>& queue_;
   Rejections& rejections_;
 };
 

@@ -45,12 +45,13 @@ class Mailbox {
   std::atomic<uint8_t> middle_{2};
 };
 
-/// Bounded single-producer single-consumer queue of trivially copyable records; push() fails
-/// (and the caller counts a loss) rather than wait when the consumer has fallen behind.
+/// Bounded single-producer single-consumer queue; push() fails (and the caller counts a loss)
+/// rather than wait when the consumer has fallen behind.
 template <typename T>
 class SpscRing {
  public:
-  explicit SpscRing(size_t capacity) : items_(capacity + 1) {}
+  /// Slots are copies of `prototype`, so values holding vectors keep their capacity.
+  explicit SpscRing(size_t capacity, const T& prototype = T()) : items_(capacity + 1, prototype) {}
 
   bool push(const T& item) {
     const size_t head = head_.load(std::memory_order_relaxed);

@@ -389,15 +389,15 @@ TEST(StateReceiver, AcceptsAWellFormedStateAndRefusesEveryMalformedOne) {
 }
 
 TEST(TargetReceiver, PassesHoldAndJointTargetsAndRefusesAnOversizedCount) {
-  Mailbox<Target> mailbox{Target(7)};
+  SpscRing<Target> queue(4, Target(7));
   Rejections rejections;
-  TargetReceiver receiver(nullptr, "", 7, mailbox, rejections);
+  TargetReceiver receiver(nullptr, "", 7, queue, rejections);
   Target out(7);
   arm_target_t hold{};
   hold.mode = arm_target_t::HOLD;
   const auto hold_bytes = encode(hold);
   EXPECT_EQ(receiver.receive(hold_bytes.data(), int(hold_bytes.size())), "");
-  ASSERT_TRUE(mailbox.read(out));
+  ASSERT_TRUE(queue.pop(out));
   EXPECT_EQ(out.mode, Target::kHold);
 
   arm_target_t joint{};
@@ -407,7 +407,7 @@ TEST(TargetReceiver, PassesHoldAndJointTargetsAndRefusesAnOversizedCount) {
   joint.duration = 2.0;
   const auto joint_bytes = encode(joint);
   EXPECT_EQ(receiver.receive(joint_bytes.data(), int(joint_bytes.size())), "");
-  ASSERT_TRUE(mailbox.read(out));
+  ASSERT_TRUE(queue.pop(out));
   EXPECT_EQ(out.num_joints, 7);
   EXPECT_EQ(out.duration, 2.0);
   EXPECT_TRUE(matrices_near(out.q, VectorXd::Constant(7, 0.1), 0.0));
@@ -416,7 +416,7 @@ TEST(TargetReceiver, PassesHoldAndJointTargetsAndRefusesAnOversizedCount) {
   joint.joint_position.assign(9, 0.1);
   const auto too_many = encode(joint);
   EXPECT_NE(receiver.receive(too_many.data(), int(too_many.size())).find("for 9 joints"), std::string::npos);
-  EXPECT_FALSE(mailbox.read(out));
+  EXPECT_FALSE(queue.pop(out));
 }
 
 }  // namespace

@@ -1,0 +1,330 @@
+// chasles_controller and chasles_plant run as real processes and talk over real LCM (UDP
+// multicast), inside a network namespace of this test binary's own (tools/netns.sh launches it),
+// while the test plays operator and monitor on the same bus.
+#include <gtest/gtest.h>
+#include <lcm/lcm.h>
+#include <unistd.h>
+
+#include <chasles/arm_target_t.hpp>
+#include <chasles/controller_status_t.hpp>
+#include <chasles/joint_torque_command_t.hpp>
+#include <chasles/robot_state_t.hpp>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <fstream>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "chasles/controller/clock.hpp"
+#include "chasles/controller/controller.hpp"
+#include "chasles/controller/lcm_io.hpp"
+#include "chasles/core/dynamics/dynamics.hpp"
+#include "chasles/core/model/urdf.hpp"
+#include "support/allocation_counter.hpp"
+#include "support/process.hpp"
+#include "support/reference.hpp"
+
+namespace chasles::controller {
+namespace {
+
+using Eigen::VectorXd;
+using testing::ChildProcess;
+using testing::data_path;
+
+constexpr char kLcmUrl[] = "udpm://239.255.76.67:7667?ttl=0";  // the URL tools/netns.sh documents
+constexpr char kTip[] = "panda_hand_tcp";
+
+RobotModel panda() {
+  UrdfOptions options;
+  options.tip_link = kTip;
+  return load_urdf_file(data_path("panda.urdf"), options);
+}
+
+VectorXd bent_pose() {
+  VectorXd q(7);
+  q << 0.0, 0.5, 0.0, -1.2, 0.0, 1.0, 0.0;
+  return q;
+}
+
+std::string list(const VectorXd& v) {
+  std::ostringstream text;
+  text.precision(17);
+  for (Eigen::Index i = 0; i < v.size(); ++i) text << (i > 0 ? "," : "") << v[i];
+  return text.str();
+}
+
+VectorXd vector_of(const std::vector<double>& v) {
+  return Eigen::Map<const VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
+}
+
+std::vector<std::string> plant_args(std::vector<std::string> extra) {
+  std::vector<std::string> argv{CHASLES_PLANT, "--robot", data_path("panda.urdf"), "--tip", kTip, "--lcm-url", kLcmUrl};
+  argv.insert(argv.end(), extra.begin(), extra.end());
+  return argv;
+}
+
+std::vector<std::string> controller_args(std::vector<std::string> extra) {
+  std::vector<std::string> argv{CHASLES_CONTROLLER, "--robot", data_path("panda.urdf"), "--tip", kTip,
+                                "--lcm-url", kLcmUrl};
+  argv.insert(argv.end(), extra.begin(), extra.end());
+  return argv;
+}
+
+// The test's seat on the bus: hears states, commands and status reports, sends targets and
+// arbitrary bytes. Subscribed through LCM's C interface (see plant_test.cpp for why).
+class Bus {
+ public:
+  Bus() : lcm_(lcm_create(kLcmUrl)) {
+    if (lcm_ == nullptr) throw std::runtime_error("LCM did not start: run the test under tools/netns.sh");
+    lcm_subscribe(lcm_, "CHASLES_STATE", &Bus::on<robot_state_t, &Bus::keep_state>, this);
+    lcm_subscribe(lcm_, "CHASLES_STATUS", &Bus::on<controller_status_t, &Bus::keep_status>, this);
+    lcm_subscribe(lcm_, "CHASLES_COMMAND", &Bus::on<joint_torque_command_t, &Bus::keep_command>, this);
+  }
+  ~Bus() { lcm_destroy(lcm_); }
+
+  // Handles messages until `done` holds or `seconds` pass; whether `done` held.
+  bool until(const std::function<bool()>& done, double seconds) {
+    const int64_t deadline = monotonic_ns() + static_cast<int64_t>(seconds * 1e9);
+    while (!done()) {
+      const int64_t left_ms = (deadline - monotonic_ns()) / 1'000'000;
+      if (left_ms <= 0) return false;
+      lcm_handle_timeout(lcm_, static_cast<int>(std::min<int64_t>(left_ms, 50)));
+    }
+    return true;
+  }
+  void listen(double seconds) { until([] { return false; }, seconds); }
+
+  bool status_is(int8_t mode) const { return status.has_value() && status->state == mode; }
+
+  void send_target(const arm_target_t& target) { send("CHASLES_TARGET", target); }
+
+  template <typename Message>
+  void send(const char* channel, const Message& message) {
+    std::vector<uint8_t> bytes(size_t(message.getEncodedSize()));
+    message.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+    lcm_publish(lcm_, channel, bytes.data(), static_cast<unsigned>(bytes.size()));
+  }
+
+  std::optional<robot_state_t> state;
+  int64_t state_arrival_ns = 0;
+  std::optional<controller_status_t> status;
+  std::vector<controller_status_t> statuses;
+  std::vector<joint_torque_command_t> commands;
+
+ private:
+  template <typename Message, void (Bus::*kKeep)(const Message&)>
+  static void on(const lcm_recv_buf_t* rbuf, const char*, void* self) {
+    Message message;
+    if (message.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) return;  // the test's own junk
+    (static_cast<Bus*>(self)->*kKeep)(message);
+  }
+  void keep_state(const robot_state_t& m) {
+    if (m.num_joints != 7 || !std::isfinite(m.velocity[2])) return;  // junk the test sent itself
+    state = m;
+    state_arrival_ns = monotonic_ns();
+  }
+  void keep_status(const controller_status_t& m) {
+    status = m;
+    statuses.push_back(m);
+  }
+  void keep_command(const joint_torque_command_t& m) { commands.push_back(m); }
+
+  lcm_t* lcm_;
+};
+
+arm_target_t joint_target(const VectorXd& q, double duration) {
+  arm_target_t target{};
+  target.utime = realtime_us();
+  target.mode = arm_target_t::JOINT;
+  target.num_joints = static_cast<int32_t>(q.size());
+  target.joint_position.assign(q.data(), q.data() + q.size());
+  target.tip_quaternion[0] = 1.0;
+  target.duration = duration;
+  return target;
+}
+
+nlohmann::json read_json(const std::string& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+std::string temp_path(const std::string& name) {
+  return ::testing::TempDir() + name + "_" + std::to_string(::getpid()) + ".json";
+}
+
+// Lockstep (deterministic) plant: a JOINT move of the Panda ends within 1e-3 rad of its goal, at
+// rest; SIGTERM then stops the controller cleanly with its summary written.
+TEST(daemon, LockstepJointMoveReachesTheTargetAndSettles) {
+  Bus bus;
+  const std::string summary = temp_path("summary");
+  ChildProcess plant(plant_args({"--lockstep", "--q0", list(bent_pose())}));
+  ChildProcess controller(controller_args({"--summary", summary}));
+  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
+
+  VectorXd goal = bent_pose();
+  goal(0) += 0.4;
+  goal(1) -= 0.3;
+  goal(3) += 0.3;
+  goal(5) += 0.2;
+  bus.send_target(joint_target(goal, 1.0));
+  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::RUNNING); }, 2.0)) << controller.stderr_text();
+  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
+  bus.listen(0.5);  // settle
+  ASSERT_TRUE(bus.state.has_value());
+  const VectorXd q = vector_of(bus.state->position), qd = vector_of(bus.state->velocity);
+  EXPECT_LT((q - goal).cwiseAbs().maxCoeff(), 1e-3) << "q " << q.transpose();
+  EXPECT_LT(qd.cwiseAbs().maxCoeff(), 1e-3) << "qd " << qd.transpose();
+
+  EXPECT_EQ(controller.stop(SIGTERM), 0) << controller.stderr_text();
+  const nlohmann::json s = read_json(summary);
+  for (const char* key : {"ticks", "rate_hz", "overruns", "jitter_us", "compute_us", "latency_us", "tracking_error",
+                          "stale_states", "rejected_messages", "faults"}) {
+    EXPECT_TRUE(s.contains(key)) << key;
+  }
+  EXPECT_GT(s["ticks"].get<int64_t>(), 1000);
+  EXPECT_EQ(s["faults"].get<int64_t>(), 0) << controller.stderr_text();
+  EXPECT_LT(s["tracking_error"]["max"].get<double>(), 0.05);
+  std::remove(summary.c_str());
+}
+
+// HOLD under gravity: the arm stays where it was found, within 1e-3 rad over 5 s.
+TEST(daemon, HoldUnderGravityDriftsLessThanAMilliradianIn5s) {
+  Bus bus;
+  ChildProcess plant(plant_args({"--lockstep", "--q0", list(bent_pose())}));
+  ChildProcess controller(controller_args({}));
+  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
+  double drift = 0.0;
+  const int64_t end = monotonic_ns() + 5'000'000'000;
+  bus.until(
+      [&] {
+        if (bus.state) drift = std::max(drift, (vector_of(bus.state->position) - bent_pose()).cwiseAbs().maxCoeff());
+        return monotonic_ns() > end;
+      },
+      10.0);
+  EXPECT_LT(drift, 1e-3);
+  EXPECT_GT(bus.state->seq, 3000) << "the lockstep plant should have stepped about 5000 times";
+}
+
+// Malformed states and targets on the bus are refused and counted; nothing crashes and the arm
+// keeps being held.
+TEST(daemon, MalformedStatesAndTargetsAreRejectedAndCounted) {
+  Bus bus;
+  ChildProcess plant(plant_args({"--q0", list(bent_pose())}));
+  ChildProcess controller(controller_args({}));
+  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
+
+  robot_state_t wrong_size{};
+  wrong_size.num_joints = 6;
+  wrong_size.position.assign(6, 0.0);
+  wrong_size.velocity.assign(6, 0.0);
+  wrong_size.effort.assign(6, 0.0);
+  robot_state_t nan{};
+  nan.num_joints = 7;
+  nan.position.assign(7, 0.0);
+  nan.velocity.assign(7, 0.0);
+  nan.effort.assign(7, 0.0);
+  nan.velocity[2] = std::nan("");
+  bus.send("CHASLES_STATE", wrong_size);
+  bus.send("CHASLES_STATE", nan);
+  VectorXd bad = bent_pose();
+  bad(4) = std::nan("");
+  bus.send_target(joint_target(bad, 1.0));
+  bus.send_target(joint_target(bent_pose().head(6), 1.0));
+  EXPECT_TRUE(bus.until([&] { return bus.status && bus.status->rejected_messages >= 4; }, 3.0))
+      << controller.stderr_text();
+  bus.listen(0.2);
+  EXPECT_TRUE(controller.running());
+  EXPECT_TRUE(plant.running());
+  EXPECT_EQ(bus.status->state, controller_status_t::HOLDING);
+  EXPECT_EQ(bus.status->faults, 0);
+  const std::string log = controller.stderr_text();
+  EXPECT_NE(log.find("for 6 joints"), std::string::npos) << log;
+  EXPECT_NE(log.find("non-finite"), std::string::npos) << log;
+}
+
+// The plant dies: FAULT within stale-ms + 5 ms of its last state and no more commands; a plant
+// started again elsewhere is held where it is, the first torque close to gravity's.
+TEST(daemon, PlantKilledFaultsAndRestartedPlantIsHeldWhereItIs) {
+  const RobotModel model = panda();
+  Data data(model);
+  Bus bus;
+  auto plant = std::make_unique<ChildProcess>(plant_args({"--q0", list(bent_pose())}));
+  ChildProcess controller(controller_args({"--stale-ms", "10"}));
+  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
+  bus.listen(0.3);
+
+  plant->stop(SIGKILL);
+  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::FAULT); }, 2.0)) << controller.stderr_text();
+  const int64_t last_state_utime = bus.state->utime;
+  const double detection_ms = 1e-3 * static_cast<double>(bus.status->utime - last_state_utime);
+  std::printf("plant killed: FAULT reported %.2f ms after its last state\n", detection_ms);
+  EXPECT_LE(detection_ms, 10.0 + 5.0);
+  EXPECT_NE(bus.status->message.find("no fresh robot state"), std::string::npos) << bus.status->message;
+  bus.commands.clear();
+  bus.listen(0.1);
+  EXPECT_TRUE(bus.commands.empty()) << "no commands during a FAULT";
+
+  VectorXd elsewhere = bent_pose();
+  elsewhere(1) = 0.2;
+  elsewhere(3) = -1.8;
+  plant = std::make_unique<ChildProcess>(plant_args({"--q0", list(elsewhere)}));
+  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
+  ASSERT_TRUE(bus.until([&] { return !bus.commands.empty(); }, 1.0));
+  EXPECT_LT((vector_of(bus.status->q_desired) - elsewhere).cwiseAbs().maxCoeff(), 1e-3);
+  const VectorXd g = gravity_torques(model, data, elsewhere);
+  EXPECT_LT((vector_of(bus.commands.front().torque) - g).cwiseAbs().maxCoeff(), 0.5)
+      << "first torque " << vector_of(bus.commands.front().torque).transpose() << "\ng " << g.transpose();
+  EXPECT_EQ(bus.status->faults, 1);
+}
+
+// A lossy link: with 10 % of the states dropped the arm still follows a JOINT move.
+TEST(daemon, TracksWithTenPercentOfStatesDropped) {
+  Bus bus;
+  ChildProcess plant(plant_args({"--q0", list(bent_pose()), "--drop", "0.1", "--seed", "3"}));
+  ChildProcess controller(controller_args({}));
+  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
+  VectorXd goal = bent_pose();
+  goal(0) -= 0.5;
+  goal(2) += 0.3;
+  bus.send_target(joint_target(goal, 1.0));
+  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::RUNNING); }, 2.0));
+  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0));
+  bus.listen(0.5);
+  EXPECT_LT((vector_of(bus.state->position) - goal).cwiseAbs().maxCoeff(), 2e-3);
+  EXPECT_EQ(bus.status->faults, 0) << controller.stderr_text();
+}
+
+// The whole send path of a tick — control law, encoding, lcm_publish — allocates nothing.
+TEST(daemon, TickAndPublishAllocateNothing) {
+  const RobotModel model = panda();
+  lcm_t* lcm = lcm_create(kLcmUrl);
+  ASSERT_NE(lcm, nullptr);
+  {
+    Controller controller(model, Config::critically_damped(7, 20.0));
+    CommandPublisher publisher(lcm, "CHASLES_COMMAND", 7);
+    JointState state(7);
+    state.q = bent_pose();
+    ASSERT_TRUE(controller.tick(0, &state));
+    publisher.encode(0, 0, 0, controller.torque());
+    ASSERT_TRUE(publisher.send());  // the first send may set things up
+    testing::AllocationCounter counter;
+    for (int k = 1; k <= 10'000; ++k) {
+      state.arrival_ns = k * 1000;
+      state.q(0) += 1e-5;
+      ASSERT_TRUE(controller.tick(k * 1000, &state));
+      publisher.encode(k, k, k, controller.torque());
+      ASSERT_TRUE(publisher.send());
+    }
+    EXPECT_EQ(counter.count(), 0);
+  }
+  lcm_destroy(lcm);
+}
+
+}  // namespace
+}  // namespace chasles::controller
