@@ -1,5 +1,6 @@
-// chasles: the model's answers as JSON on stdout. Errors: one line "chasles: ..." on stderr,
-// nothing on stdout; exit 2 for a usage error, 1 for bad input (URDF, cases file).
+// chasles: the model's answers as JSON on stdout, and `target`, which sends the controller one goal
+// and prints it. Errors: one line "chasles: ..." on stderr, nothing on stdout; exit 2 for a usage
+// error, 1 for bad input (URDF, cases file, a refused target) or when LCM cannot start.
 #include <iostream>
 #include <string>
 #include <vector>
@@ -39,10 +40,11 @@ int main(int argc, char** argv) {
       "Examples:\n"
       "  chasles inspect --urdf ur5.urdf --tip tool0\n"
       "  chasles --pretty eval --urdf ur5.urdf --tip tool0 --cases cases.json\n"
+      "  chasles target --robot ur5.urdf --tip tool0 --joint 0,-1.57,1.57,0,0,0 --duration 2\n"
       "Run 'chasles COMMAND --help' for a command's input and output.");
 
   const std::vector<Command> commands = {register_inspect(app), register_eval(app), register_rnea(app),
-                                         register_fd(app)};
+                                         register_fd(app), register_target(app)};
 
   try {
     app.parse(argc, argv);

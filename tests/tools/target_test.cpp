@@ -1,0 +1,287 @@
+// chasles target, run as a real process, heard by a subscriber in this process. The test binary
+// runs inside its own network namespace (tools/netns.sh is its launcher, see CMakeLists.txt), so
+// the multicast never leaves the machine. A refused target must exit 1 with one "chasles: ..."
+// line and send nothing at all.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chasles/arm_target_t.hpp>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <lcm/lcm-cpp.hpp>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "support/reference.hpp"
+
+namespace chasles::testing {
+namespace {
+
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+constexpr char kLcmUrl[] = "udpm://239.255.76.67:7667?ttl=0";  // the URL tools/netns.sh documents
+constexpr char kPrefix[] = "TEST_";
+
+struct Result {
+  int exit_code = -1;  ///< the exit status, or 128 + signal
+  std::string out, err;
+};
+
+std::string read_all(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  std::ostringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
+// Runs `chasles target ARGS`; stdout and stderr go to files. `env` entries ("NAME=value") are
+// added to the child's environment.
+Result run_target(const std::vector<std::string>& args, const std::vector<std::string>& env = {}) {
+  const std::string base = ::testing::TempDir() + "target_test_" + std::to_string(::getpid());
+  const std::string out_path = base + "_stdout", err_path = base + "_stderr";
+  std::vector<std::string> argv_strings{CHASLES_CLI, "target"};
+  argv_strings.insert(argv_strings.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& s : argv_strings) argv.push_back(s.data());
+  argv.push_back(nullptr);
+  std::vector<std::string> env_strings = env;
+
+  std::fflush(nullptr);
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    const int in = ::open("/dev/null", O_RDONLY);
+    const int out = ::open(out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    const int err = ::open(err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    if (in < 0 || out < 0 || err < 0) ::_exit(126);
+    ::dup2(in, 0);
+    ::dup2(out, 1);
+    ::dup2(err, 2);
+    ::unsetenv("LCM_DEFAULT_URL");
+    for (auto& entry : env_strings) ::putenv(entry.data());
+    ::execv(argv[0], argv.data());
+    ::_exit(127);
+  }
+  Result result;
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  result.out = read_all(out_path);
+  result.err = read_all(err_path);
+  std::remove(out_path.c_str());
+  std::remove(err_path.c_str());
+  return result;
+}
+
+// Every arm_target_t on `channel`. Subscribed through LCM's C interface: GCC 12 with
+// -fsanitize=vptr miscompiles LCM's typed C++ subscription.
+class Listener {
+ public:
+  explicit Listener(const std::string& channel) : lcm_(kLcmUrl) {
+    EXPECT_TRUE(lcm_.good()) << "LCM did not start: is the test running under tools/netns.sh?";
+    lcm_subscribe(lcm_.getUnderlyingLCM(), channel.c_str(), &Listener::on_target, this);
+    lcm_.getFileno();  // the receive socket exists from here on: nothing sent later is missed
+  }
+
+  /// Everything that arrives within `seconds`; returns early once `count` targets are in.
+  const std::vector<arm_target_t>& listen(double seconds, size_t count = SIZE_MAX) {
+    const auto deadline = Clock::now() + std::chrono::duration<double>(seconds);
+    while (received_.size() < count) {
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+      if (left <= 0) break;
+      lcm_.handleTimeout(static_cast<int>(left));
+    }
+    return received_;
+  }
+
+ private:
+  static void on_target(const lcm_recv_buf_t* rbuf, const char*, void* self) {
+    arm_target_t target;
+    const int size = static_cast<int>(rbuf->data_size);
+    ASSERT_EQ(target.decode(rbuf->data, 0, size), size) << "chasles target sent a malformed arm_target_t";
+    static_cast<Listener*>(self)->received_.push_back(target);
+  }
+
+  lcm::LCM lcm_;
+  std::vector<arm_target_t> received_;
+};
+
+int64_t now_us() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+std::vector<std::string> panda_args() { return {"--robot", data_path("panda.urdf"), "--tip", "panda_hand"}; }
+
+std::vector<std::string> concat(std::vector<std::string> a, const std::vector<std::string>& b) {
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
+const std::vector<std::string> kWire = {"--lcm-url", kLcmUrl, "--channel-prefix", kPrefix};
+
+// A successful send: exit 0, nothing on stderr, one JSON line on stdout.
+json sent_json(const Result& r) {
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err, "");
+  EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
+  return json::parse(r.out);
+}
+
+TEST(target, HoldIsSent) {
+  Listener listener("TEST_TARGET");
+  const int64_t before = now_us();
+  const json out = sent_json(run_target(concat({"--hold"}, kWire)));
+  const auto& received = listener.listen(2.0, 1);
+  ASSERT_EQ(received.size(), 1u);
+  const arm_target_t& target = received[0];
+  EXPECT_EQ(target.mode, arm_target_t::HOLD);
+  EXPECT_EQ(target.num_joints, 0);
+  EXPECT_TRUE(target.joint_position.empty());
+  EXPECT_EQ(target.duration, 0.0);
+  EXPECT_GE(target.utime, before);
+  EXPECT_LE(target.utime, now_us());
+  EXPECT_EQ(out["channel"], "TEST_TARGET");
+  EXPECT_EQ(out["mode"], "HOLD");
+  EXPECT_EQ(out["utime"], target.utime);
+}
+
+TEST(target, JointGoalIsSentExactly) {
+  Listener listener("TEST_TARGET");
+  // Within the Panda's limits; joint 4 near its upper limit -0.0698, joint 7 exactly at its lower.
+  const std::vector<double> q = {0.1, -0.3, 0.25, -0.07, -0.1, 1.7, -2.8973};
+  const json out = sent_json(run_target(
+      concat(concat(panda_args(), kWire), {"--joint", "0.1,-0.3,0.25,-0.07,-0.1,1.7,-2.8973", "--duration", "2.5"})));
+  const auto& received = listener.listen(2.0, 1);
+  ASSERT_EQ(received.size(), 1u);
+  const arm_target_t& target = received[0];
+  EXPECT_EQ(target.mode, arm_target_t::JOINT);
+  EXPECT_EQ(target.num_joints, 7);
+  EXPECT_EQ(target.joint_position, q);  // exactly: parsed once, sent as doubles
+  EXPECT_EQ(target.duration, 2.5);
+  EXPECT_EQ(out["mode"], "JOINT");
+  EXPECT_EQ(out["joint_position"].get<std::vector<double>>(), q);
+  EXPECT_EQ(out["joint_names"][3], "panda_joint4");
+  EXPECT_EQ(out["duration"], 2.5);
+  EXPECT_EQ(out["utime"], target.utime);
+}
+
+TEST(target, PoseIsSentWithTheQuaternionNormalised) {
+  Listener listener("TEST_TARGET");
+  const json out =
+      sent_json(run_target(concat(kWire, {"--pose", "0.4,-0.1,0.5,0.7071,0,0.7071,0", "--duration", "3"})));
+  const auto& received = listener.listen(2.0, 1);
+  ASSERT_EQ(received.size(), 1u);
+  const arm_target_t& target = received[0];
+  EXPECT_EQ(target.mode, arm_target_t::CARTESIAN);
+  EXPECT_EQ(target.num_joints, 0);
+  EXPECT_EQ(target.tip_position[0], 0.4);
+  EXPECT_EQ(target.tip_position[1], -0.1);
+  EXPECT_EQ(target.tip_position[2], 0.5);
+  const double norm = std::sqrt(
+      target.tip_quaternion[0] * target.tip_quaternion[0] + target.tip_quaternion[1] * target.tip_quaternion[1] +
+      target.tip_quaternion[2] * target.tip_quaternion[2] + target.tip_quaternion[3] * target.tip_quaternion[3]);
+  EXPECT_NEAR(norm, 1.0, 1e-15);
+  EXPECT_NEAR(target.tip_quaternion[0], std::sqrt(0.5), 1e-15);
+  EXPECT_EQ(target.tip_quaternion[0], target.tip_quaternion[2]);
+  EXPECT_EQ(target.tip_quaternion[1], 0.0);
+  EXPECT_EQ(target.tip_quaternion[3], 0.0);
+  EXPECT_EQ(target.duration, 3.0);
+  EXPECT_EQ(out["mode"], "CARTESIAN");
+  EXPECT_EQ(out["tip_quaternion"][0].get<double>(), target.tip_quaternion[0]);
+  EXPECT_NEAR(out["quaternion_input_norm"].get<double>(), 0.7071 * std::sqrt(2.0), 1e-15);
+}
+
+// Without --channel-prefix and --lcm-url: CHASLES_TARGET, on $LCM_DEFAULT_URL.
+TEST(target, DefaultChannelAndUrlFromTheEnvironment) {
+  Listener listener("CHASLES_TARGET");
+  const json out = sent_json(run_target({"--hold"}, {std::string("LCM_DEFAULT_URL=") + kLcmUrl}));
+  EXPECT_EQ(out["channel"], "CHASLES_TARGET");
+  EXPECT_EQ(listener.listen(2.0, 1).size(), 1u);
+}
+
+// Refused input: exit 1, one "chasles: " line naming the problem, nothing on stdout, nothing sent.
+TEST(target, BadValuesAreRefusedAndNothingIsSent) {
+  Listener listener("TEST_TARGET");
+  const auto refused = [&](const std::vector<std::string>& args, const std::string& needle) {
+    const Result r = run_target(concat(kWire, args));
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_EQ(r.out, "");
+    EXPECT_EQ(r.err.rfind("chasles: ", 0), 0u) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_NE(r.err.find(needle), std::string::npos) << "expected '" << needle << "' in: " << r.err;
+  };
+  const auto joint = [](const std::string& q, const std::string& duration = "2") {
+    return concat(panda_args(), {"--joint", q, "--duration", duration});
+  };
+  refused(joint("0,0,0,-1,0,1"), "--joint has 6 entries, expected 7");
+  refused(joint("0,0,0,-1,0,1,0,0"), "--joint has 8 entries, expected 7");
+  refused(joint("0,0,nan,-1,0,1,0"), "entry 2 ('nan') is not finite");
+  refused(joint("0,0,0,-1,0,inf,0"), "entry 5 ('inf') is not finite");
+  refused(joint("0,0,0,-1,x,1,0"), "entry 4 ('x') is not a number");
+  // Zero is outside the Panda's fourth joint's range [-3.0718, -0.0698].
+  refused(joint("0,0,0,0,0,1,0"), "joint panda_joint4 = 0 is outside its limits [-3.0718, -0.0698]");
+  refused(joint("0,0,0,-1,0,1,2.8974"), "joint panda_joint7 = 2.8974 is outside its limits [-2.8973, 2.8973]");
+  refused(joint("0,0,0,-1,0,1,0", "0"), "--duration: 0 s");
+  refused(joint("0,0,0,-1,0,1,0", "-1"), "must be positive and finite");
+  refused(joint("0,0,0,-1,0,1,0", "inf"), "must be positive and finite");
+  refused(joint("0,0,0,-1,0,1,0", "nan"), "must be positive and finite");
+  refused(joint("0,0,0,-1,0,1,0", "2s"), "--duration: '2s' is not a number");
+  refused({"--robot", data_path("no_such.urdf"), "--joint", "0", "--duration", "1"}, "no_such.urdf");
+
+  const auto pose = [](const std::string& p, const std::string& duration = "2") {
+    return std::vector<std::string>{"--pose", p, "--duration", duration};
+  };
+  refused(pose("0.4,0,0.5,1,0,0"), "--pose has 6 entries, expected 7");
+  refused(pose("0.4,nan,0.5,1,0,0,0"), "entry 1 ('nan') is not finite");
+  refused(pose("0.4,0,0.5,0.5,0,0,0"), "has norm 0.5");
+  refused(pose("0.4,0,0.5,0,0,0,0"), "has norm 0");
+  refused(pose("0.4,0,0.5,1.002,0,0,0"), "has norm 1.002");
+  refused(pose("0.4,0,0.5,1,0,0,0", "0"), "must be positive and finite");
+  refused(concat(panda_args(), pose("3,0,0.5,1,0,0,0")), "beyond the arm's reach");
+
+  EXPECT_TRUE(listener.listen(0.3).empty()) << "a refused target was sent";
+}
+
+// Combinations that make no sense are usage errors (exit 2), before anything is sent.
+TEST(target, UsageErrorsExitTwo) {
+  Listener listener("TEST_TARGET");
+  const auto usage = [&](const std::vector<std::string>& args, const std::string& needle) {
+    const Result r = run_target(concat(kWire, args));
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_EQ(r.out, "");
+    EXPECT_EQ(r.err.rfind("chasles: ", 0), 0u) << r.err;
+    EXPECT_NE(r.err.find(needle), std::string::npos) << "expected '" << needle << "' in: " << r.err;
+  };
+  usage({}, "exactly one of --hold, --joint and --pose");
+  usage({"--hold", "--pose", "0,0,0,1,0,0,0", "--duration", "1"}, "exactly one of");
+  usage({"--hold", "--duration", "1"}, "--hold takes no --duration");
+  usage(concat(panda_args(), {"--joint", "0,0,0,-1,0,1,0"}), "--joint needs --duration");
+  usage({"--joint", "0,0,0,-1,0,1,0", "--duration", "1"}, "--joint needs --robot");
+  usage({"--pose", "0,0,0,1,0,0,0"}, "--pose needs --duration");
+  const Result r = run_target({"--hold", "--lcm-url", kLcmUrl, "--channel-prefix", "A.*"});
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("--channel-prefix"), std::string::npos) << r.err;
+  EXPECT_TRUE(listener.listen(0.3).empty());
+}
+
+// An LCM that cannot start is one line, with LCM's own reason, and exit 1.
+TEST(target, LcmThatCannotStartIsAnError) {
+  const Result r = run_target({"--hold", "--lcm-url", "nosuchprovider://x"});
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_EQ(r.out, "");
+  EXPECT_EQ(r.err.rfind("chasles: cannot start LCM on nosuchprovider://x", 0), 0u) << r.err;
+  EXPECT_NE(r.err.find("provider \"nosuchprovider\" not found"), std::string::npos) << r.err;  // LCM's reason
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+}
+
+}  // namespace
+}  // namespace chasles::testing
