@@ -3,6 +3,7 @@
 #include <lcm/lcm.h>
 
 #include <chasles/controller_status_t.hpp>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -142,7 +143,7 @@ struct Daemon::Impl {
     Target target(n);
     Snapshot snapshot(n);
     bool have_state = false;
-    int64_t answered_seq = -1, seq = 0;
+    int64_t answered_seq = -1, seq = 0, phase_shift = 0;
     const int64_t start = monotonic_ns();
     const int64_t end = options.seconds > 0.0 ? start + static_cast<int64_t>(options.seconds * 1e9) : INT64_MAX;
     int64_t next = start + period;
@@ -165,6 +166,7 @@ struct Daemon::Impl {
         if (state.seq != answered_seq) {
           record.latency_us = 1e-3 * static_cast<double>(sent - state.arrival_ns);
           answered_seq = state.seq;
+          if (options.sync_margin_us > 0.0) phase_shift = sync_shift(wake - state.arrival_ns, period);
         }
         record.commanded = true;
         record.error_max = controller.error().cwiseAbs().maxCoeff();
@@ -174,7 +176,8 @@ struct Daemon::Impl {
       const int64_t finished = monotonic_ns();
 
       ++snapshot.ticks;
-      next += period;
+      next += period + phase_shift;
+      phase_shift = 0;
       if (finished > next) {
         // Missed at least one deadline: count them and start again from the present rather than
         // run a burst of late ticks.
@@ -185,6 +188,18 @@ struct Daemon::Impl {
       if (!records.push(record)) ++snapshot.lost_records;
       fill_snapshot(snapshot);
     }
+  }
+
+  // Phase lock to a plant that sends states on its own clock: shifts the next deadline so that
+  // ticks come sync_margin after a state arrives instead of anywhere up to a period later. A
+  // first-order loop with a small gain (robust to arrival jitter) and a bounded step (the rate
+  // never strays more than 2 % from nominal), so it also follows a plant on another host whose
+  // clock drifts from this one.
+  int64_t sync_shift(int64_t waited_ns, int64_t period) const {
+    constexpr double kGain = 0.1;
+    const double error = options.sync_margin_us * 1e3 - static_cast<double>(waited_ns);
+    const double step = std::clamp(kGain * error, -0.02 * static_cast<double>(period), 0.02 * static_cast<double>(period));
+    return static_cast<int64_t>(step);
   }
 
   void fill_snapshot(Snapshot& s) {

@@ -29,6 +29,10 @@ struct DaemonOptions {
   int cpu = -1;
   double seconds = 0.0;  ///< stop after this long; 0: run until stopped
   double status_hz = 100.0;
+  /// > 0: lock the tick phase to the arrival of states, ticking this long after each (see
+  /// Daemon). For a plant or driver that sends states at the control rate on its own clock; not
+  /// for a lockstep plant, whose states answer the commands.
+  double sync_margin_us = 0.0;
 };
 
 /// What a run measured; the figures of --summary.

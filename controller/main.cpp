@@ -160,6 +160,10 @@ int main(int argc, char** argv) {
   app.add_option("--priority", options.priority, "SCHED_FIFO priority with --realtime (default 80)")
       ->check(CLI::Range(1, 99));
   app.add_option("--cpu", options.cpu, "pin the loop to this CPU with --realtime");
+  app.add_option("--sync-us", options.sync_margin_us,
+                 "lock the tick phase to the plant's states, ticking this many µs after each arrives "
+                 "(cuts state-to-command latency; not with a --lockstep plant)")
+      ->check(CLI::PositiveNumber);
   app.add_option("--channel-prefix", options.channel_prefix, "prefix of the LCM channels (default CHASLES_)");
   app.add_option("--lcm-url", options.lcm_url, "LCM URL (default: LCM's, or $LCM_DEFAULT_URL)");
   app.add_option("--seconds", options.seconds, "stop after this long (default: run until SIGINT/SIGTERM)")
