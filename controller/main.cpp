@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 #include "chasles/controller/daemon.hpp"
 #include "chasles/core/model/urdf.hpp"
@@ -159,7 +160,8 @@ int main(int argc, char** argv) {
   app.add_flag("--realtime", options.realtime, "SCHED_FIFO, mlockall and --cpu for the loop (warns if refused)");
   app.add_option("--priority", options.priority, "SCHED_FIFO priority with --realtime (default 80)")
       ->check(CLI::Range(1, 99));
-  app.add_option("--cpu", options.cpu, "pin the loop to this CPU with --realtime");
+  app.add_option("--cpu", options.cpu, "pin the loop to this CPU with --realtime (default: the last one; -1: none)")
+      ->check(CLI::Range(-1, 1023));
   app.add_option("--sync-us", options.sync_margin_us,
                  "lock the tick phase to the plant's states, ticking this many µs after each arrives "
                  "(cuts state-to-command latency; not with a --lockstep plant)")
@@ -190,6 +192,9 @@ int main(int argc, char** argv) {
     options.control.stale_ns = static_cast<int64_t>(flags.stale_ms * 1e6);
     options.control.torque_ramp = flags.torque_ramp_ms * 1e-3;
 
+    // The last CPU is the one the kernel is least likely to route other work and interrupts to
+    // first; users with an isolated core (isolcpus) name it.
+    if (options.realtime && app.count("--cpu") == 0) options.cpu = static_cast<int>(std::thread::hardware_concurrency()) - 1;
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
     chasles::controller::Daemon daemon(model, options);
