@@ -192,8 +192,8 @@ int main(int argc, char** argv) {
     options.control.stale_ns = static_cast<int64_t>(flags.stale_ms * 1e6);
     options.control.torque_ramp = flags.torque_ramp_ms * 1e-3;
 
-    // The last CPU is the one the kernel is least likely to route other work and interrupts to
-    // first; users with an isolated core (isolcpus) name it.
+    // CPU 0 usually takes most interrupts and housekeeping; the last CPU is the conventional one
+    // to set aside. Users with an isolated core (isolcpus) name it.
     if (options.realtime && app.count("--cpu") == 0) options.cpu = static_cast<int>(std::thread::hardware_concurrency()) - 1;
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);

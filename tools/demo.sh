@@ -1,67 +1,325 @@
 #!/usr/bin/env bash
-# The main job on the bundled UR5: what chasles knows of the arm, then its tip pose, Jacobians
-# and joint torques at a few configurations. Installs missing Debian packages and builds first.
+# The main job: the controller driving the simulated arm at 1 kHz over LCM, and how its timing
+# compares with what this machine can do at best. Installs missing Debian packages and builds
+# first (into build/, as tools/test.sh does).
 #
-#   tools/demo.sh [--robot ur5|panda]
+#   tools/demo.sh [--seconds N] [--robot ur5|panda|FILE.urdf] [--tip LINK] [--summary FILE]
+#
+#   --seconds N      length of the controlled run (default 10)
+#   --robot R        ur5 or panda (tests/data/R.urdf), or a URDF file (default panda)
+#   --tip LINK       the chain's tip, for a URDF with several leaves (ur5: tool0, panda: panda_hand)
+#   --summary FILE   also copy the controller's summary JSON here
+#
+# In a private network namespace (tools/netns.sh) it starts lcm-logger, chasles_plant (real time,
+# 1 kHz, damped) and chasles_controller --realtime, sends a programme of targets with
+# `chasles target` (hold; a joint move; another; back home; hold), stops every process after N
+# seconds, then runs chasles_loop_bench (a bare 1 kHz loop and an LCM ping-pong, 3 s each) for
+# reference and prints the controller's figures beside it. Everything of the run (the LCM log,
+# each process's output, the summaries) is kept in build/demo/<time>/. CHASLES_BUILD_DIR chooses
+# another build tree.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-source "$root/tools/deps.sh"
-chasles_install_missing "${chasles_packages_build[@]}"
+readonly lcm_url='udpm://239.255.76.67:7667?ttl=0'  # inside the namespace: multicast stays on lo
 
-robot=ur5
+# ---------------------------------------------------------------------------------------------
+# Inside the network namespace: the run itself. Settings come in the DEMO_* environment.
+# ---------------------------------------------------------------------------------------------
+names=()
+pids=()
+
+# start NAME CMD...: runs CMD in the background, output in $DEMO_DIR/NAME.out and NAME.err.
+start() {
+  local name=$1
+  shift
+  "$@" >"$DEMO_DIR/$name.out" 2>"$DEMO_DIR/$name.err" &
+  names+=("$name")
+  pids+=("$!")
+}
+
+alive() { kill -0 "$1" 2>/dev/null; }
+
+# The last lines a process wrote to stderr, indented.
+stderr_tail() { tail -n 15 "$DEMO_DIR/$1.err" | sed 's/^/    /' >&2; }
+
+# stop_process I: SIGTERM, up to 5 s to exit, then SIGKILL. Returns the exit status.
+stop_process() {
+  local i=$1 name=${names[$1]} pid=${pids[$1]} status=0 tries
+  [ "$pid" = 0 ] && return 0
+  if alive "$pid"; then
+    kill -TERM "$pid" 2>/dev/null || true
+    for ((tries = 0; tries < 50; tries++)); do
+      alive "$pid" || break
+      sleep 0.1
+    done
+    if alive "$pid"; then
+      echo "demo.sh: $name (pid $pid) did not stop within 5 s of SIGTERM; sending SIGKILL" >&2
+      kill -KILL "$pid" 2>/dev/null || true
+    fi
+  fi
+  wait "$pid" 2>/dev/null || status=$?
+  pids[$i]=0
+  return "$status"
+}
+
+# Stops everything still running, newest first (the controller before the plant it commands).
+stop_all() {
+  local i
+  for ((i = ${#pids[@]} - 1; i >= 0; i--)); do stop_process "$i" || true; done
+}
+
+# Fails the demo if a process has ended before its time, with the end of its stderr.
+check_alive() {
+  local i status
+  for i in "${!pids[@]}"; do
+    [ "${pids[$i]}" = 0 ] && continue
+    alive "${pids[$i]}" && continue
+    status=0
+    wait "${pids[$i]}" 2>/dev/null || status=$?
+    pids[$i]=0
+    echo "demo.sh: ${names[$i]} exited early (status $status). The end of its stderr ($DEMO_DIR/${names[$i]}.err):" >&2
+    stderr_tail "${names[$i]}"
+    stop_all
+    exit 1
+  done
+}
+
+now() { printf '%s\n' "$EPOCHREALTIME"; }
+
+# Sleeps until `start + offset` seconds, checking every 0.2 s that everything still runs.
+wait_until() {
+  local deadline left
+  deadline=$(awk -v s="$run_start" -v o="$1" 'BEGIN { printf "%.6f", s + o }')
+  while true; do
+    check_alive
+    left=$(awk -v d="$deadline" -v n="$(now)" 'BEGIN { x = d - n; printf "%.3f", (x > 0.2 ? 0.2 : x) }')
+    awk -v x="$left" 'BEGIN { exit !(x <= 0) }' && return 0
+    sleep "$left"
+  done
+}
+
+# send WHAT ARGS...: one `chasles target`; what it sent goes to targets.jsonl.
+send() {
+  local what=$1 err
+  shift
+  printf '  %6.2f s  %s\n' "$(awk -v s="$run_start" -v n="$(now)" 'BEGIN { print n - s }')" "$what"
+  if ! "$DEMO_BUILD/tools/chasles" target --lcm-url "$lcm_url" "$@" >>"$DEMO_DIR/targets.jsonl" 2>"$DEMO_DIR/target.err"; then
+    err=$(cat "$DEMO_DIR/target.err")
+    echo "demo.sh: chasles target refused or failed: $err" >&2
+    stop_all
+    exit 1
+  fi
+}
+
+inside() {
+  local dir=$DEMO_DIR seconds=$DEMO_SECONDS model=() i
+  model=(--robot "$DEMO_URDF")
+  [ -n "$DEMO_TIP" ] && model+=(--tip "$DEMO_TIP")
+  trap 'stop_all' EXIT
+  trap 'echo "demo.sh: interrupted" >&2; exit 130' INT TERM
+
+  # Home is where the plant starts (zero, moved into the limits where zero is outside them); the two
+  # poses move every joint from there towards the middle of its range.
+  "$DEMO_BUILD/tools/chasles" inspect --urdf "$DEMO_URDF" ${DEMO_TIP:+--tip "$DEMO_TIP"} >"$dir/model.json"
+  local poses home pose_a pose_b
+  poses=$(python3 - "$dir/model.json" <<'PY'
+import json, math, sys
+m = json.load(open(sys.argv[1]))
+home, a, b = [], [], []
+for k, (kind, lo, hi) in enumerate(zip(m["joint_types"], m["limits"]["lower"], m["limits"]["upper"])):
+    if kind == "continuous":
+        lo, hi = -math.pi, math.pi
+    q0 = min(max(0.0, lo), hi)
+    mid = 0.5 * (lo + hi)
+    towards = 1.0 if mid >= q0 else -1.0
+    step = min(0.6, 0.25 * (hi - lo))  # rad or m; never past the middle of the range by more
+    home.append(q0)
+    a.append(q0 + towards * step * (1.0 if k % 2 == 0 else 0.5))
+    b.append(q0 + towards * step * (0.3 if k % 2 == 0 else 1.0))
+print(",".join(repr(x) for x in home))
+print(",".join(repr(x) for x in a))
+print(",".join(repr(x) for x in b))
+PY
+  )
+  { read -r home; read -r pose_a; read -r pose_b; } <<<"$poses"
+
+  # The programme, as fractions of the run: for 10 s, moves of 2 s starting at 1, 3.5 and 6 s.
+  local move t_hold t_a t_b t_home t_hold2
+  move=$(awk -v n="$seconds" 'BEGIN { d = 0.2 * n; printf "%g", (d > 2 ? 2 : d) }')
+  read -r t_hold t_a t_b t_home t_hold2 < <(awk -v n="$seconds" \
+    'BEGIN { printf "%g %g %g %g %g\n", 0.05 * n, 0.1 * n, 0.35 * n, 0.6 * n, 0.85 * n }')
+
+  start logger lcm-logger --lcm-url="$lcm_url" --force "$dir/chasles.lcmlog"
+  start plant "$DEMO_BUILD/tools/chasles_plant" "${model[@]}" --rate 1000 --damping 0.5 --q0 "$home" \
+    --lcm-url "$lcm_url"
+  start controller "$DEMO_BUILD/controller/chasles_controller" "${model[@]}" --realtime --lcm-url "$lcm_url" \
+    --summary "$dir/summary.json"
+  run_start=$(now)
+  sleep 0.3
+  check_alive
+
+  echo "Programme (${seconds} s; joint moves of ${move} s):"
+  wait_until "$t_hold"
+  send "hold" --hold
+  wait_until "$t_a"
+  send "JOINT move to [$pose_a]" "${model[@]}" --joint "$pose_a" --duration "$move"
+  wait_until "$t_b"
+  send "JOINT move to [$pose_b]" "${model[@]}" --joint "$pose_b" --duration "$move"
+  wait_until "$t_home"
+  send "JOINT move home to [$home]" "${model[@]}" --joint "$home" --duration "$move"
+  wait_until "$t_hold2"
+  send "hold" --hold
+  wait_until "$seconds"
+
+  # The controller first: its summary covers a run in which the plant never stopped answering.
+  for i in 2 1 0; do
+    if ! stop_process "$i"; then
+      echo "demo.sh: ${names[$i]} did not exit cleanly. The end of its stderr ($dir/${names[$i]}.err):" >&2
+      stderr_tail "${names[$i]}"
+      exit 1
+    fi
+  done
+  [ -s "$dir/summary.json" ] || { echo "demo.sh: the controller wrote no summary ($dir/summary.json)" >&2; exit 1; }
+
+  echo "Reference: chasles_loop_bench (bare 1 kHz loop, then LCM ping-pong; 3 s each) ..."
+  if ! "$DEMO_BUILD/tools/chasles_loop_bench" --mode both --seconds 3 --realtime --lcm-url "$lcm_url" \
+    >"$dir/loop_bench.json" 2>"$dir/loop_bench.err"; then
+    echo "demo.sh: chasles_loop_bench failed:" >&2
+    stderr_tail loop_bench
+    exit 1
+  fi
+}
+
+# The report: the controller's summary beside the reference, and what the log holds.
+report() {
+  python3 - "$DEMO_DIR" <<'PY'
+import json, os, struct, sys
+from collections import Counter
+
+d = sys.argv[1]
+s = json.load(open(os.path.join(d, "summary.json")))
+ref = json.load(open(os.path.join(d, "loop_bench.json")))
+model = json.load(open(os.path.join(d, "model.json")))
+
+def f(x, digits=1):
+    return "-" if x is None else f"{x:.{digits}f}"
+
+def pct(p, unit="us"):
+    return f"p50 {f(p['p50']):>7}  p99 {f(p['p99']):>7}  max {f(p['max']):>8} {unit}"
+
+def ratio(a, b):
+    return "-" if not b else f"{a / b:.2f}"
+
+jit, sleep = s["jitter_us"], ref["sleep_jitter_us"]
+lat, rtt = s["latency_us"], ref["lcm_round_trip_us"]
+track = s["tracking_error"]
+unit = "rad" if all(t != "prismatic" for t in model["joint_types"]) else "rad or m"
+print()
+print(f"{model['robot']}: {model['dof']} joints to {model['tip_link']}; controller {'SCHED_FIFO' if s.get('realtime') else 'SCHED_OTHER (real time refused)'}")
+print(f"  ticks               {s['ticks']} in {f(s.get('seconds'), 2)} s ({f(s['rate_hz'], 1)} Hz)")
+print(f"  wake-up jitter      {pct(jit)}")
+print(f"  overruns            {s['overruns']}")
+print(f"  compute             {pct(s['compute_us'])}")
+print(f"  latency             {pct(lat)}   (state arrival -> command sent)")
+print(f"  tracking error      rms {track['rms']:.3g}  max {track['max']:.3g} {unit}")
+print(f"  stale states        {s['stale_states']}")
+print(f"  rejected messages   {s['rejected_messages']}")
+print(f"  faults              {s['faults']}")
+print()
+print(f"Reference on this machine (chasles_loop_bench, {ref['sched']}, {f(ref['seconds'], 0)} s each):")
+print(f"  bare 1 kHz loop     {pct(sleep)}, {sleep['late_500us']} wake-ups > 500 us")
+print(f"  LCM ping-pong       {pct(rtt)}  ({rtt['message_bytes']}-byte robot_state_t, {rtt['answered']}/{rtt['sent']} answered)")
+print(f"  jitter  p99: controller / bare loop       = {ratio(jit['p99'], sleep['p99'])}")
+print(f"  latency p99: controller / LCM round trip  = {ratio(lat['p99'], rtt['p99'])}")
+
+# The LCM log: events are (sync 0xEDA1DA01, number, utime, channel length, data length, channel, data).
+log = os.path.join(d, "chasles.lcmlog")
+counts = Counter()
+with open(log, "rb") as file:
+    while True:
+        head = file.read(28)
+        if len(head) < 28:
+            break
+        sync, _, _, channel_len, data_len = struct.unpack(">IqqII", head)
+        if sync != 0xEDA1DA01:
+            break
+        counts[file.read(channel_len).decode(errors="replace")] += 1
+        file.seek(data_len, 1)
+print()
+print(f"Log: {log} ({os.path.getsize(log) / 1e6:.1f} MB; " +
+      ", ".join(f"{c} {n}" for c, n in sorted(counts.items())) + ")")
+print(f"Run directory: {d} (each process's output, summary.json, loop_bench.json, targets.jsonl)")
+PY
+}
+
+if [ "${DEMO_INSIDE:-}" = 1 ]; then
+  inside
+  exit 0
+fi
+
+# ---------------------------------------------------------------------------------------------
+# Outside: arguments, packages, build, then the run in a fresh network namespace.
+# ---------------------------------------------------------------------------------------------
+usage() { sed -n '5,11s/^# \{0,1\}//p' "$0"; }
+seconds=10
+robot=panda
+tip=
+summary=
 while [ $# -gt 0 ]; do
   case "$1" in
-    --robot) robot="$2"; shift 2 ;;
-    -h|--help) sed -n '2,6p' "$0"; exit 0 ;;
+    --seconds | --robot | --tip | --summary)
+      [ $# -ge 2 ] || { echo "demo.sh: $1 needs a value (try --help)" >&2; exit 2; }
+      case "$1" in
+        --seconds) seconds=$2 ;;
+        --robot) robot=$2 ;;
+        --tip) tip=$2 ;;
+        --summary) summary=$2 ;;
+      esac
+      shift 2
+      ;;
+    -h | --help) usage; exit 0 ;;
     *) echo "demo.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
 done
+if ! [[ "$seconds" =~ ^[0-9]+([.][0-9]*)?$ ]] || ! awk -v n="$seconds" 'BEGIN { exit !(n >= 1) }'; then
+  echo "demo.sh: --seconds must be a number of seconds, at least 1 (got '$seconds')" >&2
+  exit 2
+fi
 case "$robot" in
-  ur5) tip=tool0 ;;
-  panda) tip=panda_hand ;;
-  *) echo "demo.sh: --robot must be ur5 or panda" >&2; exit 2 ;;
+  ur5 | panda)
+    urdf="$root/tests/data/$robot.urdf"
+    [ -n "$tip" ] || { [ "$robot" = ur5 ] && tip=tool0 || tip=panda_hand; }
+    ;;
+  *.urdf)
+    [ -f "$robot" ] || { echo "demo.sh: --robot $robot: no such file" >&2; exit 2; }
+    urdf=$(cd "$(dirname "$robot")" && pwd)/$(basename "$robot")
+    ;;
+  *) echo "demo.sh: --robot must be ur5, panda or a .urdf file (got '$robot')" >&2; exit 2 ;;
 esac
-urdf="$root/tests/data/$robot.urdf"
+if [ -n "$summary" ]; then
+  touch "$summary" 2>/dev/null || { echo "demo.sh: --summary $summary: cannot write there" >&2; exit 2; }
+fi
 
-cmake -S "$root" -B "$root/build" -G Ninja >/dev/null
-cmake --build "$root/build" -j 2 --target chasles >/dev/null
-chasles="$root/build/tools/chasles"
+source "$root/tools/deps.sh"
+chasles_install_missing "${chasles_packages_build[@]}"
 
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
+build=${CHASLES_BUILD_DIR:-$root/build}
+mkdir -p "$build"
+echo "Building chasles, chasles_plant, chasles_controller and chasles_loop_bench in $build ..."
+if ! { cmake -S "$root" -B "$build" -G Ninja -DCHASLES_WERROR=ON &&
+  cmake --build "$build" -j 2 --target chasles chasles_plant chasles_controller_daemon chasles_loop_bench; } \
+  >"$build/demo-build.log" 2>&1; then
+  tail -n 40 "$build/demo-build.log" >&2
+  echo "demo.sh: the build failed (full log: $build/demo-build.log)" >&2
+  exit 1
+fi
 
-"$chasles" inspect --urdf "$urdf" --tip "$tip" >"$work/inspect.json"
-python3 - "$work/inspect.json" "$work/cases.json" <<'PY'
-import json, math, sys
-m = json.load(open(sys.argv[1]))
-print(f"{m['robot']}: {m['dof']} joints, {m['base_link']} -> {m['tip_link']}")
-for name, kind, lo, hi, eff in zip(m["joint_names"], m["joint_types"], m["limits"]["lower"],
-                                   m["limits"]["upper"], m["limits"]["effort"]):
-    print(f"  {name:22s} {kind:10s} [{lo:+.3f}, {hi:+.3f}] rad, effort {eff} N·m")
-lo, hi = m["limits"]["lower"], m["limits"]["upper"]
-mid = [0.5 * (a + b) for a, b in zip(lo, hi)]
-cases = [[0.0 if a <= 0.0 <= b else c for a, b, c in zip(lo, hi, mid)],
-         [c + 0.06 * (b - a) * math.sin(k + 1) for k, (a, b, c) in enumerate(zip(lo, hi, mid))],
-         [c - 0.06 * (b - a) * math.cos(2 * k) for k, (a, b, c) in enumerate(zip(lo, hi, mid))]]
-n = m["dof"]
-json.dump({"cases": [{"q": q, "qd": [0.1] * n, "qdd": [0.0] * n} for q in cases]}, open(sys.argv[2], "w"))
-PY
-"$chasles" eval --urdf "$urdf" --tip "$tip" --cases "$work/cases.json" >"$work/eval.json"
-python3 - "$work/cases.json" "$work/eval.json" <<'PY'
-import json, sys
-cases = json.load(open(sys.argv[1]))["cases"]
-out = json.load(open(sys.argv[2]))["cases"]
-fmt = lambda v: "[" + ", ".join(f"{x:+.4f}" for x in v) + "]"
-for k, (c, r) in enumerate(zip(cases, out)):
-    T = r["T"]
-    print(f"\npose {k + 1}: q = {fmt(c['q'])} rad")
-    print(f"  tip position  {fmt([T[0][3], T[1][3], T[2][3]])} m")
-    for i in range(3):
-        print(f"  R[{i}]          {fmt(T[i][:3])}")
-    print("  space Jacobian J_s (rows ω, v; one column per joint):")
-    for row in r["J_s"]:
-        print("    " + fmt(row))
-    if "tau" in r:
-        print(f"  gravity torque g(q)          {fmt(r['g'])} N·m")
-        print(f"  torque at q̇ = 0.1, q̈ = 0   {fmt(r['tau'])} N·m")
-PY
+dir="$build/demo/$(date +%Y%m%d-%H%M%S)"
+mkdir -p "$dir"
+export DEMO_INSIDE=1 DEMO_DIR="$dir" DEMO_BUILD="$build" DEMO_SECONDS="$seconds" DEMO_URDF="$urdf" \
+  DEMO_TIP="$tip"
+"$root/tools/netns.sh" bash "$root/tools/demo.sh"
+report
+if [ -n "$summary" ]; then
+  cp "$dir/summary.json" "$summary"
+  echo "Controller summary copied to $summary"
+fi
