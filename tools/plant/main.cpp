@@ -21,11 +21,14 @@
 #include <vector>
 
 #include "chasles/core/model/urdf.hpp"
-#include "clock.hpp"
+#include "chasles/controller/clock.hpp"
 #include "messaging.hpp"
 #include "plant.hpp"
 
 namespace chasles::plant {
+
+using controller::monotonic_ns;
+using controller::realtime_us;
 namespace {
 
 /// A bad value in an option that parsed (exit 1, like a bad URDF).

@@ -5,9 +5,12 @@
 #include <cstdio>
 #include <limits>
 
-#include "clock.hpp"
+#include "chasles/controller/clock.hpp"
 
 namespace chasles::plant {
+
+using controller::monotonic_ns;
+using controller::realtime_us;
 
 namespace {
 
