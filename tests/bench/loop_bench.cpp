@@ -6,7 +6,8 @@
 //   pingpong  an LCM round trip at the same rate: this process publishes a robot_state_t for 7
 //             joints (the plant's message) on LOOPBENCH_PING each period; a forked echo process
 //             decodes it and publishes it back on LOOPBENCH_PONG; round trip = publish → echo
-//             decoded here. The echo runs under the default policy, as the plant does.
+//             decoded here. With --realtime both ends run SCHED_FIFO, so the figure is what the
+//             machine can do at best, not how long a busy machine keeps the echo waiting.
 //
 // Prints one JSON object on stdout; warnings on stderr. Errors: one line "chasles_loop_bench: ..."
 // on stderr, exit 2 for a usage error, 1 when LCM cannot start or nothing echoes.
@@ -168,6 +169,7 @@ void echo_received(const lcm_recv_buf_t* rbuf, const char*, void* user) {
   struct sigaction action {};
   action.sa_handler = on_signal;
   sigaction(SIGTERM, &action, nullptr);
+  if (o.realtime) mlockall(MCL_CURRENT | MCL_FUTURE);  // SCHED_FIFO is inherited, memory locks are not
   lcm::LCM lcm(o.lcm_url);
   if (!lcm.good()) ::_exit(1);
   // LCM's C interface: GCC 12's -fsanitize=vptr miscompiles its typed C++ subscription.
@@ -335,7 +337,10 @@ int main(int argc, char** argv) {
   }
 
   const bool sleep = o.mode != "pingpong", pingpong = o.mode != "sleep";
-  // The echo process is forked first, while this process has one thread and the default policy.
+  prctl(PR_SET_TIMERSLACK, 1UL);  // the default 50 µs slack would dominate the jitter
+  Scheduling scheduling;
+  if (o.realtime) scheduling = go_realtime();
+  // The echo process is forked while this process still has one thread; it inherits the policy.
   pid_t echo = -1;
   if (pingpong) {
     std::fflush(nullptr);
@@ -349,10 +354,6 @@ int main(int argc, char** argv) {
     waitpid(echo, nullptr, 0);
     echo = -1;
   };
-
-  prctl(PR_SET_TIMERSLACK, 1UL);  // the default 50 µs slack would dominate the jitter
-  Scheduling scheduling;
-  if (o.realtime) scheduling = go_realtime();
 
   char head[160];
   std::snprintf(head, sizeof(head), "{\"rate_hz\":%g,\"seconds\":%g,\"sched\":\"%s\",\"mlockall\":%s", o.rate_hz,
