@@ -4,11 +4,14 @@
 # first (into build/, as tools/test.sh does).
 #
 #   tools/demo.sh [--seconds N] [--robot ur5|panda|FILE.urdf] [--tip LINK] [--summary FILE]
+#                 [--sync-us M]
 #
 #   --seconds N      length of the controlled run (default 10)
 #   --robot R        ur5 or panda (tests/data/R.urdf), or a URDF file (default panda)
 #   --tip LINK       the chain's tip, for a URDF with several leaves (ur5: tool0, panda: panda_hand)
 #   --summary FILE   also copy the controller's summary JSON here
+#   --sync-us M      phase-lock the controller's ticks M µs after the plant's states (default: off,
+#                    the controller runs on its own clock and a state waits up to a period)
 #
 # In a private network namespace (tools/netns.sh) it starts lcm-logger, chasles_plant (real time,
 # 1 kHz, damped) and chasles_controller --realtime, sends a programme of targets with
@@ -27,7 +30,7 @@ readonly lcm_url='udpm://239.255.76.67:7667?ttl=0'  # inside the namespace: mult
 names=()
 pids=()
 
-# start NAME CMD...: runs CMD in the background, output in $DEMO_DIR/NAME.out and NAME.err.
+# start NAME CMD...: runs CMD in the background, its output in $DEMO_DIR/NAME.out and NAME.err.
 start() {
   local name=$1
   shift
@@ -148,11 +151,11 @@ PY
   read -r t_hold t_a t_b t_home t_hold2 < <(awk -v n="$seconds" \
     'BEGIN { printf "%g %g %g %g %g\n", 0.05 * n, 0.1 * n, 0.35 * n, 0.6 * n, 0.85 * n }')
 
-  start logger lcm-logger --lcm-url="$lcm_url" --force "$dir/chasles.lcmlog"
-  start plant "$DEMO_BUILD/tools/chasles_plant" "${model[@]}" --rate 1000 --damping 0.5 --q0 "$home" \
+  start lcm-logger lcm-logger --lcm-url="$lcm_url" --force "$dir/chasles.lcmlog"
+  start chasles_plant "$DEMO_BUILD/tools/chasles_plant" "${model[@]}" --rate 1000 --damping 0.5 --q0 "$home" \
     --lcm-url "$lcm_url"
-  start controller "$DEMO_BUILD/controller/chasles_controller" "${model[@]}" --realtime --lcm-url "$lcm_url" \
-    --summary "$dir/summary.json"
+  start chasles_controller "$DEMO_BUILD/controller/chasles_controller" "${model[@]}" --realtime --lcm-url "$lcm_url" \
+    ${DEMO_SYNC_US:+--sync-us "$DEMO_SYNC_US"} --summary "$dir/summary.json"
   run_start=$(now)
   sleep 0.3
   check_alive
@@ -259,20 +262,22 @@ fi
 # ---------------------------------------------------------------------------------------------
 # Outside: arguments, packages, build, then the run in a fresh network namespace.
 # ---------------------------------------------------------------------------------------------
-usage() { sed -n '5,11s/^# \{0,1\}//p' "$0"; }
+usage() { sed -n '6,14s/^# \{0,1\}//p' "$0"; }
 seconds=10
 robot=panda
 tip=
 summary=
+sync_us=
 while [ $# -gt 0 ]; do
   case "$1" in
-    --seconds | --robot | --tip | --summary)
+    --seconds | --robot | --tip | --summary | --sync-us)
       [ $# -ge 2 ] || { echo "demo.sh: $1 needs a value (try --help)" >&2; exit 2; }
       case "$1" in
         --seconds) seconds=$2 ;;
         --robot) robot=$2 ;;
         --tip) tip=$2 ;;
         --summary) summary=$2 ;;
+        --sync-us) sync_us=$2 ;;
       esac
       shift 2
       ;;
@@ -284,6 +289,11 @@ if ! [[ "$seconds" =~ ^[0-9]+([.][0-9]*)?$ ]] || ! awk -v n="$seconds" 'BEGIN { 
   echo "demo.sh: --seconds must be a number of seconds, at least 1 (got '$seconds')" >&2
   exit 2
 fi
+if [ -n "$sync_us" ] && ! [[ "$sync_us" =~ ^[0-9]+([.][0-9]*)?$ ]]; then
+  echo "demo.sh: --sync-us must be a number of microseconds (got '$sync_us')" >&2
+  exit 2
+fi
+awk -v m="${sync_us:-0}" 'BEGIN { exit !(m == 0) }' && sync_us=  # 0: off
 case "$robot" in
   ur5 | panda)
     urdf="$root/tests/data/$robot.urdf"
@@ -316,7 +326,7 @@ fi
 dir="$build/demo/$(date +%Y%m%d-%H%M%S)"
 mkdir -p "$dir"
 export DEMO_INSIDE=1 DEMO_DIR="$dir" DEMO_BUILD="$build" DEMO_SECONDS="$seconds" DEMO_URDF="$urdf" \
-  DEMO_TIP="$tip"
+  DEMO_TIP="$tip" DEMO_SYNC_US="$sync_us"
 "$root/tools/netns.sh" bash "$root/tools/demo.sh"
 report
 if [ -n "$summary" ]; then
