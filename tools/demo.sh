@@ -227,6 +227,16 @@ print(f"  tracking error      rms {track['rms']:.3g}  max {track['max']:.3g} {un
 print(f"  stale states        {s['stale_states']}")
 print(f"  rejected messages   {s['rejected_messages']}")
 print(f"  faults              {s['faults']}")
+# What the controller said about refusals and faults, and the plant's own account.
+notes = [line.rstrip() for line in open(os.path.join(d, "chasles_controller.err"))
+         if any(w in line for w in ("warning", "refused", "FAULT", "rejected"))]
+for line in notes[:6]:
+    print(f"  {line}")
+if len(notes) > 6:
+    print(f"  ... {len(notes) - 6} more in {os.path.join(d, 'chasles_controller.err')}")
+plant = [line.strip() for line in open(os.path.join(d, "chasles_plant.err")) if "stopped after" in line]
+if plant:
+    print(f"  {plant[-1]}")
 print()
 print(f"Reference on this machine (chasles_loop_bench, {ref['sched']}, {f(ref['seconds'], 0)} s each):")
 print(f"  bare 1 kHz loop     {pct(sleep)}, {sleep['late_500us']} wake-ups > 500 us")
