@@ -227,6 +227,7 @@ TEST(target, BadValuesAreRefusedAndNothingIsSent) {
   refused(joint("0,0,nan,-1,0,1,0"), "entry 2 ('nan') is not finite");
   refused(joint("0,0,0,-1,0,inf,0"), "entry 5 ('inf') is not finite");
   refused(joint("0,0,0,-1,x,1,0"), "entry 4 ('x') is not a number");
+  refused(joint(""), "--joint: entry 0 ('') is not a number");
   // Zero is outside the Panda's fourth joint's range [-3.0718, -0.0698].
   refused(joint("0,0,0,0,0,1,0"), "joint panda_joint4 = 0 is outside its limits [-3.0718, -0.0698]");
   refused(joint("0,0,0,-1,0,1,2.8974"), "joint panda_joint7 = 2.8974 is outside its limits [-2.8973, 2.8973]");

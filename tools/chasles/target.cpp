@@ -25,6 +25,7 @@ namespace {
 constexpr double kQuaternionNormTolerance = 1e-3;
 
 struct TargetOptions {
+  enum class Mode { Hold, Joint, Pose } mode = Mode::Hold;  ///< which of the three was given
   bool hold = false;
   std::string joint, pose, duration;
   ModelOptions model;
@@ -187,10 +188,10 @@ Json run_target(const TargetOptions& options) {
   // Everything is checked before LCM starts: a refused target is never sent.
   std::optional<RobotModel> model;
   if (!options.model.urdf.empty()) model.emplace(load_model(options.model));
-  if (options.hold) {
+  if (options.mode == TargetOptions::Mode::Hold) {
     target.mode = arm_target_t::HOLD;
     out["mode"] = "HOLD";
-  } else if (!options.joint.empty()) {
+  } else if (options.mode == TargetOptions::Mode::Joint) {
     const Eigen::VectorXd q = parse_list(options.joint, model->dof(), "--joint");
     check_limits(*model, q);
     target.mode = arm_target_t::JOINT;
@@ -272,6 +273,9 @@ Command register_target(CLI::App& app) {
     const int modes = static_cast<int>(hold->count() > 0) + static_cast<int>(joint->count() > 0) +
                       static_cast<int>(pose->count() > 0);
     if (modes != 1) throw CLI::ValidationError("give exactly one of --hold, --joint and --pose");
+    options->mode = hold->count() > 0    ? TargetOptions::Mode::Hold
+                    : joint->count() > 0 ? TargetOptions::Mode::Joint
+                                         : TargetOptions::Mode::Pose;
     if (hold->count() > 0 && duration->count() > 0) throw CLI::ValidationError("--hold takes no --duration");
     if (hold->count() == 0 && duration->count() == 0) {
       throw CLI::ValidationError(std::string(joint->count() > 0 ? "--joint" : "--pose") + " needs --duration");
