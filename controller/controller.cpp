@@ -1,5 +1,6 @@
 #include "chasles/controller/controller.hpp"
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
@@ -16,6 +17,10 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // Peak speed of a rest-to-rest quintic over distance d in time T (at s = 1/2).
 constexpr double kQuinticPeakSpeed = 1.875;
+
+// A quaternion typed or computed in single precision is off unit norm by far less; one further
+// off is a mistake (a missing component, (x, y, z, w) order), refused rather than normalised.
+constexpr double kQuaternionNormTolerance = 1e-3;
 
 void format_into(char (&buffer)[192], const char* format, va_list args) {
   std::vsnprintf(buffer, sizeof(buffer), format, args);
@@ -74,7 +79,9 @@ Controller::Controller(const RobotModel& model, const Config& config)
       tau_(Eigen::VectorXd::Zero(model.dof())),
       tau_prev_(Eigen::VectorXd::Zero(model.dof())),
       ref_(model.dof()),
-      trajectory_(model.dof()) {
+      trajectory_(model.dof()),
+      path_(model.dof()),
+      request_(model.dof()) {
   config_.validate(model.dof());
   for (int i = 0; i < model.dof(); ++i) {
     const double effort = model.joint(i).limits.effort;
@@ -104,6 +111,7 @@ void Controller::fault(const char* format, ...) {
 void Controller::hold_at(const Eigen::VectorXd& q) {
   ref_.hold(q);
   mode_ = Mode::kHolding;
+  following_path_ = false;
 }
 
 bool Controller::set_target(const Target& target, int64_t now_ns) {
@@ -115,7 +123,7 @@ bool Controller::set_target(const Target& target, int64_t now_ns) {
       hold_at(q_);
       return true;
     case Target::kCartesian:
-      return refuse("Cartesian targets need the inverse-kinematics solver, which this build does not have yet");
+      return request_cartesian(target);
     case Target::kJoint:
       break;
     default:
@@ -144,14 +152,71 @@ bool Controller::set_target(const Target& target, int64_t now_ns) {
   trajectory_.start(ref_, target.q, target.duration);
   motion_start_ns_ = now_ns;
   mode_ = Mode::kRunning;
+  following_path_ = false;
+  pending_request_ = -1;  // a Cartesian plan still in the works is superseded
+  return true;
+}
+
+bool Controller::request_cartesian(const Target& target) {
+  if (mode_ == Mode::kRunning) {
+    return refuse("a Cartesian target while a motion runs: send it once the arm holds (the path starts at rest)");
+  }
+  if (!target.position.allFinite() || !target.quaternion.allFinite()) {
+    return refuse("a Cartesian target with a non-finite position or quaternion");
+  }
+  const double norm = target.quaternion.norm();
+  if (std::abs(norm - 1.0) > kQuaternionNormTolerance) {
+    return refuse("a Cartesian target whose quaternion (w, x, y, z) has norm %g, not 1", norm);
+  }
+  if (!(target.duration > 0.0) || !std::isfinite(target.duration)) {
+    return refuse("a Cartesian target needs a positive, finite duration (got %g s)", target.duration);
+  }
+  const Eigen::Quaterniond rotation(target.quaternion(0), target.quaternion(1), target.quaternion(2),
+                                    target.quaternion(3));
+  request_.id = ++next_request_id_;
+  request_.q_start = ref_.q;
+  request_.T_goal = Transform(rotation.normalized().toRotationMatrix(), target.position);
+  request_.duration = target.duration;
+  request_ready_ = true;
+  pending_request_ = request_.id;
+  return true;
+}
+
+bool Controller::take_request(CartesianRequest& request) {
+  if (!request_ready_) return false;
+  request = request_;
+  request_ready_ = false;
+  return true;
+}
+
+bool Controller::follow(const JointPath& path, int64_t now_ns) {
+  if (path.request_id != pending_request_) return false;
+  pending_request_ = -1;
+  ik_iterations_ = path.ik_iterations;
+  ik_residual_ = path.ik_residual;
+  ik_converged_ = path.ok;
+  if (!path.ok) return refuse("Cartesian target refused: %s", path.reason);
+  if (mode_ != Mode::kHolding || (path.q.col(0) - ref_.q).cwiseAbs().maxCoeff() > 1e-12) {
+    return refuse("Cartesian path dropped: the arm is no longer holding where the path starts");
+  }
+  path_.start(path);
+  following_path_ = true;
+  motion_start_ns_ = now_ns;
+  mode_ = Mode::kRunning;
   return true;
 }
 
 void Controller::update_reference(int64_t now_ns) {
   if (mode_ != Mode::kRunning) return;
   const double t = 1e-9 * static_cast<double>(now_ns - motion_start_ns_);
-  trajectory_.sample(t, ref_);
-  if (t >= trajectory_.duration()) mode_ = Mode::kHolding;  // sample() has set the goal at rest
+  // Both samplers set the goal at rest once t is past the end.
+  if (following_path_) {
+    path_.sample(t, ref_);
+    if (t >= path_.duration()) following_path_ = false, mode_ = Mode::kHolding;
+  } else {
+    trajectory_.sample(t, ref_);
+    if (t >= trajectory_.duration()) mode_ = Mode::kHolding;
+  }
 }
 
 bool Controller::tick(int64_t now_ns, const JointState* state) {

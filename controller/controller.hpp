@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 
+#include "chasles/controller/cartesian.hpp"
 #include "chasles/controller/trajectory.hpp"
 #include "chasles/core/model/model.hpp"
 
@@ -59,8 +60,16 @@ class Controller {
   Controller(const RobotModel& model, const Config& config);
 
   /// Takes a new goal, or refuses it (returns false, counts it, says why in last_rejection()) and
-  /// keeps the current one. A goal arriving before the first state is refused too.
+  /// keeps the current one. A goal arriving before the first state is refused too. A CARTESIAN
+  /// goal that passes the checks becomes a request for the IK worker (take_request()); the arm
+  /// keeps holding until its joint path comes back (follow()).
   bool set_target(const Target& target, int64_t now_ns);
+
+  /// The Cartesian request set_target() made, once: true and `request` filled, else false.
+  bool take_request(CartesianRequest& request);
+  /// Starts the joint path planned for the latest request, or refuses it (a failed plan, or a
+  /// plan for a request since superseded by another target, which is dropped silently).
+  bool follow(const JointPath& path, int64_t now_ns);
 
   /// One tick at time now_ns with the latest state (nullptr: none has arrived yet). Returns true
   /// when a command is to be sent: torque() then holds it. Allocates nothing.
@@ -76,6 +85,12 @@ class Controller {
   /// e = q_d − q at the last commanding tick.
   const Eigen::VectorXd& error() const { return error_; }
 
+  /// The IK figures of the last Cartesian plan: summed iterations, worst position error (m),
+  /// whether every waypoint converged.
+  int ik_iterations() const { return ik_iterations_; }
+  double ik_residual() const { return ik_residual_; }
+  bool ik_converged() const { return ik_converged_; }
+
   int64_t faults() const { return faults_; }
   int64_t stale_ticks() const { return stale_ticks_; }
   int64_t rejected_targets() const { return rejected_targets_; }
@@ -84,6 +99,7 @@ class Controller {
   bool refuse(const char* format, ...) __attribute__((format(printf, 2, 3)));
   void fault(const char* format, ...) __attribute__((format(printf, 2, 3)));
   void hold_at(const Eigen::VectorXd& q);
+  bool request_cartesian(const Target& target);
   /// The reference at now_ns; finishing a motion turns RUNNING into HOLDING.
   void update_reference(int64_t now_ns);
 
@@ -94,6 +110,15 @@ class Controller {
   Eigen::VectorXd q_, qd_, qdd_ref_, error_, tau_, tau_prev_;
   Reference ref_;
   QuinticTrajectory trajectory_;
+  JointPathSampler path_;
+  bool following_path_ = false;
+  CartesianRequest request_;
+  bool request_ready_ = false;
+  int64_t pending_request_ = -1;  // id of the request whose path is awaited; −1: none
+  int64_t next_request_id_ = 0;
+  int ik_iterations_ = 0;
+  double ik_residual_ = 0.0;
+  bool ik_converged_ = false;
   int64_t motion_start_ns_ = 0;
   Mode mode_ = Mode::kWaiting;
   // Fixed buffers: the reasons are formatted on the real-time thread, which must not allocate.

@@ -37,7 +37,10 @@ struct Snapshot {
   char fault[192] = {};
   char rejection[192] = {};
   Eigen::VectorXd q, q_desired, error, torque;
-  int64_t ticks = 0, overruns = 0, commands = 0, send_failures = 0, stale = 0, faults = 0, rejected_targets = 0, lost_records = 0;
+  int ik_iterations = 0;
+  double ik_residual = 0.0;
+  bool ik_converged = false;
+  int64_t ticks = 0, overruns = 0, commands = 0, send_failures = 0, lost_requests = 0, stale = 0, faults = 0, rejected_targets = 0, lost_records = 0;
   explicit Snapshot(int n = 0)
       : q(Eigen::VectorXd::Zero(n)), q_desired(Eigen::VectorXd::Zero(n)), error(Eigen::VectorXd::Zero(n)),
         torque(Eigen::VectorXd::Zero(n)) {}
@@ -96,6 +99,8 @@ struct Daemon::Impl {
   SpscRing<Target> targets;
   Mailbox<Snapshot> snapshots;
   SpscRing<TickRecord> records{8192};
+  SpscRing<CartesianRequest> requests;  // loop → IK worker
+  SpscRing<JointPath> paths;            // IK worker → loop
   StateReceiver state_receiver;
   TargetReceiver target_receiver;
   CommandPublisher command_publisher;
@@ -120,7 +125,10 @@ struct Daemon::Impl {
         lcm_status(o.lcm_url),
         states(JointState(m.dof())),
         targets(16, Target(m.dof())),
+
         snapshots(Snapshot(m.dof())),
+        requests(4, CartesianRequest(m.dof())),
+        paths(2, JointPath(m.dof())),
         state_receiver(lcm_rx.get(), channels.state, m.dof(), states, rejections),
         target_receiver(lcm_rx.get(), channels.target, m.dof(), targets, rejections),
         command_publisher(lcm_command.get(), channels.command, m.dof()),
@@ -129,6 +137,22 @@ struct Daemon::Impl {
 
   void receive_loop() {
     while (!done.load(std::memory_order_relaxed)) lcm_handle_timeout(lcm_rx.get(), 20);
+  }
+
+  // Plans Cartesian goals into joint paths with Ceres, which allocates and takes milliseconds:
+  // never on the loop, which only swaps requests and paths through rings.
+  void ik_loop() {
+    IkSolver solver(model);
+    CartesianRequest request(n);
+    JointPath path(n);
+    while (!done.load(std::memory_order_relaxed)) {
+      if (!requests.pop(request)) {
+        sleep_until(monotonic_ns() + 1'000'000);
+        continue;
+      }
+      plan_cartesian_path(solver, request, path);
+      while (!paths.push(path) && !done.load(std::memory_order_relaxed)) sleep_until(monotonic_ns() + 1'000'000);
+    }
   }
 
   void realtime_loop(const std::atomic<bool>& stop) {
@@ -141,6 +165,8 @@ struct Daemon::Impl {
     const auto period = static_cast<int64_t>(std::llround(options.control.period * 1e9));
     JointState state(n);
     Target target(n);
+    CartesianRequest request(n);
+    JointPath path(n);
     Snapshot snapshot(n);
     bool have_state = false;
     int64_t answered_seq = -1, seq = 0, phase_shift = 0;
@@ -155,6 +181,8 @@ struct Daemon::Impl {
 
       if (states.read(state)) have_state = true;
       while (targets.pop(target)) controller.set_target(target, wake);
+      if (controller.take_request(request) && !requests.push(request)) ++snapshot.lost_requests;
+      if (paths.pop(path)) controller.follow(path, wake);
       const bool command = controller.tick(wake, have_state ? &state : nullptr);
       if (command) command_publisher.encode(realtime_us(), ++seq, state.seq, controller.torque());
       const int64_t computed = monotonic_ns();
@@ -213,6 +241,9 @@ struct Daemon::Impl {
     s.stale = controller.stale_ticks();
     s.faults = controller.faults();
     s.rejected_targets = controller.rejected_targets();
+    s.ik_iterations = controller.ik_iterations();
+    s.ik_residual = controller.ik_residual();
+    s.ik_converged = controller.ik_converged();
     Snapshot& slot = snapshots.back();
     slot = s;
     snapshots.publish();
@@ -297,9 +328,9 @@ struct Daemon::Impl {
     status.tip_quaternion[1] = quaternion.x();
     status.tip_quaternion[2] = quaternion.y();
     status.tip_quaternion[3] = quaternion.z();
-    status.ik_iterations = 0;
-    status.ik_residual = 0.0;
-    status.ik_converged = false;
+    status.ik_iterations = s.ik_iterations;
+    status.ik_residual = s.ik_residual;
+    status.ik_converged = s.ik_converged;
     const Percentiles j = percentiles(window.jitter), c = percentiles(window.compute), l = percentiles(window.latency);
     status.jitter_p50_us = j.p50, status.jitter_p99_us = j.p99, status.jitter_max_us = j.max;
     status.compute_p50_us = c.p50, status.compute_p99_us = c.p99, status.compute_max_us = c.max;
@@ -321,10 +352,12 @@ Summary Daemon::run(const std::atomic<bool>& stop) {
   const int64_t start = monotonic_ns();
   std::thread receiver([&d] { d.receive_loop(); });
   std::thread status([&d] { d.status_loop(); });
+  std::thread ik([&d] { d.ik_loop(); });
   std::thread loop([&d, &stop] { d.realtime_loop(stop); });
   loop.join();
   d.done = true;
   status.join();
+  ik.join();
   receiver.join();
   const double seconds = 1e-9 * static_cast<double>(monotonic_ns() - start);
 

@@ -1,8 +1,9 @@
-// The running controller: three threads around one Controller.
+// The running controller: four threads around one Controller.
 //
 //   LCM thread      receives states and targets, validates them, posts them to mailboxes
 //   real-time loop  every period (absolute-time sleep): latest state → Controller::tick →
 //                   command published from a preallocated buffer → a timing record queued
+//   IK worker       plans Cartesian goals into joint paths with Ceres (milliseconds, allocating)
 //   status thread   drains the timing records into histograms, publishes controller_status_t
 //                   at status_hz (at once on a change of mode) and reports changes on stderr
 //

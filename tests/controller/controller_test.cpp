@@ -18,6 +18,7 @@
 #include "chasles/controller/statistics.hpp"
 #include "chasles/controller/trajectory.hpp"
 #include "chasles/core/dynamics/dynamics.hpp"
+#include "chasles/core/lie/se3.hpp"
 #include "chasles/core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/reference.hpp"
@@ -278,7 +279,8 @@ TEST_F(ControllerTest, RefusesBadTargetsAndKeepsTheCurrentOne) {
   refused(joint_target(far, 0.1), "over its velocity limit");
   Target cartesian(7);
   cartesian.mode = Target::kCartesian;
-  refused(cartesian, "inverse-kinematics");
+  cartesian.duration = 1.0;
+  refused(cartesian, "while a motion runs");
   Target unknown(7);
   unknown.mode = 9;
   refused(unknown, "unknown target mode 9");
@@ -287,6 +289,108 @@ TEST_F(ControllerTest, RefusesBadTargetsAndKeepsTheCurrentOne) {
   ASSERT_TRUE(controller.tick(2500 * kMs, fresh(2500 * kMs)));
   EXPECT_EQ(controller.mode(), Mode::kHolding);
   EXPECT_TRUE(matrices_near(controller.reference().q, goal, 1e-12));
+}
+
+TEST_F(ControllerTest, CartesianTargetsArePlannedOffTheTickThenFollowed) {
+  Controller controller(model_, config_);
+  ASSERT_TRUE(controller.tick(0, fresh(0)));
+  Data data(model_);
+  VectorXd q_goal = bent_pose();
+  q_goal(0) += 0.3;
+  q_goal(1) -= 0.2;
+  const Transform T_goal = forward_kinematics(model_, data, q_goal);
+  const Eigen::Quaterniond r(T_goal.linear());
+  Target target(7);
+  target.mode = Target::kCartesian;
+  target.position = T_goal.translation();
+  target.quaternion << r.w(), r.x(), r.y(), r.z();
+  target.duration = 1.0;
+
+  Target bad = target;
+  bad.quaternion *= 1.1;
+  EXPECT_FALSE(controller.set_target(bad, 0));
+  EXPECT_NE(std::string(controller.last_rejection()).find("norm 1.1"), std::string::npos);
+  bad = target;
+  bad.position(1) = kNaN;
+  EXPECT_FALSE(controller.set_target(bad, 0));
+
+  CartesianRequest request(7);
+  ASSERT_TRUE(controller.set_target(target, 0));
+  ASSERT_TRUE(controller.take_request(request));
+  EXPECT_FALSE(controller.take_request(request)) << "a request is handed over once";
+  EXPECT_EQ(controller.mode(), Mode::kHolding) << "holding while the worker plans";
+  IkSolver solver(model_);
+  JointPath path(7);
+  plan_cartesian_path(solver, request, path);
+  ASSERT_TRUE(path.ok) << path.reason;
+  ASSERT_TRUE(controller.follow(path, 10 * kMs));
+  EXPECT_EQ(controller.mode(), Mode::kRunning);
+  ASSERT_TRUE(controller.tick(1100 * kMs, fresh(1100 * kMs)));
+  EXPECT_EQ(controller.mode(), Mode::kHolding);
+  const Transform T_end = forward_kinematics(model_, data, controller.reference().q);
+  EXPECT_LT((T_end.translation() - T_goal.translation()).norm(), 1e-6);
+  EXPECT_LT(log3(T_end.linear().transpose() * T_goal.linear()).norm(), 1e-6);
+  EXPECT_TRUE(controller.ik_converged());
+
+  // A path planned for a request that a newer target superseded is dropped.
+  ASSERT_TRUE(controller.set_target(target, 0));
+  ASSERT_TRUE(controller.take_request(request));
+  plan_cartesian_path(solver, request, path);
+  ASSERT_TRUE(controller.set_target(joint_target(bent_pose(), 2.0), 1200 * kMs));
+  EXPECT_FALSE(controller.follow(path, 1300 * kMs));
+}
+
+TEST(CartesianPath, FollowsTheScrewLineAndReachesTheGoal) {
+  const RobotModel model = panda();
+  Data data(model);
+  IkSolver solver(model);
+  CartesianRequest request(7);
+  request.id = 1;
+  request.q_start = bent_pose();
+  VectorXd q_goal = bent_pose();
+  q_goal << -0.3, 0.2, 0.3, -1.9, -0.2, 1.6, 0.5;
+  request.T_goal = forward_kinematics(model, data, q_goal);
+  request.duration = 2.0;
+  JointPath path(7);
+  plan_cartesian_path(solver, request, path);
+  ASSERT_TRUE(path.ok) << path.reason;
+  EXPECT_EQ(path.request_id, 1);
+  EXPECT_EQ(path.count, 201);
+  const Transform T0 = forward_kinematics(model, data, request.q_start);
+  const Vector6d V = log6(inverse(T0) * request.T_goal);
+  for (int k = 0; k < path.count; k += 20) {
+    const double tau = double(k) / (path.count - 1), s = tau * tau * tau * (10 - 15 * tau + 6 * tau * tau);
+    const Transform expected = T0 * exp6(V * s);
+    const Transform T = forward_kinematics(model, data, path.q.col(k));
+    EXPECT_LT((T.translation() - expected.translation()).norm(), 1e-6) << "waypoint " << k;
+    EXPECT_LT(log3(T.linear().transpose() * expected.linear()).norm(), 1e-6) << "waypoint " << k;
+  }
+  // The sampler passes through the waypoints, at rest at both ends, its derivatives consistent.
+  JointPathSampler sampler(7);
+  sampler.start(path);
+  Reference r(7), before(7), after(7);
+  for (int k : {0, 37, 100, 200}) {
+    sampler.sample(k * path.dt, r);
+    EXPECT_TRUE(matrices_near(r.q, path.q.col(k), 1e-12)) << k;
+  }
+  sampler.sample(0.0, r);
+  EXPECT_TRUE(matrices_near(r.qd, VectorXd::Zero(7), 0.0));
+  sampler.sample(5.0, r);
+  EXPECT_TRUE(matrices_near(r.qd, VectorXd::Zero(7), 0.0));
+  const double h = 1e-6;
+  for (double t : {0.333, 1.0051, 1.777}) {
+    sampler.sample(t, r);
+    sampler.sample(t - h, before);
+    sampler.sample(t + h, after);
+    EXPECT_TRUE(matrices_near(r.qd, (after.q - before.q) / (2 * h), 1e-6)) << t;
+  }
+
+  // Far out of reach: the line leaves the workspace, through a stretched-out singularity first.
+  request.T_goal.translation() << 10.0, 0.0, 0.5;
+  plan_cartesian_path(solver, request, path);
+  EXPECT_FALSE(path.ok);
+  const std::string why = path.reason;
+  EXPECT_TRUE(why.find("cannot follow") != std::string::npos || why.find("singularity") != std::string::npos) << why;
 }
 
 TEST_F(ControllerTest, StaleStateFaultsAndFreshStateResumesHoldingWithoutATorqueJump) {

@@ -9,6 +9,7 @@
 #include <chasles/controller_status_t.hpp>
 #include <chasles/joint_torque_command_t.hpp>
 #include <chasles/robot_state_t.hpp>
+#include <Eigen/Geometry>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -25,6 +26,7 @@
 #include "chasles/controller/controller.hpp"
 #include "chasles/controller/lcm_io.hpp"
 #include "chasles/core/dynamics/dynamics.hpp"
+#include "chasles/core/lie/se3.hpp"
 #include "chasles/core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/process.hpp"
@@ -191,6 +193,42 @@ TEST(daemon, LockstepJointMoveReachesTheTargetAndSettles) {
   EXPECT_EQ(s["faults"].get<int64_t>(), 0) << controller.stderr_text();
   EXPECT_LT(s["tracking_error"]["max"].get<double>(), 0.05);
   std::remove(summary.c_str());
+}
+
+// A CARTESIAN move, lockstep: the IK worker plans the straight-line path, the arm follows it and
+// ends within 1 mm and 1 mrad of the goal pose.
+TEST(daemon, LockstepCartesianMoveEndsAtTheGoalPose) {
+  const RobotModel model = panda();
+  Data data(model);
+  VectorXd q_goal = bent_pose();
+  q_goal(0) -= 0.3;
+  q_goal(1) += 0.2;
+  q_goal(5) -= 0.2;
+  const Transform T_goal = forward_kinematics(model, data, q_goal);
+  const Eigen::Quaterniond r(T_goal.linear());
+  Bus bus;
+  ChildProcess plant(plant_args({"--lockstep", "--q0", list(bent_pose())}));
+  ChildProcess controller(controller_args({}));
+  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
+
+  arm_target_t target{};
+  target.utime = realtime_us();
+  target.mode = arm_target_t::CARTESIAN;
+  for (int i = 0; i < 3; ++i) target.tip_position[i] = T_goal.translation()(i);
+  target.tip_quaternion[0] = r.w(), target.tip_quaternion[1] = r.x();
+  target.tip_quaternion[2] = r.y(), target.tip_quaternion[3] = r.z();
+  target.duration = 1.0;
+  bus.send_target(target);
+  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::RUNNING); }, 3.0)) << controller.stderr_text();
+  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
+  bus.listen(0.5);
+  EXPECT_TRUE(bus.status->ik_converged);
+  EXPECT_GT(bus.status->ik_iterations, 0);
+  const Transform T = forward_kinematics(model, data, vector_of(bus.state->position));
+  EXPECT_LT((T.translation() - T_goal.translation()).norm(), 1e-3);
+  EXPECT_LT(log3(T.linear().transpose() * T_goal.linear()).norm(), 1e-3);
+  std::printf("Cartesian move: tip within %.2g m and %.2g rad of the goal\n", (T.translation() - T_goal.translation()).norm(),
+              log3(T.linear().transpose() * T_goal.linear()).norm());
 }
 
 // HOLD under gravity: the arm stays where it was found, within 1e-3 rad over 5 s.
