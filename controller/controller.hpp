@@ -1,7 +1,7 @@
 // The control logic of one tick, free of threads, clocks and transport so that it can be tested
 // directly: validated state and targets in, joint torques out, through one safety pipeline.
 //
-//   state age / size / finiteness → reference (hold | quintic joint motion)
+//   state age / size / finiteness → reference (hold | quintic joint motion | planned Cartesian path)
 //   → computed torque τ = M(q)(q̈_d + K_d ė + K_p e) + c(q, q̇) + g(q), by one RNEA call
 //   → non-finite refused → effort limits → torque-rate limit → command
 #pragma once
