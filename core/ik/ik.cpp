@@ -80,6 +80,9 @@ Matrix6d se3_right_jacobian_inverse(const Vector6d& xi) {
 // are slow ones a restart usually beats.
 constexpr int kAbandonIteration = 12;
 constexpr double kAbandonError = 0.03;
+// A start this close to the target (m, rad) takes undamped first steps.
+constexpr double kNearPosition = 0.05;
+constexpr double kNearRotation = 0.1;
 // The regularisation toward the seed is switched off within this distance (m and rad).
 constexpr double kRegularizationOff = 1e-3;
 
@@ -275,7 +278,9 @@ ceres::CallbackReturnType StopWhenReached::operator()(const ceres::IterationSumm
   }
   if (summary.iteration >= kAbandonIteration &&
       !impl_.within(pos_err, rot_err, kAbandonError, kAbandonError)) {
-    return ceres::SOLVER_ABORT;  // stuck far away: leave the budget to a restart
+    // Stuck far away: leave the budget to a restart. Not SOLVER_ABORT, after which Ceres hands
+    // back the starting point: the iterate reached is the attempt's best pose.
+    return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
   }
   return ceres::SOLVER_CONTINUE;
 }
@@ -302,9 +307,6 @@ IkSolver::IkSolver(const RobotModel& model, IkOptions options)
   so.parameter_tolerance = 1e-14;
   so.gradient_tolerance = 1e-16;
   so.update_state_every_iteration = true;
-  // Levenberg-Marquardt's first damping is 1/radius. Ceres's default (1e4: Gauss-Newton) sends
-  // random starts on wild first steps; 10 halved the median time on the reference targets.
-  so.initial_trust_region_radius = 10.0;
   so.callbacks.push_back(impl_->stop.get());
   set_options(options);
 }
@@ -415,6 +417,16 @@ IkResult IkSolver::solve(const Matrix4d& T_sd, const JointVector& q_seed) {
       }
     }
     impl.lambda = impl.regularized ? options_.regularization : 0.0;
+    // Levenberg-Marquardt's first damping is 1/radius. Near the target (a warm start) Gauss-Newton
+    // steps (Ceres's default radius, 1e4) converge in a few iterations; from far away they throw
+    // the arm about, and damped first steps (radius 10) halved the median time of cold starts on
+    // the reference targets.
+    {
+      double pos_err, rot_err;
+      impl.errors(impl.q, pos_err, rot_err);
+      impl.solver_options.initial_trust_region_radius =
+          impl.within(pos_err, rot_err, kNearPosition, kNearRotation) ? 1e4 : 10.0;
+    }
     const double remaining = std::chrono::duration<double>(deadline - Clock::now()).count();
     impl.solver_options.max_solver_time_in_seconds = std::max(remaining, 1e-6);
     ceres::Solve(impl.solver_options, impl.problem.get(), &summary);

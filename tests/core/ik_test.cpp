@@ -94,29 +94,47 @@ class Ik : public ::testing::TestWithParam<std::string> {
   std::unique_ptr<RobotModel> model_;
 };
 
-// FK(IK(T)) = T for every reachable reference target, within the limits; cold from q_seed and warm
-// from the solution plus 0.01 rad of noise. Prints the success rate and times (not asserted: they
-// depend on the machine).
+// FK(IK(T)) = T for every reachable reference target, within the limits. Asserted with a restart
+// cap and a generous clock (the same answer on any machine); then measured with the default 5 ms
+// budget, cold from q_seed and warm from the solution plus 0.01 rad of noise, and printed, not
+// asserted: within a wall-clock budget the rate and the times depend on the machine and its load.
 TEST_P(Ik, ReachesTheReferenceTargets) {
+  {
+    IkOptions options;
+    options.time_budget = std::chrono::seconds(1);
+    options.max_restarts = 200;
+    IkSolver solver(*model_, options);
+    int converged = 0, restarts = 0;
+    for (const IkCase& c : ref_.cases) {
+      const IkResult result = solver.solve(c.T_target, c.q_seed);
+      EXPECT_TRUE(within_limits(*model_, result.q));
+      double pos_err, rot_err;
+      pose_errors(*model_, result.q, c.T_target, pos_err, rot_err);
+      EXPECT_NEAR(pos_err, result.pos_err, 1e-9);
+      EXPECT_NEAR(rot_err, result.rot_err, 1e-9);
+      if (result.converged) {
+        EXPECT_LE(pos_err, 1e-6);
+        EXPECT_LE(rot_err, 1e-6);
+        ++converged;
+      }
+      restarts += result.restarts;
+    }
+    std::printf("[ ik %s ] up to 200 restarts: %d/%zu converged (%.2f %%), %d restarts in all\n", GetParam().c_str(),
+                converged, ref_.cases.size(), 100.0 * converged / static_cast<double>(ref_.cases.size()), restarts);
+    EXPECT_GE(converged / static_cast<double>(ref_.cases.size()), 0.99);
+  }
+
   IkSolver solver(*model_);
   std::vector<double> cold_us, warm_us;
   std::vector<Eigen::VectorXd> solutions;
   int cold_ok = 0, warm_ok = 0, restarts = 0, iterations = 0;
   for (const IkCase& c : ref_.cases) {
     const IkResult result = solver.solve(c.T_target, c.q_seed);
+    EXPECT_TRUE(within_limits(*model_, result.q));
     cold_us.push_back(result.time_us);
     restarts += result.restarts;
     iterations += result.iterations;
-    EXPECT_TRUE(within_limits(*model_, result.q));
-    double pos_err, rot_err;
-    pose_errors(*model_, result.q, c.T_target, pos_err, rot_err);
-    if (result.converged) {
-      EXPECT_LE(pos_err, 1e-6);
-      EXPECT_LE(rot_err, 1e-6);
-      ++cold_ok;
-    }
-    EXPECT_NEAR(pos_err, result.pos_err, 1e-9);
-    EXPECT_NEAR(rot_err, result.rot_err, 1e-9);
+    cold_ok += result.converged ? 1 : 0;
     solutions.push_back(result.q);
   }
   std::mt19937_64 rng(3);
@@ -125,18 +143,18 @@ TEST_P(Ik, ReachesTheReferenceTargets) {
     Eigen::VectorXd seed = solutions[k];
     for (Eigen::Index i = 0; i < seed.size(); ++i) seed[i] += noise(rng);
     const IkResult result = solver.solve(ref_.cases[k].T_target, seed);
+    EXPECT_TRUE(within_limits(*model_, result.q));
     warm_us.push_back(result.time_us);
-    if (result.converged) ++warm_ok;
+    warm_ok += result.converged ? 1 : 0;
   }
   const double n = static_cast<double>(ref_.cases.size());
-  std::printf("[ ik %s ] cold: %d/%zu converged (%.2f %%), median %.1f us, p99 %.1f us, max %.1f us, "
+  std::printf("[ ik %s ] 5 ms budget, cold: %d/%zu converged (%.2f %%), median %.1f us, p99 %.1f us, max %.1f us, "
               "%d restarts, %.1f iterations/case\n",
               GetParam().c_str(), cold_ok, ref_.cases.size(), 100.0 * cold_ok / n, percentile(cold_us, 0.5),
               percentile(cold_us, 0.99), percentile(cold_us, 1.0), restarts, iterations / n);
-  std::printf("[ ik %s ] warm: %d/%zu converged (%.2f %%), median %.1f us, p99 %.1f us\n", GetParam().c_str(),
-              warm_ok, ref_.cases.size(), 100.0 * warm_ok / n, percentile(warm_us, 0.5), percentile(warm_us, 0.99));
-  EXPECT_GE(cold_ok / n, 0.99);
-  EXPECT_GE(warm_ok / n, 0.99);
+  std::printf("[ ik %s ] 5 ms budget, warm: %d/%zu converged (%.2f %%), median %.1f us, p99 %.1f us\n",
+              GetParam().c_str(), warm_ok, ref_.cases.size(), 100.0 * warm_ok / n, percentile(warm_us, 0.5),
+              percentile(warm_us, 0.99));
 }
 
 // Same inputs, same answer, to the bit, when the restart cap (not the clock) ends the search.
@@ -170,8 +188,10 @@ TEST_P(Ik, ReportsAnUnreachableTarget) {
   const IkResult result = solver.solve(T, ref_.cases[2].q_seed);
   EXPECT_FALSE(result.converged);
   EXPECT_TRUE(within_limits(*model_, result.q));
+  double seed_pos_err, seed_rot_err;
+  pose_errors(*model_, ref_.cases[2].q_seed, T, seed_pos_err, seed_rot_err);
   EXPECT_GT(result.pos_err, 8.0);
-  EXPECT_LT(result.pos_err, 10.0);  // it reached towards the target
+  EXPECT_LT(result.pos_err, seed_pos_err - 0.1);  // it reached out towards the target
   EXPECT_GT(result.restarts, 0);
   EXPECT_LE(result.restarts, 20);
   double pos_err, rot_err;

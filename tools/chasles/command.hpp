@@ -38,6 +38,7 @@ Command register_inspect(CLI::App& app);
 Command register_eval(CLI::App& app);
 Command register_rnea(CLI::App& app);
 Command register_fd(CLI::App& app);
+Command register_ik(CLI::App& app);      ///< inverse kinematics (chasles::ik)
 Command register_target(CLI::App& app);  ///< sends an arm_target_t over LCM
 
 }  // namespace chasles::cli

@@ -40,11 +40,12 @@ int main(int argc, char** argv) {
       "Examples:\n"
       "  chasles inspect --urdf ur5.urdf --tip tool0\n"
       "  chasles --pretty eval --urdf ur5.urdf --tip tool0 --cases cases.json\n"
+      "  chasles ik --urdf ur5.urdf --tip tool0 --targets targets.json\n"
       "  chasles target --robot ur5.urdf --tip tool0 --joint 0,-1.57,1.57,0,0,0 --duration 2\n"
       "Run 'chasles COMMAND --help' for a command's input and output.");
 
   const std::vector<Command> commands = {register_inspect(app), register_eval(app), register_rnea(app),
-                                         register_fd(app), register_target(app)};
+                                         register_fd(app), register_ik(app), register_target(app)};
 
   try {
     app.parse(argc, argv);

@@ -1,0 +1,180 @@
+// `chasles ik` run as a real process: the documented output for a targets file in the reference
+// format and for one --pose, and bad input as one "chasles: ..." line with the documented exit code.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "chasles/core/kinematics/kinematics.hpp"
+#include "chasles/core/lie/se3.hpp"
+#include "chasles/core/model/urdf.hpp"
+#include "support/reference.hpp"
+
+namespace chasles::testing {
+namespace {
+
+using nlohmann::json;
+
+struct Result {
+  int exit_code = -1;
+  std::string out, err;
+};
+
+std::string temp_path(const std::string& name) {
+  return ::testing::TempDir() + "chasles_ik_cli_test_" + std::to_string(::getpid()) + "_" + name;
+}
+
+std::string read_all(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  std::ostringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
+struct TempFile {
+  TempFile(const std::string& name, const std::string& content) : path(temp_path(name)) {
+    std::ofstream(path, std::ios::binary) << content;
+  }
+  ~TempFile() { std::remove(path.c_str()); }
+  TempFile(const TempFile&) = delete;
+  TempFile& operator=(const TempFile&) = delete;
+  const std::string path;
+};
+
+// Runs the chasles binary; stdout and stderr go to files, stdin is /dev/null.
+Result run_cli(const std::vector<std::string>& args) {
+  const std::string out_path = temp_path("stdout"), err_path = temp_path("stderr");
+  std::vector<std::string> argv_strings{CHASLES_CLI};
+  argv_strings.insert(argv_strings.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& s : argv_strings) argv.push_back(s.data());
+  argv.push_back(nullptr);
+  std::fflush(nullptr);
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    const int in = ::open("/dev/null", O_RDONLY);
+    const int out = ::open(out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    const int err = ::open(err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    if (in < 0 || out < 0 || err < 0) ::_exit(126);
+    ::dup2(in, 0);
+    ::dup2(out, 1);
+    ::dup2(err, 2);
+    ::execv(argv[0], argv.data());
+    ::_exit(127);
+  }
+  Result result;
+  if (pid < 0) return result;
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  result.out = read_all(out_path);
+  result.err = read_all(err_path);
+  std::remove(out_path.c_str());
+  std::remove(err_path.c_str());
+  return result;
+}
+
+const std::vector<std::string> kUr5 = {"ik", "--urdf", data_path("ur5.urdf"), "--tip", "tool0"};
+
+std::vector<std::string> ur5_args(const std::vector<std::string>& more) {
+  std::vector<std::string> args = kUr5;
+  args.insert(args.end(), more.begin(), more.end());
+  return args;
+}
+
+RobotModel ur5() {
+  UrdfOptions options;
+  options.tip_link = "tool0";
+  return load_urdf_file(data_path("ur5.urdf"), options);
+}
+
+void expect_one_error_line(const Result& result, int exit_code, const std::string& fragment) {
+  EXPECT_EQ(result.exit_code, exit_code) << result.err;
+  EXPECT_EQ(result.out, "");
+  EXPECT_EQ(result.err.rfind("chasles: ", 0), 0u) << result.err;
+  EXPECT_EQ(std::count(result.err.begin(), result.err.end(), '\n'), 1) << result.err;
+  EXPECT_NE(result.err.find(fragment), std::string::npos) << result.err;
+}
+
+// The first reference targets, with their extra keys, as a targets file: every case answered with
+// the documented keys, the answers reach their targets (checked by FK here) and the summary adds up.
+TEST(ikCli, TargetsFileGivesTheDocumentedAnswer) {
+  std::ifstream file(data_path("ik_ur5.json"));
+  json document = json::parse(file);
+  document["cases"].erase(document["cases"].begin() + 10, document["cases"].end());
+  const TempFile targets("targets.json", document.dump());
+  const Result result = run_cli(ur5_args({"--targets", targets.path, "--budget-ms", "1000", "--max-restarts", "100"}));
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_EQ(result.err, "");
+  const auto out = nlohmann::ordered_json::parse(result.out);  // keeps the printed key order
+  const RobotModel model = ur5();
+  ASSERT_EQ(out.at("cases").size(), 10u);
+  for (size_t k = 0; k < 10; ++k) {
+    const auto& c = out["cases"][k];
+    std::vector<std::string> keys;
+    for (const auto& item : c.items()) keys.push_back(item.key());
+    EXPECT_EQ(keys, (std::vector<std::string>{"q", "converged", "pos_err", "rot_err", "iterations", "restarts",
+                                              "time_us"}));
+    EXPECT_TRUE(c.at("converged").get<bool>());
+    Eigen::VectorXd q(model.dof());
+    for (int i = 0; i < model.dof(); ++i) q[i] = c.at("q").at(static_cast<size_t>(i)).get<double>();
+    Matrix4d T_target;
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) T_target(i, j) = document["cases"][k]["T_target"][i][j].get<double>();
+    const Transform T_sb = forward_kinematics_space(model, q);
+    EXPECT_LE((T_sb.translation() - T_target.topRightCorner<3, 1>()).norm(), 1e-6);
+    EXPECT_LE(log3(Matrix3d(T_target.topLeftCorner<3, 3>().transpose() * T_sb.linear())).norm(), 1e-6);
+    EXPECT_LE(c.at("pos_err").get<double>(), 1e-6);
+    EXPECT_GE(c.at("time_us").get<double>(), 0.0);
+  }
+  const auto& summary = out.at("summary");
+  EXPECT_EQ(summary.at("success_rate").get<double>(), 1.0);
+  EXPECT_GT(summary.at("median_us").get<double>(), 0.0);
+  EXPECT_GE(summary.at("p99_us").get<double>(), summary.at("median_us").get<double>());
+}
+
+TEST(ikCli, OnePose) {
+  // FK at q = 0.3 (all joints), as position and quaternion (w, x, y, z).
+  const RobotModel model = ur5();
+  const Transform T = forward_kinematics_space(model, Eigen::VectorXd::Constant(6, 0.3));
+  const Eigen::Quaterniond r(T.linear());
+  std::ostringstream pose;
+  pose.precision(17);
+  pose << T.translation().x() << ',' << T.translation().y() << ',' << T.translation().z() << ',' << r.w() << ','
+       << r.x() << ',' << r.y() << ',' << r.z();
+  const Result result = run_cli(ur5_args({"--pose", pose.str(), "--seed", "0,0,0,0,0,0", "--seed-rng", "7"}));
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const json out = json::parse(result.out);
+  ASSERT_EQ(out.at("cases").size(), 1u);
+  EXPECT_TRUE(out["cases"][0].at("converged").get<bool>());
+  EXPECT_EQ(out.at("summary").at("success_rate").get<double>(), 1.0);
+}
+
+TEST(ikCli, BadInputIsOneLine) {
+  const TempFile non_rigid("non_rigid.json",
+                           R"({"cases": [{"T_target": [[1,0,0,0],[0,1,0,0],[0,0,2,0],[0,0,0,1]], "q_seed": [0,0,0,0,0,0]}]})");
+  expect_one_error_line(run_cli(ur5_args({"--targets", non_rigid.path})), 1, "cases[0].T_target");
+  const TempFile non_finite("non_finite.json", R"({"cases": [{"T_target": [[1,0,0,0],[0,1,0,0],[0,0,1,null],[0,0,0,1]]}]})");
+  expect_one_error_line(run_cli(ur5_args({"--targets", non_finite.path})), 1, "cases[0].T_target");
+  const TempFile short_seed("short_seed.json",
+                            R"({"cases": [{"T_target": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]], "q_seed": [0,0]}]})");
+  expect_one_error_line(run_cli(ur5_args({"--targets", short_seed.path})), 1, "q_seed");
+  expect_one_error_line(run_cli(ur5_args({"--pose", "0.4,0,0.3,2,0,0,0"})), 1, "quaternion");
+  expect_one_error_line(run_cli(ur5_args({"--pose", "0.4,0,0.3,1,0,0,0", "--seed", "0,0"})), 1, "--seed");
+  // Usage errors: exit 2.
+  expect_one_error_line(run_cli(ur5_args({})), 2, "--targets");
+  expect_one_error_line(run_cli(ur5_args({"--targets", non_rigid.path, "--pose", "0,0,0,1,0,0,0"})), 2, "--targets");
+  expect_one_error_line(run_cli(ur5_args({"--targets", non_rigid.path, "--seed", "0,0,0,0,0,0"})), 2, "--seed");
+  expect_one_error_line(run_cli(ur5_args({"--pose", "0,0,0,1,0,0,0", "--budget-ms", "-1"})), 2, "--budget-ms");
+}
+
+}  // namespace
+}  // namespace chasles::testing

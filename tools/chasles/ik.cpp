@@ -1,0 +1,211 @@
+// chasles ik: inverse kinematics (chasles::ik, Ceres) for a file of target poses or for one pose.
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <stdexcept>
+#include <vector>
+
+#include "chasles/core/ik/ik.hpp"
+#include "command.hpp"
+
+namespace chasles::cli {
+namespace {
+
+// A quaternion typed by hand is off unit norm by ~1e-5; further than this is a mistake, not rounding
+// (the same tolerance as chasles target).
+constexpr double kQuaternionNormTolerance = 1e-3;
+
+struct IkCommandOptions {
+  ModelOptions model;
+  std::string targets;
+  std::string pose;
+  std::string seed;
+  double budget_ms = 5.0;
+  std::uint64_t rng_seed = 1;
+  int max_restarts = IkOptions().max_restarts;
+  bool position_only = false;
+};
+
+struct IkInput {
+  Matrix4d T_sd;
+  Eigen::VectorXd q_seed;
+};
+
+/// The middle of every joint's range (0 for continuous joints): the seed when none is given.
+Eigen::VectorXd middle_of_limits(const RobotModel& model) {
+  Eigen::VectorXd q(model.dof());
+  for (int i = 0; i < model.dof(); ++i) {
+    const Joint& joint = model.joint(i);
+    q[i] = joint.type == JointType::Continuous ? 0.0 : 0.5 * (joint.limits.lower + joint.limits.upper);
+  }
+  return q;
+}
+
+/// A rigid transform from 4 rows of 4 finite numbers; InputError naming `where` otherwise.
+Matrix4d parse_transform(const Json& value, const std::string& where) {
+  Matrix4d T;
+  if (!value.is_array() || value.size() != 4)
+    throw InputError(where + " is " + describe_type(value) + ", expected 4 rows of 4 numbers");
+  for (size_t i = 0; i < 4; ++i) {
+    const Eigen::VectorXd row = parse_vector(value[i], 4, where + "[" + std::to_string(i) + "]", "a 4x4 row");
+    T.row(static_cast<Eigen::Index>(i)) = row.transpose();
+  }
+  try {
+    check_rigid_transform(T, where.c_str());
+  } catch (const std::invalid_argument& e) {
+    throw InputError(e.what());
+  }
+  return T;
+}
+
+std::vector<IkInput> read_targets(const RobotModel& model, const std::string& path) {
+  const Json document = read_json_file(path, "targets file");
+  const std::string file = path == "-" ? "<stdin>" : path;
+  if (!document.is_object())
+    throw InputError(file + ": the top level is " + describe_type(document) +
+                     ", expected an object with a \"cases\" list");
+  const auto cases = document.find("cases");
+  if (cases == document.end()) throw InputError(file + ": no \"cases\" list at the top level");
+  if (!cases->is_array()) throw InputError(file + ": \"cases\" is " + describe_type(*cases) + ", expected a list");
+  std::vector<IkInput> inputs;
+  inputs.reserve(cases->size());
+  for (size_t i = 0; i < cases->size(); ++i) {
+    const std::string where = file + ": cases[" + std::to_string(i) + "]";
+    const Json& item = (*cases)[i];
+    IkInput input;
+    input.T_sd = parse_transform(member(item, "T_target", where), where + ".T_target");
+    const auto seed = item.is_object() ? item.find("q_seed") : item.end();
+    input.q_seed = seed == item.end()
+                       ? middle_of_limits(model)
+                       : parse_vector(*seed, model.dof(), where + ".q_seed", "one per joint");
+    inputs.push_back(std::move(input));
+  }
+  return inputs;
+}
+
+IkInput parse_pose_input(const RobotModel& model, const IkCommandOptions& options) {
+  const Eigen::VectorXd numbers = parse_list(options.pose, 7, "--pose");
+  Eigen::Vector4d wxyz = numbers.tail<4>();
+  const double norm = wxyz.norm();
+  if (!(std::abs(norm - 1.0) <= kQuaternionNormTolerance)) {
+    throw InputError("--pose: the quaternion (w,x,y,z) has norm " + std::to_string(norm) +
+                     "; give a unit quaternion (norm within 1e-3 of 1)");
+  }
+  wxyz /= norm;
+  const Eigen::Quaterniond rotation(wxyz[0], wxyz[1], wxyz[2], wxyz[3]);
+  IkInput input;
+  input.T_sd = Matrix4d::Identity();
+  input.T_sd.topLeftCorner<3, 3>() = rotation.toRotationMatrix();
+  input.T_sd.topRightCorner<3, 1>() = numbers.head<3>();
+  input.q_seed = options.seed.empty() ? middle_of_limits(model) : parse_list(options.seed, model.dof(), "--seed");
+  return input;
+}
+
+/// The p-quantile of sorted values by the nearest-rank method; the median averages the middle two.
+double median(const std::vector<double>& sorted) {
+  const size_t n = sorted.size();
+  return n % 2 == 1 ? sorted[n / 2] : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);
+}
+
+double nearest_rank(const std::vector<double>& sorted, double p) {
+  const size_t rank = static_cast<size_t>(std::ceil(p * static_cast<double>(sorted.size())));
+  return sorted[std::min(sorted.size(), std::max<size_t>(rank, 1)) - 1];
+}
+
+Json run_ik(const IkCommandOptions& options) {
+  const RobotModel model = load_model(options.model);
+  const std::vector<IkInput> inputs = options.targets.empty() ? std::vector<IkInput>{parse_pose_input(model, options)}
+                                                              : read_targets(model, options.targets);
+  IkOptions ik_options;
+  ik_options.position_only = options.position_only;
+  ik_options.time_budget = std::chrono::microseconds(static_cast<std::int64_t>(std::llround(options.budget_ms * 1e3)));
+  ik_options.rng_seed = options.rng_seed;
+  ik_options.max_restarts = options.max_restarts;
+  IkSolver solver(model, ik_options);
+
+  Json cases = Json::array();
+  std::vector<double> times;
+  int converged = 0;
+  for (const IkInput& input : inputs) {
+    const IkResult result = solver.solve(input.T_sd, input.q_seed);
+    Json out;
+    out["q"] = vector_json(result.q);
+    out["converged"] = result.converged;
+    out["pos_err"] = number(result.pos_err);
+    out["rot_err"] = number(result.rot_err);
+    out["iterations"] = result.iterations;
+    out["restarts"] = result.restarts;
+    out["time_us"] = number(result.time_us);
+    cases.push_back(std::move(out));
+    times.push_back(result.time_us);
+    converged += result.converged ? 1 : 0;
+  }
+  Json summary;
+  if (times.empty()) {
+    summary["success_rate"] = nullptr;
+    summary["median_us"] = nullptr;
+    summary["p99_us"] = nullptr;
+  } else {
+    std::sort(times.begin(), times.end());
+    summary["success_rate"] = static_cast<double>(converged) / static_cast<double>(times.size());
+    summary["median_us"] = median(times);
+    summary["p99_us"] = nearest_rank(times, 0.99);
+  }
+  Json document;
+  document["cases"] = std::move(cases);
+  document["summary"] = std::move(summary);
+  return document;
+}
+
+}  // namespace
+
+Command register_ik(CLI::App& app) {
+  auto options = std::make_shared<IkCommandOptions>();
+  CLI::App* command = app.add_subcommand("ik", "Inverse kinematics (Ceres): joint positions that put the tip at a pose");
+  add_model_options(*command, options->model);
+  CLI::Option* targets =
+      command
+          ->add_option("--targets", options->targets,
+                       "JSON file {\"cases\": [{\"T_target\": 4x4 rows, \"q_seed\": [n numbers]}, ...]}; q_seed is "
+                       "optional (default: the middle of the limits); other keys are ignored; - reads stdin")
+          ->type_name("FILE");
+  CLI::Option* pose = command
+                          ->add_option("--pose", options->pose,
+                                       "One target tip pose in the base frame: position x,y,z (m) and unit "
+                                       "quaternion qw,qx,qy,qz")
+                          ->type_name("X,Y,Z,QW,QX,QY,QZ");
+  CLI::Option* seed =
+      command->add_option("--seed", options->seed, "Start for --pose, one per joint (default: the middle of the limits)")
+          ->type_name("Q,Q,...");
+  command
+      ->add_option("--budget-ms", options->budget_ms,
+                   "Time budget per target, ms: restarts stop when it is spent")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  command->add_option("--seed-rng", options->rng_seed, "Seed of the random restarts")->capture_default_str();
+  command->add_option("--max-restarts", options->max_restarts, "At most this many random restarts per target")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command->add_flag("--position-only", options->position_only, "Reach the tip position only; the orientation is free");
+
+  command->parse_complete_callback([=] {
+    if ((targets->count() > 0) == (pose->count() > 0)) throw CLI::ValidationError("give exactly one of --targets and --pose");
+    if (seed->count() > 0 && pose->count() == 0) throw CLI::ValidationError("--seed goes with --pose (a targets file has q_seed)");
+  });
+  command->footer(
+      "Output: {\"cases\": [{\"q\": joint positions (the best found when not converged),\n"
+      "                      \"converged\": pos_err <= 1e-6 m and rot_err <= 1e-6 rad,\n"
+      "                      \"pos_err\": m, \"rot_err\": rad, \"iterations\", \"restarts\", \"time_us\"}, ...],\n"
+      "         \"summary\": {\"success_rate\", \"median_us\", \"p99_us\" (nearest rank)}}\n"
+      "The solution respects the joint limits; continuous joints are wrapped to (-pi, pi]. The answer is\n"
+      "deterministic for a given --seed-rng unless the time budget, rather than --max-restarts, ends the\n"
+      "search (a slower machine then tries fewer restarts). Refused (exit 1): a target that is not a finite\n"
+      "rigid transform (rotation orthonormal and det 1 within 1e-6, bottom row 0 0 0 1), a seed of the wrong\n"
+      "size, a quaternion whose norm is more than 1e-3 from 1.\n"
+      "Examples:\n"
+      "  chasles ik --urdf ur5.urdf --tip tool0 --targets ik_ur5.json\n"
+      "  chasles ik --urdf ur5.urdf --tip tool0 --pose 0.4,0.1,0.3,0,1,0,0 --seed 0,-1.5,1.5,-1.5,-1.5,0");
+  return {command, [options] { return run_ik(*options); }};
+}
+
+}  // namespace chasles::cli
