@@ -234,7 +234,7 @@ struct IkSolver::Impl {
   Transform T_sd;
   Vector6d weights = Vector6d::Ones();
   bool position_only = false;
-  double lambda = 0.0;     // λ of the regularisation in the current solve; 0 in the polish
+  double lambda = 0.0;     // λ of the regularisation now; StopWhenReached zeroes it near the target
   Eigen::VectorXd q;       // the parameter block Ceres works on
   Eigen::VectorXd q_seed;  // the seed within the limits: the regularisation's anchor
   std::unique_ptr<PoseCost> pose_cost;

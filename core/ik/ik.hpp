@@ -9,8 +9,15 @@
 // §7.1.5); it tends to the identity as the error vanishes and matters far from the target.
 // Joint limits are Ceres parameter bounds; continuous joints are unbounded and wrapped to
 // (−π, π] in the answer. For a redundant task (more joints than constrained pose components) a
-// small second residual λ (q − q_seed) keeps the solution near the seed in the null space; a
-// final polish without it then removes the bias it leaves in the pose error.
+// small second residual λ (q − q_seed) keeps the solution near the seed in the null space while
+// the arm approaches the target; within 1e-3 of it the term is switched off, so it leaves no bias
+// in the pose error.
+//
+// Search: Levenberg-Marquardt from the seed; when that attempt fails, random restarts uniform
+// within the limits, until one converges, the restart cap or the time budget runs out. An attempt
+// still far from the target (> 0.03 m or rad) after 12 iterations is abandoned for the next one.
+// When nothing converges the answer is the best pose found (smallest pos_err + rot_err), with
+// converged = false.
 #pragma once
 
 #include <chrono>
@@ -29,17 +36,19 @@ struct IkOptions {
   /// Converged means pos_err ≤ position_tolerance (m) and rot_err ≤ rotation_tolerance (rad).
   double position_tolerance = 1e-6;
   double rotation_tolerance = 1e-6;
-  /// Wall-clock budget of one solve(), seed and restarts together. Restarts stop when it is spent.
+  /// Wall-clock budget of one solve(), seed and restarts together. Restarts stop when it is spent;
+  /// the attempt from the seed always runs, and an attempt overruns it by at most one iteration.
   std::chrono::microseconds time_budget{5000};
   /// At most this many random restarts after the attempt from the seed.
   int max_restarts = 1000;
   /// Levenberg-Marquardt iterations per attempt.
   int max_iterations = 100;
-  /// λ of the regularisation λ (q − q_seed) on redundant tasks (rad⁻¹ in units of the residual);
-  /// 0 turns it off. Ignored when the task fixes every joint (6 joints, full pose).
+  /// λ of the regularisation residual λ (q − q_seed) on redundant tasks (more joints than 6, or
+  /// than 3 position-only); 0 turns it off.
   double regularization = 1e-3;
-  /// Seed of the random restarts; every solve() starts from it again, so a call's answer depends
-  /// only on its inputs — unless the time budget, rather than max_restarts, ends the search: then
+  /// Seed of the random restarts. Each solve() seeds its generator from it mixed with the target
+  /// and q_seed (so targets do not share one sequence of starts), so a call's answer depends only
+  /// on its inputs — unless the time budget, rather than max_restarts, ends the search: then
   /// a slower machine tries fewer restarts and may answer differently.
   std::uint64_t rng_seed = 1;
 };

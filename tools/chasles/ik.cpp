@@ -180,7 +180,7 @@ Command register_ik(CLI::App& app) {
   command
       ->add_option("--budget-ms", options->budget_ms,
                    "Time budget per target, ms: restarts stop when it is spent")
-      ->check(CLI::PositiveNumber)
+      ->check(CLI::Range(0.001, 3.6e6))
       ->capture_default_str();
   command->add_option("--seed-rng", options->rng_seed, "Seed of the random restarts")->capture_default_str();
   command->add_option("--max-restarts", options->max_restarts, "At most this many random restarts per target")
