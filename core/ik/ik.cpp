@@ -75,10 +75,11 @@ Matrix6d se3_right_jacobian_inverse(const Vector6d& xi) {
 }
 
 // An attempt still more than kAbandonError (m or rad) away after kAbandonIteration iterations is
-// abandoned for a restart. Measured on the reference targets: attempts that converge are within
-// 0.03 by iteration 12 in 95 % of cases, those that fail in fewer than 6 %; the successes it cuts
-// are slow ones a restart usually beats.
-constexpr int kAbandonIteration = 12;
+// abandoned for a restart. Measured on the reference targets (UR5): by iteration 8, 84 % of the
+// attempts that go on to converge are within 0.03, and 95 % of those that fail are not; the
+// successes it cuts are slow ones a restart usually beats. Cutting at 8 rather than 12 or 15
+// saved 10-20 % of the work (iterations and Ceres solves) for the same success.
+constexpr int kAbandonIteration = 8;
 constexpr double kAbandonError = 0.03;
 // A start this close to the target (m, rad) takes undamped first steps.
 constexpr double kNearPosition = 0.05;

@@ -15,7 +15,7 @@
 //
 // Search: Levenberg-Marquardt from the seed; when that attempt fails, random restarts uniform
 // within the limits, until one converges, the restart cap or the time budget runs out. An attempt
-// still far from the target (> 0.03 m or rad) after 12 iterations is abandoned for the next one.
+// still far from the target (> 0.03 m or rad) after 8 iterations is abandoned for the next one.
 // When nothing converges the answer is the best pose found (smallest pos_err + rot_err), with
 // converged = false.
 #pragma once
