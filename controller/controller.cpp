@@ -64,6 +64,7 @@ void Config::validate(int dof) const {
   if (!(period > 0.0) || !std::isfinite(period)) throw std::invalid_argument("the period must be positive");
   if (stale_ns <= 0) throw std::invalid_argument("the stale-state timeout must be positive");
   if (!(torque_ramp > 0.0)) throw std::invalid_argument("the torque ramp time must be positive");
+  if (damping.size() != 0) check_gains(damping, "damping");
 }
 
 Controller::Controller(const RobotModel& model, const Config& config)
@@ -249,6 +250,7 @@ bool Controller::tick(int64_t now_ns, const JointState* state) {
   error_ = ref_.q - q_;
   qdd_ref_ = ref_.qdd + config_.kd.cwiseProduct(ref_.qd - qd_) + config_.kp.cwiseProduct(error_);
   tau_ = inverse_dynamics(model_, data_, q_, qd_, qdd_ref_);
+  if (config_.damping.size() != 0) tau_ += config_.damping.cwiseProduct(ref_.qd);
 
   if (!tau_.allFinite()) {
     fault("the control law produced a non-finite torque");

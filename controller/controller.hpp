@@ -2,7 +2,7 @@
 // directly: validated state and targets in, joint torques out, through one safety pipeline.
 //
 //   state age / size / finiteness → reference (hold | quintic joint motion | planned Cartesian path)
-//   → computed torque τ = M(q)(q̈_d + K_d ė + K_p e) + c(q, q̇) + g(q), by one RNEA call
+//   → computed torque τ = M(q)(q̈_d + K_d ė + K_p e) + c(q, q̇) + g(q) [+ D q̇_d], by one RNEA call
 //   → non-finite refused → effort limits → torque-rate limit → command
 #pragma once
 
@@ -23,6 +23,9 @@ struct Config {
   /// Time to ramp through a joint's full effort range, s: the torque-rate limit is
   /// effort_limit / torque_ramp per joint (infinite where the URDF gives no effort limit).
   double torque_ramp = 0.05;
+  /// The joints' viscous damping D (N·m·s/rad or N·s/m), if known: the law adds D q̇_d, the
+  /// torque that feeds it forward. Empty or zero: none.
+  Eigen::VectorXd damping;
 
   /// K_p = ω², K_d = 2ω (critically damped error dynamics at the natural frequency ω, rad/s).
   static Config critically_damped(int dof, double omega);

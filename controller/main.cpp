@@ -70,6 +70,7 @@ struct Flags {
   std::string robot, tip, config, summary;
   double rate = 1000.0, stale_ms = 10.0, torque_ramp_ms = 50.0, omega = 20.0;
   std::string kp, kd;
+  std::string damping;
 };
 
 /// Settings from a JSON config file ({"kp": .., "kd": .., "rate": .., "stale_ms": ..,
@@ -148,6 +149,8 @@ int main(int argc, char** argv) {
   app.add_option("--rate", flags.rate, "control rate, Hz (default 1000)")->check(CLI::PositiveNumber);
   app.add_option("--kp", flags.kp, "position gains K_p, 1/s²: one number or one per joint (default ω²)");
   app.add_option("--kd", flags.kd, "velocity gains K_d, 1/s: one number or one per joint (default 2ω)");
+  app.add_option("--damping", flags.damping,
+                 "the joints' viscous damping, N·m·s/rad: one number or one per joint; fed forward as D q̇_d");
   app.add_option("--omega", flags.omega, "natural frequency ω of the default gains, rad/s (default 20)")
       ->check(CLI::PositiveNumber);
   app.add_option("--config", flags.config, "JSON file with kp, kd, rate, stale_ms, torque_ramp_ms (flags win)")
@@ -188,6 +191,7 @@ int main(int argc, char** argv) {
     options.control = chasles::controller::Config::critically_damped(n, flags.omega);
     if (!flags.kp.empty()) options.control.kp = gains(flags.kp, n, "--kp");
     if (!flags.kd.empty()) options.control.kd = gains(flags.kd, n, "--kd");
+    if (!flags.damping.empty()) options.control.damping = gains(flags.damping, n, "--damping");
     options.control.period = 1.0 / flags.rate;
     options.control.stale_ns = static_cast<int64_t>(flags.stale_ms * 1e6);
     options.control.torque_ramp = flags.torque_ramp_ms * 1e-3;

@@ -10,12 +10,13 @@
 #   --robot R        ur5 or panda (tests/data/R.urdf), or a URDF file (default panda)
 #   --tip LINK       the chain's tip, for a URDF with several leaves (ur5: tool0, panda: panda_hand)
 #   --summary FILE   also copy the controller's summary JSON here
-#   --sync-us M      phase-lock the controller's ticks M µs after the plant's states (default: off,
-#                    the controller runs on its own clock and a state waits up to a period)
+#   --sync-us M      phase-lock the controller's ticks M µs after the plant's states (default 100;
+#                    0: off, the controller runs on its own clock and a state waits up to a period)
 #
 # In a private network namespace (tools/netns.sh) it starts lcm-logger, chasles_plant (real time,
 # 1 kHz, damped) and chasles_controller --realtime, sends a programme of targets with
-# `chasles target` (hold; a joint move; another; back home; hold), stops every process after N
+# `chasles target` (hold; a joint move; another; a Cartesian move; back home; hold), stops every
+# process after N
 # seconds, then runs chasles_loop_bench (a bare 1 kHz loop and an LCM ping-pong, 3 s each) for
 # reference and prints the controller's figures beside it. Everything of the run (the LCM log,
 # each process's output, the summaries) is kept in build/demo/<time>/. CHASLES_BUILD_DIR chooses
@@ -144,29 +145,56 @@ print(",".join(repr(x) for x in b))
 PY
   )
   { read -r home; read -r pose_a; read -r pose_b; } <<<"$poses"
+  # The Cartesian goal: the tip pose at pose_a (by the CLI's FK), reached again in a straight line.
+  local tip_pose
+  echo "{\"cases\":[{\"q\":[$pose_a]}]}" >"$dir/cartesian_case.json"
+  "$DEMO_BUILD/tools/chasles" eval --urdf "$DEMO_URDF" ${DEMO_TIP:+--tip "$DEMO_TIP"} \
+    --cases "$dir/cartesian_case.json" >"$dir/cartesian_pose.json"
+  tip_pose=$(python3 - "$dir/cartesian_pose.json" <<'PY'
+import json, math, sys
+T = json.load(open(sys.argv[1]))["cases"][0]["T"]
+R = [row[:3] for row in T[:3]]
+# Rotation matrix -> unit quaternion (w, x, y, z), branch on the largest diagonal term.
+t = R[0][0] + R[1][1] + R[2][2]
+if t > 0:
+    s = 2 * math.sqrt(1 + t); w, x, y, z = s / 4, (R[2][1] - R[1][2]) / s, (R[0][2] - R[2][0]) / s, (R[1][0] - R[0][1]) / s
+elif R[0][0] > R[1][1] and R[0][0] > R[2][2]:
+    s = 2 * math.sqrt(1 + R[0][0] - R[1][1] - R[2][2]); w, x, y, z = (R[2][1] - R[1][2]) / s, s / 4, (R[0][1] + R[1][0]) / s, (R[0][2] + R[2][0]) / s
+elif R[1][1] > R[2][2]:
+    s = 2 * math.sqrt(1 + R[1][1] - R[0][0] - R[2][2]); w, x, y, z = (R[0][2] - R[2][0]) / s, (R[0][1] + R[1][0]) / s, s / 4, (R[1][2] + R[2][1]) / s
+else:
+    s = 2 * math.sqrt(1 + R[2][2] - R[0][0] - R[1][1]); w, x, y, z = (R[1][0] - R[0][1]) / s, (R[0][2] + R[2][0]) / s, (R[1][2] + R[2][1]) / s, s / 4
+print(",".join(repr(v) for v in (T[0][3], T[1][3], T[2][3], w, x, y, z)))
+PY
+  )
 
-  # The programme, as fractions of the run: for 10 s, moves of 2 s starting at 1, 3.5 and 6 s.
-  local move t_hold t_a t_b t_home t_hold2
-  move=$(awk -v n="$seconds" 'BEGIN { d = 0.2 * n; printf "%g", (d > 2 ? 2 : d) }')
-  read -r t_hold t_a t_b t_home t_hold2 < <(awk -v n="$seconds" \
-    'BEGIN { printf "%g %g %g %g %g\n", 0.05 * n, 0.1 * n, 0.35 * n, 0.6 * n, 0.85 * n }')
+  # The programme, as fractions of the run: for 10 s, moves of 1.8 s starting at 1, 3, 5 and 7 s.
+  local move t_hold t_a t_b t_cart t_home t_hold2
+  move=$(awk -v n="$seconds" 'BEGIN { d = 0.18 * n; printf "%g", (d > 2 ? 2 : d) }')
+  read -r t_hold t_a t_b t_cart t_home t_hold2 < <(awk -v n="$seconds" \
+    'BEGIN { printf "%g %g %g %g %g %g\n", 0.05 * n, 0.1 * n, 0.3 * n, 0.5 * n, 0.7 * n, 0.9 * n }')
 
   start lcm-logger lcm-logger --lcm-url="$lcm_url" --force "$dir/chasles.lcmlog"
   start chasles_plant "$DEMO_BUILD/tools/chasles_plant" "${model[@]}" --rate 1000 --damping 0.5 --q0 "$home" \
     --lcm-url "$lcm_url"
-  start chasles_controller "$DEMO_BUILD/controller/chasles_controller" "${model[@]}" --realtime --lcm-url "$lcm_url" \
+  # The controller knows the plant's joint damping and feeds it forward (--damping).
+  start chasles_controller "$DEMO_BUILD/controller/chasles_controller" "${model[@]}" --realtime --damping 0.5 \
+    --lcm-url "$lcm_url" \
     ${DEMO_SYNC_US:+--sync-us "$DEMO_SYNC_US"} --summary "$dir/summary.json"
   run_start=$(now)
   sleep 0.3
   check_alive
 
-  echo "Programme (${seconds} s; joint moves of ${move} s):"
+  echo "Programme (${seconds} s; moves of ${move} s):"
   wait_until "$t_hold"
   send "hold" --hold
   wait_until "$t_a"
   send "JOINT move to [$pose_a]" "${model[@]}" --joint "$pose_a" --duration "$move"
   wait_until "$t_b"
   send "JOINT move to [$pose_b]" "${model[@]}" --joint "$pose_b" --duration "$move"
+  wait_until "$t_cart"
+  send "CARTESIAN move, a straight line to the tip pose at the first pose [$tip_pose]" --pose "$tip_pose" \
+    --duration "$move"
   wait_until "$t_home"
   send "JOINT move home to [$home]" "${model[@]}" --joint "$home" --duration "$move"
   wait_until "$t_hold2"
@@ -277,7 +305,7 @@ seconds=10
 robot=panda
 tip=
 summary=
-sync_us=
+sync_us=100
 while [ $# -gt 0 ]; do
   case "$1" in
     --seconds | --robot | --tip | --summary | --sync-us)
