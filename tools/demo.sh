@@ -175,7 +175,7 @@ PY
     'BEGIN { printf "%g %g %g %g %g %g\n", 0.05 * n, 0.1 * n, 0.3 * n, 0.5 * n, 0.7 * n, 0.9 * n }')
 
   start lcm-logger lcm-logger --lcm-url="$lcm_url" --force "$dir/chasles.lcmlog"
-  start chasles_plant "$DEMO_BUILD/tools/chasles_plant" "${model[@]}" --rate 1000 --damping 0.5 --q0 "$home" \
+  start chasles_plant "$DEMO_BUILD/tools/chasles_plant" "${model[@]}" --realtime --rate 1000 --damping 0.5 --q0 "$home" \
     --lcm-url "$lcm_url"
   # The controller knows the plant's joint damping and feeds it forward (--damping).
   start chasles_controller "$DEMO_BUILD/controller/chasles_controller" "${model[@]}" --realtime --damping 0.5 \

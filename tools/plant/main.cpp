@@ -22,6 +22,7 @@
 
 #include "chasles/core/model/urdf.hpp"
 #include "chasles/controller/clock.hpp"
+#include "chasles/controller/realtime.hpp"
 #include "messaging.hpp"
 #include "plant.hpp"
 
@@ -45,6 +46,7 @@ struct Options {
   std::string damping = "0";
   std::string q0;
   bool lockstep = false;
+  bool realtime = false;
   double timeout_ms = 50.0;
   std::string prefix = "CHASLES_";
   std::string lcm_url;
@@ -325,6 +327,8 @@ void add_options(CLI::App& app, Options& o) {
   app.add_flag("--lockstep", o.lockstep,
                "One step per command answering the latest state (deterministic); until then the state is "
                "sent again every 10 ms. Default: real time");
+  app.add_flag("--realtime", o.realtime,
+               "SCHED_FIFO 70 and mlockall for the simulation (warns if refused), so states leave on time");
   app.add_option("--timeout-ms", o.timeout_ms, "Real time: brake after this long without a valid command")
       ->check(kPositive)
       ->capture_default_str();
@@ -417,6 +421,13 @@ int main(int argc, char** argv) {
                  model.name().c_str(), model.dof(), model.tip_link().c_str(), options.rate_hz,
                  options.lockstep ? "lockstep" : "real time (braked until the first command)", options.prefix.c_str(),
                  options.prefix.c_str());
+    // Below the controller's default priority (80): on a shared machine the controller's tick
+    // comes first.
+    if (options.realtime) {
+      for (const auto& warning : chasles::controller::make_realtime(70, -1)) {
+        std::fprintf(stderr, "chasles_plant: warning: %s\n", warning.c_str());
+      }
+    }
     simulation.run();
     simulation.print_summary();
     return 0;
