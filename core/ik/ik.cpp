@@ -27,15 +27,7 @@ constexpr double kQSeriesCutoff = 0.1;
 /// Jl⁻¹(φ) = I − [φ]/2 + D(θ)[φ]² for SO(3), D = (1 − (θ/2)cot(θ/2))/θ², which stays finite up to
 /// and at θ = π (Barfoot eq. 7.45; the same D as log6).
 Matrix3d so3_left_jacobian_inverse(const Vector3d& phi) {
-  const double theta = phi.norm();
-  double d;
-  if (theta < detail::series_cutoff()) {
-    const double t2 = theta * theta;
-    d = 1.0 / 12.0 + t2 / 720.0 + t2 * t2 / 30240.0;
-  } else {
-    const double half = 0.5 * theta;
-    d = (1.0 - half * std::cos(half) / std::sin(half)) / (theta * theta);
-  }
+  const double d = detail::log_coefficient(phi.norm());
   const Matrix3d P = hat3(phi);
   return Matrix3d::Identity() - 0.5 * P + d * (P * P);
 }

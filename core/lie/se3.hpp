@@ -41,19 +41,24 @@ Transform exp6(const Eigen::MatrixBase<Derived>& V) {
   return T;
 }
 
+namespace detail {
+/// D(θ) = (1 − (θ/2)cot(θ/2))/θ², the [ω]² coefficient of G⁻¹ and of SO(3)'s inverse Jacobians;
+/// finite up to and at θ = π, by its series below the cut-off.
+inline double log_coefficient(double theta) {
+  if (theta < series_cutoff()) {
+    const double t2 = theta * theta;
+    return 1.0 / 12.0 + t2 / 720.0 + t2 * t2 / 30240.0;
+  }
+  const double half = 0.5 * theta;
+  return (1.0 - half * std::cos(half) / std::sin(half)) / (theta * theta);
+}
+}  // namespace detail
+
 /// log(T) as a twist V = (ω̂θ, vθ) with θ ∈ [0, π] (MR algorithm 3.3), using
 /// G⁻¹(θ)θ = I − [ω]/2 + D(θ)[ω]², D = (1 − (θ/2)cot(θ/2))/θ², which stays finite at θ = π.
 inline Vector6d log6(const Transform& T) {
   const Vector3d w = log3(T.linear());
-  const double theta = w.norm();
-  double d;
-  if (theta < detail::series_cutoff()) {
-    const double t2 = theta * theta;
-    d = 1.0 / 12.0 + t2 / 720.0 + t2 * t2 / 30240.0;
-  } else {
-    const double half = 0.5 * theta;
-    d = (1.0 - half * std::cos(half) / std::sin(half)) / (theta * theta);
-  }
+  const double d = detail::log_coefficient(w.norm());
   const Matrix3d W = hat3(w);
   const Vector3d& p = T.translation();
   Vector6d V;
