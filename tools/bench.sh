@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Benchmarks chasles against Orocos KDL (tests/bench/dynamics_bench.cpp) on the UR5 and the Panda
 # and prints, per robot and quantity, the median time of each and their ratio, next to the ratio
-# Pinocchio reaches against KDL (the anchor the issue sets). Installs missing Debian packages,
-# builds a separate Release tree in build-bench/ and only the benchmark target there.
+# Pinocchio reaches against KDL (the anchor the issue sets); then inverse kinematics, chasles's
+# Ceres solver against KDL's NR_JL on the reference targets (tests/bench/ik_bench.cpp). Installs
+# missing Debian packages, builds a separate Release tree in build-bench/ and only the benchmark
+# targets there.
 #
 #   tools/bench.sh                                  the table (build and benchmark noise on stderr)
 #   tools/bench.sh --json                           {"<robot>": {"<quantity>": {"chasles_ns": .., "kdl_ns": ..}}}
@@ -31,7 +33,7 @@ chasles_install_missing "${chasles_packages_build[@]}" libbenchmark-dev liboroco
 build="$root/build-bench"
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCHASLES_BUILD_BENCHMARKS=ON \
   -DCHASLES_BUILD_TESTS=OFF -DCHASLES_BUILD_TOOLS=OFF -DCHASLES_WERROR=OFF >&2
-cmake --build "$build" --target chasles_bench -j 2 >&2
+cmake --build "$build" --target chasles_bench chasles_ik_bench -j 2 >&2
 
 report=$(mktemp)
 trap 'rm -f "$report"' EXIT
@@ -122,3 +124,12 @@ if behind:
 else:
     print("chasles is at or below Pinocchio's ratio wherever the issue gives one.")
 EOF
+
+# Inverse kinematics, chasles (Ceres) against KDL (ChainIkSolverPos_NR_JL): success rates and
+# times per solve on the reference targets, cold and warm. Table output only: --json keeps the
+# dynamics format above.
+if [ "$json" = 0 ]; then
+  echo
+  echo "bench: running chasles_ik_bench (200 targets per robot, cold and warm)" >&2
+  "$build/tests/bench/chasles_ik_bench" 2> >(grep -v "KDL does not support a root link" >&2)
+fi
