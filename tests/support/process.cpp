@@ -16,6 +16,61 @@ int exit_code(int status) { return WIFEXITED(status) ? WEXITSTATUS(status) : 128
 
 }  // namespace
 
+std::string read_file(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  std::ostringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
+TempFile::TempFile(const std::string& name, const std::string& content)
+    : path(::testing::TempDir() + "chasles_" + std::to_string(::getpid()) + "_" + name) {
+  std::ofstream(path, std::ios::binary) << content;
+}
+
+TempFile::~TempFile() { std::remove(path.c_str()); }
+
+RunResult run_to_completion(const std::vector<std::string>& argv_strings, const std::string& stdin_path,
+                            const std::vector<std::string>& env) {
+  static int runs = 0;
+  const std::string base = ::testing::TempDir() + "run_" + std::to_string(::getpid()) + "_" + std::to_string(++runs);
+  const std::string out_path = base + "_stdout", err_path = base + "_stderr";
+  std::vector<std::string> args = argv_strings, env_strings = env;
+  std::vector<char*> argv;
+  for (auto& s : args) argv.push_back(s.data());
+  argv.push_back(nullptr);
+  std::fflush(nullptr);
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    const int in = ::open(stdin_path.c_str(), O_RDONLY);
+    const int out = ::open(out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    const int err = ::open(err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    if (in < 0 || out < 0 || err < 0) ::_exit(126);
+    ::dup2(in, 0);
+    ::dup2(out, 1);
+    ::dup2(err, 2);
+    for (auto& entry : env_strings) {
+      if (entry.find('=') == std::string::npos) {
+        ::unsetenv(entry.c_str());
+      } else {
+        ::putenv(entry.data());
+      }
+    }
+    ::execv(argv[0], argv.data());
+    ::_exit(127);
+  }
+  RunResult result;
+  if (pid < 0) return result;
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  result.exit_code = exit_code(status);
+  result.out = read_file(out_path);
+  result.err = read_file(err_path);
+  std::remove(out_path.c_str());
+  std::remove(err_path.c_str());
+  return result;
+}
+
 ChildProcess::ChildProcess(std::vector<std::string> argv_strings)
     : stderr_path_(::testing::TempDir() + "child_" + std::to_string(::getpid()) + "_" + std::to_string(++count_) +
                    "_stderr") {
@@ -57,11 +112,6 @@ int ChildProcess::wait() {
   return exit_code_;
 }
 
-std::string ChildProcess::stderr_text() const {
-  std::ifstream file(stderr_path_);
-  std::ostringstream text;
-  text << file.rdbuf();
-  return text.str();
-}
+std::string ChildProcess::stderr_text() const { return read_file(stderr_path_); }
 
 }  // namespace chasles::testing

@@ -10,6 +10,30 @@
 
 namespace chasles::testing {
 
+/// What a program run to completion printed and how it ended.
+struct RunResult {
+  int exit_code = -1;  ///< the exit status, or 128 + signal if it was killed
+  std::string out, err;
+};
+
+/// Runs argv (argv[0] the program's path) to completion: stdin from `stdin_path`, stdout and
+/// stderr through files (no pipe to fill up). `env` entries "NAME=value" are set in the child's
+/// environment, a bare "NAME" is removed from it.
+RunResult run_to_completion(const std::vector<std::string>& argv, const std::string& stdin_path = "/dev/null",
+                            const std::vector<std::string>& env = {});
+
+/// A file's whole content ("" if it cannot be read).
+std::string read_file(const std::string& path);
+
+/// A file in the test's temporary directory with the given content, removed with the object.
+struct TempFile {
+  TempFile(const std::string& name, const std::string& content);
+  ~TempFile();
+  TempFile(const TempFile&) = delete;
+  TempFile& operator=(const TempFile&) = delete;
+  const std::string path;
+};
+
 class ChildProcess {
  public:
   /// argv[0] is the program's path.

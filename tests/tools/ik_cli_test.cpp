@@ -1,8 +1,6 @@
 // `chasles ik` run as a real process: the documented output for a targets file in the reference
 // format and for one --pose, and bad input as one "chasles: ..." line with the documented exit code.
-#include <fcntl.h>
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -16,6 +14,7 @@
 #include "chasles/core/kinematics/kinematics.hpp"
 #include "chasles/core/lie/se3.hpp"
 #include "chasles/core/model/urdf.hpp"
+#include "support/process.hpp"
 #include "support/reference.hpp"
 
 namespace chasles::testing {
@@ -23,63 +22,13 @@ namespace {
 
 using nlohmann::json;
 
-struct Result {
-  int exit_code = -1;
-  std::string out, err;
-};
+using Result = testing::RunResult;
 
-std::string temp_path(const std::string& name) {
-  return ::testing::TempDir() + "chasles_ik_cli_test_" + std::to_string(::getpid()) + "_" + name;
-}
-
-std::string read_all(const std::string& path) {
-  std::ifstream file(path, std::ios::binary);
-  std::ostringstream text;
-  text << file.rdbuf();
-  return text.str();
-}
-
-struct TempFile {
-  TempFile(const std::string& name, const std::string& content) : path(temp_path(name)) {
-    std::ofstream(path, std::ios::binary) << content;
-  }
-  ~TempFile() { std::remove(path.c_str()); }
-  TempFile(const TempFile&) = delete;
-  TempFile& operator=(const TempFile&) = delete;
-  const std::string path;
-};
-
-// Runs the chasles binary; stdout and stderr go to files, stdin is /dev/null.
+// Runs the chasles binary with `args`.
 Result run_cli(const std::vector<std::string>& args) {
-  const std::string out_path = temp_path("stdout"), err_path = temp_path("stderr");
-  std::vector<std::string> argv_strings{CHASLES_CLI};
-  argv_strings.insert(argv_strings.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  for (auto& s : argv_strings) argv.push_back(s.data());
-  argv.push_back(nullptr);
-  std::fflush(nullptr);
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    const int in = ::open("/dev/null", O_RDONLY);
-    const int out = ::open(out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-    const int err = ::open(err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-    if (in < 0 || out < 0 || err < 0) ::_exit(126);
-    ::dup2(in, 0);
-    ::dup2(out, 1);
-    ::dup2(err, 2);
-    ::execv(argv[0], argv.data());
-    ::_exit(127);
-  }
-  Result result;
-  if (pid < 0) return result;
-  int status = 0;
-  ::waitpid(pid, &status, 0);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  result.out = read_all(out_path);
-  result.err = read_all(err_path);
-  std::remove(out_path.c_str());
-  std::remove(err_path.c_str());
-  return result;
+  std::vector<std::string> argv{CHASLES_CLI};
+  argv.insert(argv.end(), args.begin(), args.end());
+  return testing::run_to_completion(argv);
 }
 
 const std::vector<std::string> kUr5 = {"ik", "--urdf", data_path("ur5.urdf"), "--tip", "tool0"};

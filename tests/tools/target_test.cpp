@@ -2,9 +2,7 @@
 // runs inside its own network namespace (tools/netns.sh is its launcher, see CMakeLists.txt), so
 // the multicast never leaves the machine. A refused target must exit 1 with one "chasles: ..."
 // line and send nothing at all.
-#include <fcntl.h>
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -13,13 +11,12 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <fstream>
 #include <lcm/lcm-cpp.hpp>
 #include <nlohmann/json.hpp>
-#include <sstream>
 #include <string>
 #include <vector>
 
+#include "support/process.hpp"
 #include "support/reference.hpp"
 
 namespace chasles::testing {
@@ -31,54 +28,16 @@ using Clock = std::chrono::steady_clock;
 constexpr char kLcmUrl[] = "udpm://239.255.76.67:7667?ttl=0";  // the URL tools/netns.sh documents
 constexpr char kPrefix[] = "TEST_";
 
-struct Result {
-  int exit_code = -1;  ///< the exit status, or 128 + signal
-  std::string out, err;
-};
+using Result = testing::RunResult;
 
-std::string read_all(const std::string& path) {
-  std::ifstream file(path, std::ios::binary);
-  std::ostringstream text;
-  text << file.rdbuf();
-  return text.str();
-}
-
-// Runs `chasles target ARGS`; stdout and stderr go to files. `env` entries ("NAME=value") are
-// added to the child's environment.
+// Runs `chasles target ARGS`, without the caller's LCM_DEFAULT_URL; `env` entries ("NAME=value")
+// are added to the child's environment.
 Result run_target(const std::vector<std::string>& args, const std::vector<std::string>& env = {}) {
-  const std::string base = ::testing::TempDir() + "target_test_" + std::to_string(::getpid());
-  const std::string out_path = base + "_stdout", err_path = base + "_stderr";
-  std::vector<std::string> argv_strings{CHASLES_CLI, "target"};
-  argv_strings.insert(argv_strings.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  for (auto& s : argv_strings) argv.push_back(s.data());
-  argv.push_back(nullptr);
-  std::vector<std::string> env_strings = env;
-
-  std::fflush(nullptr);
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    const int in = ::open("/dev/null", O_RDONLY);
-    const int out = ::open(out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-    const int err = ::open(err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-    if (in < 0 || out < 0 || err < 0) ::_exit(126);
-    ::dup2(in, 0);
-    ::dup2(out, 1);
-    ::dup2(err, 2);
-    ::unsetenv("LCM_DEFAULT_URL");
-    for (auto& entry : env_strings) ::putenv(entry.data());
-    ::execv(argv[0], argv.data());
-    ::_exit(127);
-  }
-  Result result;
-  int status = 0;
-  ::waitpid(pid, &status, 0);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  result.out = read_all(out_path);
-  result.err = read_all(err_path);
-  std::remove(out_path.c_str());
-  std::remove(err_path.c_str());
-  return result;
+  std::vector<std::string> argv{CHASLES_CLI, "target"};
+  argv.insert(argv.end(), args.begin(), args.end());
+  std::vector<std::string> environment{"LCM_DEFAULT_URL"};
+  environment.insert(environment.end(), env.begin(), env.end());
+  return testing::run_to_completion(argv, "/dev/null", environment);
 }
 
 // Every arm_target_t on `channel`. Subscribed through LCM's C interface: GCC 12 with
