@@ -1,9 +1,10 @@
 #include "command.hpp"
 
-#include <cmath>
+#include <stdexcept>
 #include <vector>
 
 #include "chasles/core/model/urdf.hpp"
+#include "chasles/tools/number_list.hpp"
 
 namespace chasles::cli {
 
@@ -25,27 +26,10 @@ namespace chasles::cli {
 
 Eigen::VectorXd parse_list(const std::string& text, Eigen::Index n, const std::string& option) {
   std::vector<double> values;
-  size_t start = 0;
-  while (true) {
-    const size_t end = text.find(',', start);
-    const std::string item = text.substr(start, end == std::string::npos ? std::string::npos : end - start);
-    const size_t index = values.size();
-    size_t used = 0;
-    double value = 0.0;
-    try {
-      value = std::stod(item, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used == 0 || item.find_first_not_of(" \t", used) != std::string::npos) {
-      throw InputError(option + ": entry " + std::to_string(index) + " ('" + item + "') is not a number");
-    }
-    if (!std::isfinite(value)) {
-      throw InputError(option + ": entry " + std::to_string(index) + " ('" + item + "') is not finite");
-    }
-    values.push_back(value);
-    if (end == std::string::npos) break;
-    start = end + 1;
+  try {
+    values = tools::parse_number_list(text, option);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(e.what());
   }
   if (static_cast<Eigen::Index>(values.size()) != n) {
     throw InputError(option + " has " + std::to_string(values.size()) + " entries, expected " + std::to_string(n) +

@@ -49,18 +49,13 @@ Json eval_case(const RobotModel& model, Data& data, const CaseInput& input) {
 Json eval_json(const RobotModel& model, const std::string& cases_path) {
   const Json document = read_json_file(cases_path, "cases file");
   const std::string file = cases_path == "-" ? "<stdin>" : cases_path;
-  if (!document.is_object())
-    throw InputError(file + ": the top level is " + describe_type(document) +
-                     ", expected an object with a \"cases\" list");
-  const auto cases = document.find("cases");
-  if (cases == document.end()) throw InputError(file + ": no \"cases\" list at the top level");
-  if (!cases->is_array()) throw InputError(file + ": \"cases\" is " + describe_type(*cases) + ", expected a list");
+  const Json& cases = cases_list(document, cases_path);
 
   // Check every case before computing any, so a bad one late in the file fails fast.
   std::vector<CaseInput> inputs;
-  inputs.reserve(cases->size());
-  for (size_t i = 0; i < cases->size(); ++i) {
-    inputs.push_back(parse_case(model, (*cases)[i], file + ": cases[" + std::to_string(i) + "]"));
+  inputs.reserve(cases.size());
+  for (size_t i = 0; i < cases.size(); ++i) {
+    inputs.push_back(parse_case(model, cases[i], file + ": cases[" + std::to_string(i) + "]"));
   }
   Data data(model);
   Json results = Json::array();

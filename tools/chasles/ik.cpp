@@ -61,17 +61,12 @@ Matrix4d parse_transform(const Json& value, const std::string& where) {
 std::vector<IkInput> read_targets(const RobotModel& model, const std::string& path) {
   const Json document = read_json_file(path, "targets file");
   const std::string file = path == "-" ? "<stdin>" : path;
-  if (!document.is_object())
-    throw InputError(file + ": the top level is " + describe_type(document) +
-                     ", expected an object with a \"cases\" list");
-  const auto cases = document.find("cases");
-  if (cases == document.end()) throw InputError(file + ": no \"cases\" list at the top level");
-  if (!cases->is_array()) throw InputError(file + ": \"cases\" is " + describe_type(*cases) + ", expected a list");
+  const Json& cases = cases_list(document, path);
   std::vector<IkInput> inputs;
-  inputs.reserve(cases->size());
-  for (size_t i = 0; i < cases->size(); ++i) {
+  inputs.reserve(cases.size());
+  for (size_t i = 0; i < cases.size(); ++i) {
     const std::string where = file + ": cases[" + std::to_string(i) + "]";
-    const Json& item = (*cases)[i];
+    const Json& item = cases[i];
     IkInput input;
     input.T_sd = parse_transform(member(item, "T_target", where), where + ".T_target");
     const auto seed = item.is_object() ? item.find("q_seed") : item.end();

@@ -61,6 +61,17 @@ std::string without_tag(std::string message) {
 
 }  // namespace
 
+const Json& cases_list(const Json& document, const std::string& path) {
+  const std::string file = path == "-" ? "<stdin>" : path;
+  if (!document.is_object())
+    throw InputError(file + ": the top level is " + describe_type(document) +
+                     ", expected an object with a \"cases\" list");
+  const auto cases = document.find("cases");
+  if (cases == document.end()) throw InputError(file + ": no \"cases\" list at the top level");
+  if (!cases->is_array()) throw InputError(file + ": \"cases\" is " + describe_type(*cases) + ", expected a list");
+  return *cases;
+}
+
 Json read_json_file(const std::string& path, const std::string& what) {
   const std::string text = read_text(path, what);
   const std::string name = path == "-" ? "<stdin>" : path;

@@ -40,6 +40,10 @@ Json transform_json(const Transform& T);
 /// column and byte where parsing stopped.
 Json read_json_file(const std::string& path, const std::string& what);
 
+/// The "cases" list of a cases or targets document read from `path` ("-": standard input, named
+/// "<stdin>"); throws InputError naming the file when the top level is not an object with one.
+const Json& cases_list(const Json& document, const std::string& path);
+
 /// The member `key` of `object`; throws InputError "<where> has no "<key>"" when `object` is not
 /// an object or lacks the key.
 const Json& member(const Json& object, const std::string& key, const std::string& where);

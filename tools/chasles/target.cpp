@@ -9,11 +9,11 @@
 #include <chasles/arm_target_t.hpp>
 #include <cmath>
 #include <cstdio>
-#include <ctime>
 #include <lcm/lcm-cpp.hpp>
 #include <memory>
 #include <optional>
 
+#include "chasles/controller/clock.hpp"
 #include "command.hpp"
 
 namespace chasles::cli {
@@ -38,12 +38,6 @@ std::string text(double x) {
   char buffer[32];
   const auto result = std::to_chars(buffer, buffer + sizeof(buffer), x);
   return std::string(buffer, result.ptr);
-}
-
-int64_t realtime_us() {
-  timespec t{};
-  clock_gettime(CLOCK_REALTIME, &t);
-  return int64_t{t.tv_sec} * 1'000'000 + t.tv_nsec / 1000;
 }
 
 double parse_duration(const std::string& value) {
@@ -218,7 +212,7 @@ Json run_target(const TargetOptions& options) {
     out["duration"] = target.duration;
   }
 
-  target.utime = realtime_us();
+  target.utime = controller::realtime_us();
   send(options, channel, target);
   out["utime"] = target.utime;
   return out;

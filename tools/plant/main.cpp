@@ -23,6 +23,7 @@
 #include "chasles/core/model/urdf.hpp"
 #include "chasles/controller/clock.hpp"
 #include "chasles/controller/realtime.hpp"
+#include "chasles/tools/number_list.hpp"
 #include "messaging.hpp"
 #include "plant.hpp"
 
@@ -85,25 +86,10 @@ const CLI::Validator kPositive = at_least(0.0, false, "a positive number");
 const CLI::Validator kNonNegative = at_least(0.0, true, "a non-negative number");
 
 std::vector<double> parse_numbers(const std::string& text, const std::string& option) {
-  std::vector<double> values;
-  size_t start = 0;
-  while (true) {
-    const size_t end = text.find(',', start);
-    const std::string item = text.substr(start, end == std::string::npos ? std::string::npos : end - start);
-    size_t used = 0;
-    double value = 0.0;
-    try {
-      value = std::stod(item, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used == 0 || item.find_first_not_of(" \t", used) != std::string::npos || !std::isfinite(value)) {
-      throw InputError(option + ": entry " + std::to_string(values.size()) + " ('" + item +
-                       "') is not a finite number");
-    }
-    values.push_back(value);
-    if (end == std::string::npos) return values;
-    start = end + 1;
+  try {
+    return tools::parse_number_list(text, option);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(e.what());
   }
 }
 
