@@ -31,6 +31,12 @@ struct TickRecord {
   bool commanded = false;
 };
 
+// The loop's own counts, totals since start.
+struct LoopCounters {
+  int64_t ticks = 0, overruns = 0, commands = 0, send_failures = 0;
+  int64_t lost_records = 0;  // timing records the status thread fell too far behind to take
+};
+
 // What the loop shows the status thread, every tick.
 struct Snapshot {
   Mode mode = Mode::kWaiting;
@@ -40,7 +46,8 @@ struct Snapshot {
   int ik_iterations = 0;
   double ik_residual = 0.0;
   bool ik_converged = false;
-  int64_t ticks = 0, overruns = 0, commands = 0, send_failures = 0, lost_requests = 0, stale = 0, faults = 0, rejected_targets = 0, lost_records = 0;
+  LoopCounters loop;
+  int64_t stale = 0, faults = 0, rejected_targets = 0;
   explicit Snapshot(int n = 0)
       : q(Eigen::VectorXd::Zero(n)), q_desired(Eigen::VectorXd::Zero(n)), error(Eigen::VectorXd::Zero(n)),
         torque(Eigen::VectorXd::Zero(n)) {}
@@ -99,7 +106,9 @@ struct Daemon::Impl {
   SpscRing<Target> targets;
   Mailbox<Snapshot> snapshots;
   SpscRing<TickRecord> records{8192};
-  SpscRing<CartesianRequest> requests;  // loop → IK worker
+  // Loop → IK worker: only the newest request matters (a newer target supersedes the others).
+  Mailbox<CartesianRequest> requests;
+  // IK worker → loop.
   SpscRing<JointPath> paths;            // IK worker → loop
   StateReceiver state_receiver;
   TargetReceiver target_receiver;
@@ -127,7 +136,7 @@ struct Daemon::Impl {
         targets(16, Target(m.dof())),
 
         snapshots(Snapshot(m.dof())),
-        requests(4, CartesianRequest(m.dof())),
+        requests(CartesianRequest(m.dof())),
         paths(2, JointPath(m.dof())),
         state_receiver(lcm_rx.get(), channels.state, m.dof(), states, rejections),
         target_receiver(lcm_rx.get(), channels.target, m.dof(), targets, rejections),
@@ -140,13 +149,13 @@ struct Daemon::Impl {
   }
 
   // Plans Cartesian goals into joint paths with Ceres, which allocates and takes milliseconds:
-  // never on the loop, which only swaps requests and paths through rings.
+  // never on the loop, which only hands over requests and paths without waiting.
   void ik_loop() {
     IkSolver solver(model);
     CartesianRequest request(n);
     JointPath path(n);
     while (!done.load(std::memory_order_relaxed)) {
-      if (!requests.pop(request)) {
+      if (!requests.read(request)) {
         sleep_until(monotonic_ns() + 1'000'000);
         continue;
       }
@@ -167,7 +176,7 @@ struct Daemon::Impl {
     Target target(n);
     CartesianRequest request(n);
     JointPath path(n);
-    Snapshot snapshot(n);
+    LoopCounters counters;
     bool have_state = false;
     int64_t answered_seq = -1, seq = 0, phase_shift = 0;
     const int64_t start = monotonic_ns();
@@ -181,14 +190,14 @@ struct Daemon::Impl {
 
       if (states.read(state)) have_state = true;
       while (targets.pop(target)) controller.set_target(target, wake);
-      if (controller.take_request(request) && !requests.push(request)) ++snapshot.lost_requests;
+      if (controller.take_request(request)) requests.write(request);
       if (paths.pop(path)) controller.follow(path, wake);
       const bool command = controller.tick(wake, have_state ? &state : nullptr);
       if (command) command_publisher.encode(realtime_us(), ++seq, state.seq, controller.torque());
       const int64_t computed = monotonic_ns();
       record.compute_us = 1e-3 * static_cast<double>(computed - wake);
       if (command) {
-        if (!command_publisher.send()) ++snapshot.send_failures;
+        if (!command_publisher.send()) ++counters.send_failures;
         const int64_t sent = monotonic_ns();
         record.publish_us = 1e-3 * static_cast<double>(sent - computed);
         if (state.seq != answered_seq) {
@@ -199,22 +208,22 @@ struct Daemon::Impl {
         record.commanded = true;
         record.error_max = controller.error().cwiseAbs().maxCoeff();
         record.error_sq = controller.error().squaredNorm();
-        ++snapshot.commands;
+        ++counters.commands;
       }
       const int64_t finished = monotonic_ns();
 
-      ++snapshot.ticks;
+      ++counters.ticks;
       next += period + phase_shift;
       phase_shift = 0;
       if (finished > next) {
         // Missed at least one deadline: count them and start again from the present rather than
         // run a burst of late ticks.
         const int64_t missed = (finished - next) / period + 1;
-        snapshot.overruns += missed;
+        counters.overruns += missed;
         next += missed * period;
       }
-      if (!records.push(record)) ++snapshot.lost_records;
-      fill_snapshot(snapshot);
+      if (!records.push(record)) ++counters.lost_records;
+      publish_snapshot(counters);
     }
   }
 
@@ -230,7 +239,10 @@ struct Daemon::Impl {
     return static_cast<int64_t>(step);
   }
 
-  void fill_snapshot(Snapshot& s) {
+  // Written straight into the mailbox's free slot: nothing is copied twice on the loop.
+  void publish_snapshot(const LoopCounters& counters) {
+    Snapshot& s = snapshots.back();
+    s.loop = counters;
     s.mode = controller.mode();
     std::memcpy(s.fault, controller.fault_reason(), sizeof(s.fault));
     std::memcpy(s.rejection, controller.last_rejection(), sizeof(s.rejection));
@@ -244,8 +256,6 @@ struct Daemon::Impl {
     s.ik_iterations = controller.ik_iterations();
     s.ik_residual = controller.ik_residual();
     s.ik_converged = controller.ik_converged();
-    Snapshot& slot = snapshots.back();
-    slot = s;
     snapshots.publish();
   }
 
@@ -335,8 +345,8 @@ struct Daemon::Impl {
     status.jitter_p50_us = j.p50, status.jitter_p99_us = j.p99, status.jitter_max_us = j.max;
     status.compute_p50_us = c.p50, status.compute_p99_us = c.p99, status.compute_max_us = c.max;
     status.latency_p50_us = l.p50, status.latency_p99_us = l.p99, status.latency_max_us = l.max;
-    status.ticks = s.ticks;
-    status.overruns = s.overruns;
+    status.ticks = s.loop.ticks;
+    status.overruns = s.loop.overruns;
     status.stale_states = s.stale;
     status.rejected_messages = rejections.count() + s.rejected_targets;
     status.faults = s.faults;
@@ -367,18 +377,19 @@ Summary Daemon::run(const std::atomic<bool>& stop) {
   d.snapshots.read(d.last);
   const Snapshot& s = d.last;
   Summary summary;
-  summary.ticks = s.ticks;
+  summary.ticks = s.loop.ticks;
   summary.seconds = seconds;
-  summary.rate_hz = seconds > 0.0 ? static_cast<double>(s.ticks) / seconds : 0.0;
-  summary.overruns = s.overruns;
+  summary.rate_hz = seconds > 0.0 ? static_cast<double>(s.loop.ticks) / seconds : 0.0;
+  summary.overruns = s.loop.overruns;
   summary.jitter_us = percentiles(d.total.jitter);
   summary.compute_us = percentiles(d.total.compute);
   summary.latency_us = percentiles(d.total.latency);
   summary.publish_us = percentiles(d.publish_total);
-  summary.send_failures = s.send_failures;
+  summary.send_failures = s.loop.send_failures;
+  summary.lost_timing_records = s.loop.lost_records;
   summary.tracking_rms = d.error_samples ? std::sqrt(d.error_sq_sum / static_cast<double>(d.error_samples)) : 0.0;
   summary.tracking_max = d.error_max;
-  summary.commands = s.commands;
+  summary.commands = s.loop.commands;
   summary.stale_states = s.stale;
   summary.rejected_messages = d.rejections.count() + s.rejected_targets;
   summary.faults = s.faults;

@@ -50,6 +50,7 @@ struct Summary {
   double tracking_rms = 0.0, tracking_max = 0.0;  ///< |q_d − q| over commanding ticks, rad or m
   int64_t commands = 0;
   int64_t send_failures = 0;
+  int64_t lost_timing_records = 0;  ///< ticks missing from the figures (the status thread fell behind)
   int64_t stale_states = 0;
   int64_t rejected_messages = 0;
   int64_t faults = 0;

@@ -118,6 +118,7 @@ void write_summary(const std::string& path, const Summary& s) {
                      {"tracking_error", {{"rms", s.tracking_rms}, {"max", s.tracking_max}}},
                      {"commands", s.commands},
                      {"send_failures", s.send_failures},
+                     {"lost_timing_records", s.lost_timing_records},
                      {"stale_states", s.stale_states},
                      {"rejected_messages", s.rejected_messages},
                      {"faults", s.faults},
