@@ -1,0 +1,42 @@
+// The corrected URDF: the original document with the calibration written into it, loadable by any
+// URDF tool. What changes, and nothing else:
+//   - the <origin> of every movable chain joint whose correction is not zero becomes
+//     O ← O e^[δξ_i] e^[A_i δθ_i] (the zero offset folded in, so FK(q) of the file at encoder
+//     reading q is the calibrated arm's); a comment before it keeps the original values;
+//   - a fixed joint `marker_joint` from the tip link to a new, empty link `marker` carries
+//     T_tip_marker, so FK to `marker` is the tracked point (and frame);
+//   - a comment at the top of <robot> says so.
+// Limits, inertias, meshes, transmissions and every other element are left as they are (the XML is
+// re-serialised by tinyxml2, so indentation and quoting may change, content does not). The base
+// transform T_tracker_base is not written into the robot: the tracker is not part of the arm, and a
+// new root link would change the robot's root for every other tool; it is in the report.
+#pragma once
+
+#include <string>
+
+#include "chasles/core/calibration/calibration.hpp"
+
+namespace chasles {
+
+struct CorrectedUrdfOptions {
+  std::string marker_link = "marker";
+  std::string marker_joint = "marker_joint";
+  /// Extra text for the top comment (tool name, dataset, date...); "--" is not allowed in XML
+  /// comments and is replaced.
+  std::string note;
+};
+
+/// The corrected URDF text for `original_xml`, the file `nominal` was loaded from. Throws
+/// CalibrationError when the XML does not parse, a chain joint is missing from it, or the marker
+/// link or joint name is already taken.
+std::string corrected_urdf(const std::string& original_xml, const RobotModel& nominal,
+                           const KinematicCorrections& corrections, const CorrectedUrdfOptions& options = {});
+
+/// URDF's roll-pitch-yaw of R = Rz(yaw) Ry(pitch) Rx(roll), exact to round-off everywhere,
+/// gimbal lock included (there roll is kept and yaw takes the rest).
+Vector3d rpy_from_rotation(const Matrix3d& R);
+
+/// Rz(rpy[2]) Ry(rpy[1]) Rx(rpy[0]).
+Matrix3d rotation_from_rpy(const Vector3d& rpy);
+
+}  // namespace chasles

@@ -1,0 +1,76 @@
+// chasles_calibrate: offline kinematic calibration (chasles::calibration, Ceres).
+//   fit    a dataset of joint positions and tracker measurements → a corrected URDF and a report
+//   synth  a synthetic dataset from a perturbed copy of the robot, to test and to rehearse with
+// Errors: one line "chasles_calibrate: ..." on stderr and nothing written; exit 2 for a usage error,
+// 1 for bad input (URDF, dataset, too few rows, a file that cannot be written).
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "chasles/core/calibration/calibration.hpp"
+#include "commands.hpp"
+
+namespace {
+
+std::string one_line(std::string text) {
+  while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();
+  for (char& c : text) {
+    if (c == '\n' || c == '\r') c = ' ';
+  }
+  return text;
+}
+
+int fail(const std::string& message, int code) {
+  std::cerr << "chasles_calibrate: " << one_line(message) << std::endl;
+  return code;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace chasles::calibrate_cli;
+
+  CLI::App app("chasles_calibrate: kinematic calibration of a serial arm from tracker measurements", "chasles_calibrate");
+  app.set_version_flag("--version", std::string("chasles_calibrate ") + CHASLES_VERSION);
+  app.require_subcommand(1);
+  app.footer(
+      "Examples:\n"
+      "  chasles_calibrate synth --urdf panda.urdf --tip panda_hand --seed 3 --n 200 --out data.csv --truth truth.urdf\n"
+      "  chasles_calibrate fit --urdf panda.urdf --tip panda_hand --data data.csv --holdout 0.2 \\\n"
+      "      --out corrected.urdf --report report.json\n"
+      "Run 'chasles_calibrate COMMAND --help' for a command's input and output.");
+  const std::vector<Command> commands = {register_fit(app), register_synth(app)};
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::Success& e) {  // --help, --version
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::string help = "chasles_calibrate --help";
+    for (const CLI::App* sub : app.get_subcommands()) help = "chasles_calibrate " + sub->get_name() + " --help";
+    if (app.get_subcommands().empty() && argc > 1 && argv[1][0] != '-') {
+      return fail(std::string("unknown command '") + argv[1] + "' (commands: fit, synth; see '" + help + "')", 2);
+    }
+    return fail(std::string(e.what()) + " (see '" + help + "')", 2);
+  }
+
+  try {
+    for (const Command& command : commands) {
+      if (!command.app->parsed()) continue;
+      command.run();
+      std::cout.flush();
+      return 0;
+    }
+    return fail("no command given (see 'chasles_calibrate --help')", 2);
+  } catch (const chasles::ModelError& e) {
+    return fail(e.what(), 1);
+  } catch (const chasles::CalibrationError& e) {
+    return fail(e.what(), 1);
+  } catch (const InputError& e) {
+    return fail(e.what(), 1);
+  } catch (const std::bad_alloc&) {
+    return fail("out of memory", 1);
+  } catch (const std::exception& e) {
+    return fail(std::string("internal error: ") + e.what(), 1);
+  }
+}
