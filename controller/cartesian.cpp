@@ -6,6 +6,7 @@
 
 #include "chasles/core/kinematics/kinematics.hpp"
 #include "chasles/core/lie/se3.hpp"
+#include "chasles/core/lie/so3.hpp"
 
 namespace chasles::controller {
 namespace {
@@ -45,7 +46,7 @@ void plan_cartesian_path(IkSolver& solver, const CartesianRequest& request, Join
   for (int k = 1; k < path.count; ++k) {
     const double s = quintic(static_cast<double>(k) / (path.count - 1));
     const Transform T = k + 1 == path.count ? request.T_goal : T_start * exp6(V * s);
-    const IkResult result = solver.solve(T, previous);
+    IkResult result = solver.solve(T, previous);
     path.ik_iterations += result.iterations;
     path.ik_residual = std::max(path.ik_residual, result.pos_err);
     path.ik_rot_residual = std::max(path.ik_rot_residual, result.rot_err);
@@ -55,6 +56,11 @@ void plan_cartesian_path(IkSolver& solver, const CartesianRequest& request, Join
                   100.0 * s, result.pos_err, result.rot_err);
     }
     for (int i = 0; i < n; ++i) {
+      // IK answers a continuous joint in (−π, π]; along a path it must move on from where it is,
+      // not jump by 2π when it crosses ±π.
+      if (model.joint(i).type == JointType::Continuous) {
+        result.q(i) = previous(i) + wrap_angle(result.q(i) - previous(i));
+      }
       const double speed = std::abs(result.q(i) - previous(i)) / path.dt;
       // The path's own speed peaks at 1.875× its average; a jump well past the joint's limit is
       // an IK branch flip or a singularity, not motion the arm can make.

@@ -73,6 +73,12 @@ Matrix6d se3_right_jacobian_inverse(const Vector6d& xi) {
 // saved 10-20 % of the work (iterations and Ceres solves) for the same success.
 constexpr int kAbandonIteration = 8;
 constexpr double kAbandonError = 0.03;
+// A restart starts from the best of this many random draws: a draw whose tip is already near the
+// target converges more often. One draw costs an FK (~0.3 µs), an attempt ~10 iterations of ~5 µs.
+// On the reference targets, 8 draws cut the Ceres solves by a quarter (UR5 678 → 510, Panda 770
+// → 576 for 200 targets); 16 or more saved no further solves.
+constexpr int kRestartCandidates = 8;
+constexpr double kRestartRotationWeight = 0.1;  // m per rad: 0.1 rad of tilt counts as 1 cm
 // A start this close to the target (m, rad) takes undamped first steps.
 constexpr double kNearPosition = 0.05;
 constexpr double kNearRotation = 0.1;
@@ -91,11 +97,6 @@ std::uint64_t bits(double x) {
   std::uint64_t out;
   std::memcpy(&out, &x, sizeof out);
   return out;
-}
-
-double wrap_angle(double x) {
-  x = std::remainder(x, 2.0 * kPi);  // [−π, π]
-  return x <= -kPi ? x + 2.0 * kPi : x;
 }
 
 /// The pose residual: W log(T_sd⁻¹ T_sb(q)), or (0, w_v ⊙ (p_sb − p_sd)) for position only.
@@ -220,7 +221,7 @@ class StopWhenReached final : public ceres::IterationCallback {
 
 struct IkSolver::Impl {
   explicit Impl(const RobotModel& model_in)
-      : model(model_in), data(model_in), q(model_in.dof()), q_seed(model_in.dof()) {}
+      : model(model_in), data(model_in), q(model_in.dof()), q_seed(model_in.dof()), candidate(model_in.dof()) {}
 
   const RobotModel& model;
   Data data;
@@ -230,6 +231,7 @@ struct IkSolver::Impl {
   double lambda = 0.0;     // λ of the regularisation now; StopWhenReached zeroes it near the target
   Eigen::VectorXd q;       // the parameter block Ceres works on
   Eigen::VectorXd q_seed;  // the seed within the limits: the regularisation's anchor
+  Eigen::VectorXd candidate;  // a restart's draw
   std::unique_ptr<PoseCost> pose_cost;
   std::unique_ptr<RegularizationCost> regularization_cost;
   std::unique_ptr<ceres::Problem> problem;
@@ -248,6 +250,28 @@ struct IkSolver::Impl {
 
   bool within(double pos_err, double rot_err, double pos_tol, double rot_tol) const {
     return pos_err <= pos_tol && (position_only || rot_err <= rot_tol);
+  }
+
+  /// Sets q to the best of kRestartCandidates uniform draws within the limits: the one whose tip
+  /// is nearest the target (pos_err + kRestartRotationWeight rot_err).
+  void draw_restart() {
+    double best = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < kRestartCandidates; ++k) {
+      for (int i = 0; i < model.dof(); ++i) {
+        const Joint& joint = model.joint(i);
+        const double u = uniform();
+        candidate[i] = joint.type == JointType::Continuous
+                           ? wrap_angle(kPi - 2.0 * kPi * u)
+                           : joint.limits.lower + u * (joint.limits.upper - joint.limits.lower);
+      }
+      double pos_err, rot_err;
+      errors(candidate, pos_err, rot_err);
+      const double score = pos_err + (position_only ? 0.0 : kRestartRotationWeight * rot_err);
+      if (score < best) {
+        best = score;
+        q = candidate;
+      }
+    }
   }
 
   /// A uniform double in [0, 1) from the top 53 bits: the same sequence with every standard
@@ -290,7 +314,9 @@ IkSolver::IkSolver(const RobotModel& model, IkOptions options)
   ceres::Solver::Options& so = impl_->solver_options;
   so.minimizer_type = ceres::TRUST_REGION;
   so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  so.linear_solver_type = ceres::DENSE_QR;
+  // The normal equations of a 6×n (or 6+n × n) problem: a 7×7 Cholesky costs less than QR, and
+  // the Levenberg-Marquardt damping keeps them well conditioned near singular poses.
+  so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
   so.num_threads = 1;
   so.logging_type = ceres::SILENT;
   so.minimizer_progress_to_stdout = false;
@@ -300,6 +326,14 @@ IkSolver::IkSolver(const RobotModel& model, IkOptions options)
   so.parameter_tolerance = 1e-14;
   so.gradient_tolerance = 1e-16;
   so.update_state_every_iteration = true;
+  // Ceres follows every step of a bounded problem with a projected line search (polynomial
+  // interpolation through a companion-matrix eigensolve, and more cost evaluations). The step is
+  // projected onto the limits anyway, and the trust region rejects a bad one; on the reference
+  // targets the line search doubled the time per iteration and saved no iterations.
+  so.max_num_line_search_step_size_iterations = 0;
+  // Joint angles and lengths are all of order one: column scaling buys nothing here and costs a
+  // pass over the Jacobian per iteration.
+  so.jacobi_scaling = false;
   so.callbacks.push_back(impl_->stop.get());
   set_options(options);
 }
@@ -401,13 +435,7 @@ IkResult IkSolver::solve(const Matrix4d& T_sd, const JointVector& q_seed) {
     if (attempt == 0) {
       impl.q = impl.q_seed;
     } else {
-      for (int i = 0; i < n; ++i) {
-        const Joint& joint = model_.joint(i);
-        const double u = impl.uniform();
-        impl.q[i] = joint.type == JointType::Continuous
-                        ? wrap_angle(kPi - 2.0 * kPi * u)
-                        : joint.limits.lower + u * (joint.limits.upper - joint.limits.lower);
-      }
+      impl.draw_restart();
     }
     impl.lambda = impl.regularized ? options_.regularization : 0.0;
     // Levenberg-Marquardt's first damping is 1/radius. Near the target (a warm start) Gauss-Newton

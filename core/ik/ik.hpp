@@ -13,8 +13,9 @@
 // the arm approaches the target; within 1e-3 of it the term is switched off, so it leaves no bias
 // in the pose error.
 //
-// Search: Levenberg-Marquardt from the seed; when that attempt fails, random restarts uniform
-// within the limits, until one converges, the restart cap or the time budget runs out. An attempt
+// Search: Levenberg-Marquardt from the seed; when that attempt fails, random restarts, each from
+// the best of a few uniform draws within the limits (the draw whose tip is nearest the target),
+// until one converges, the restart cap or the time budget runs out. An attempt
 // still far from the target (> 0.03 m or rad) after 8 iterations is abandoned for the next one.
 // When nothing converges the answer is the best pose found (smallest pos_err + rot_err), with
 // converged = false.

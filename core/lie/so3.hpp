@@ -8,6 +8,12 @@
 
 namespace chasles {
 
+/// The angle in (−π, π] equal to x modulo 2π: where a continuous joint at x is.
+inline double wrap_angle(double x) {
+  x = std::remainder(x, 2.0 * kPi);  // [−π, π]
+  return x <= -kPi ? x + 2.0 * kPi : x;
+}
+
 namespace detail {
 // Below this angle the Taylor series of the Rodrigues coefficients, kept to θ⁴, are exact to
 // machine precision (the first dropped term is O(θ⁶)), while the closed forms lose digits to

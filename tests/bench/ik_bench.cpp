@@ -101,7 +101,7 @@ nlohmann::json run(const std::string& robot, const std::string& data_dir) {
   chasles::IkSolver solver(model);
   nlohmann::json out;
   for (const bool warm : {false, true}) {
-    Figures mine, theirs;
+    std::vector<Eigen::VectorXd> seeds;
     std::mt19937_64 noise_rng(11);
     for (const Case& c : cases) {
       Eigen::VectorXd seed = c.seed;
@@ -109,12 +109,20 @@ nlohmann::json run(const std::string& robot, const std::string& data_dir) {
         seed = c.solution;
         for (int i = 0; i < n; ++i) seed[i] = std::clamp(seed[i] + noise(noise_rng), lower(i), upper(i));
       }
-      const chasles::IkResult result = solver.solve(c.T, seed);
+      seeds.push_back(seed);
+    }
+    // One pass per solver, as an IK worker runs: interleaving the two would have each start every
+    // solve with the other's code and data in the caches.
+    Figures mine, theirs;
+    for (size_t k = 0; k < cases.size(); ++k) {
+      const chasles::IkResult result = solver.solve(cases[k].T, seeds[k]);
       mine.us.push_back(result.time_us);
-      mine.success += solved(model, data, result.q, c.T) ? 1 : 0;
-
+      mine.success += solved(model, data, result.q, cases[k].T) ? 1 : 0;
+    }
+    for (size_t k = 0; k < cases.size(); ++k) {
+      const Case& c = cases[k];
       KDL::JntArray q_in(n), q_out(n);
-      for (int i = 0; i < n; ++i) q_in(i) = seed[i];
+      for (int i = 0; i < n; ++i) q_in(i) = seeds[k][i];
       KDL::Frame goal;
       for (int r = 0; r < 3; ++r) {
         goal.p(r) = c.T(r, 3);

@@ -393,6 +393,30 @@ TEST(CartesianPath, FollowsTheScrewLineAndReachesTheGoal) {
   EXPECT_TRUE(why.find("cannot follow") != std::string::npos || why.find("singularity") != std::string::npos) << why;
 }
 
+TEST(CartesianPath, AContinuousJointCrossingPiMovesOnInsteadOfJumpingBack) {
+  // tests/data/arm.urdf: j3 is continuous, without a velocity limit. A turn of j3 alone is a
+  // straight screw line of the tip, so a 3-joint arm can follow it; from 3.0 to 3.5 rad it crosses
+  // π, where IK answers −2.78.
+  UrdfOptions options;
+  options.tip_link = "tip";
+  const RobotModel model = load_urdf_file(data_path("arm.urdf"), options);
+  ASSERT_EQ(model.joint(2).type, JointType::Continuous);
+  Data data(model);
+  IkSolver solver(model);
+  CartesianRequest request(3);
+  request.id = 2;
+  request.q_start = Eigen::Vector3d(0.3, 0.2, 3.0);
+  request.T_goal = forward_kinematics(model, data, Eigen::Vector3d(0.3, 0.2, 3.5));
+  request.duration = 1.0;
+  JointPath path(3);
+  plan_cartesian_path(solver, request, path);
+  ASSERT_TRUE(path.ok) << path.reason;
+  for (int k = 1; k < path.count; ++k) {
+    EXPECT_LT(std::abs(path.q(2, k) - path.q(2, k - 1)), 0.02) << "waypoint " << k;
+  }
+  EXPECT_NEAR(path.q(2, path.count - 1), 3.5, 1e-6);
+}
+
 TEST_F(ControllerTest, StaleStateFaultsAndFreshStateResumesHoldingWithoutATorqueJump) {
   Controller controller(model_, config_);
   ASSERT_TRUE(controller.tick(0, fresh(0)));
