@@ -6,13 +6,18 @@
 #include "chasles/core/calibration/calibration.hpp"
 
 #include <gtest/gtest.h>
+#include <urdf_parser/urdf_parser.h>
 
 #include <cmath>
 #include <random>
 #include <vector>
 
+#include "chasles/core/calibration/dataset.hpp"
+#include "chasles/core/calibration/urdf_writer.hpp"
+
 #include "chasles/core/lie/se3.hpp"
 #include "chasles/core/model/urdf.hpp"
+#include "support/process.hpp"
 #include "support/reference.hpp"
 
 namespace chasles {
@@ -370,6 +375,167 @@ TEST(calibration, CorrectedModelMatchesTheMeasurementModel) {
   for (int k = 0; k < 20; ++k) {
     const Eigen::VectorXd q = random_q(nominal, rng);
     EXPECT_TRUE(testing::matrices_near(predict_marker(corrected, c, q).matrix(), model.predict(x, q).matrix(), 1e-12));
+  }
+}
+
+// --- the corrected URDF ---------------------------------------------------------------------
+
+TEST(calibrationUrdf, RpyRoundTripsEverywhereIncludingGimbalLock) {
+  std::mt19937_64 rng(41);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::vector<Matrix3d> rotations;
+  for (int k = 0; k < 200; ++k) rotations.push_back(exp3(Vector3d(normal(rng), normal(rng), normal(rng))));
+  for (double pitch : {kPi / 2, -kPi / 2}) {
+    for (double near : {0.0, 1e-12, 1e-8, 1e-5}) {
+      rotations.push_back(rotation_from_rpy(Vector3d(0.3, pitch - near, -1.1)));
+      rotations.push_back(rotation_from_rpy(Vector3d(normal(rng), pitch + near, normal(rng))));
+    }
+  }
+  for (const Matrix3d& R : rotations) {
+    // Rebuilt the way URDF defines rpy, independently of rotation_from_rpy.
+    const Vector3d rpy = rpy_from_rotation(R);
+    const double cr = std::cos(rpy[0]), sr = std::sin(rpy[0]), cp = std::cos(rpy[1]), sp = std::sin(rpy[1]),
+                 cy = std::cos(rpy[2]), sy = std::sin(rpy[2]);
+    Matrix3d rebuilt;
+    rebuilt << cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr,  //
+        sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr,         //
+        -sp, cp * sr, cp * cr;
+    EXPECT_TRUE(testing::matrices_near(rebuilt, R, 1e-15));
+  }
+}
+
+/// T_base,link of `link` computed from urdfdom's own parse of `xml`: origins and joint motions
+/// composed here, from the link up to the root, with none of chasles's loader.
+Transform urdfdom_pose(const std::string& xml, const std::string& link_name, const RobotModel& model,
+                       const Eigen::VectorXd& q) {
+  const urdf::ModelInterfaceSharedPtr parsed = urdf::parseURDF(xml);
+  EXPECT_TRUE(parsed != nullptr);
+  Transform T = Transform::Identity();
+  for (urdf::LinkConstSharedPtr link = parsed->getLink(link_name); link && link->parent_joint;
+       link = parsed->getLink(link->parent_joint->parent_link_name)) {
+    const urdf::Joint& joint = *link->parent_joint;
+    const urdf::Pose& o = joint.parent_to_joint_origin_transform;
+    const Transform origin(Eigen::Quaterniond(o.rotation.w, o.rotation.x, o.rotation.y, o.rotation.z).toRotationMatrix(),
+                           Vector3d(o.position.x, o.position.y, o.position.z));
+    const Vector3d axis = Vector3d(joint.axis.x, joint.axis.y, joint.axis.z).normalized();
+    const int i = model.joint_index(joint.name);
+    Transform motion;
+    if (i >= 0 && joint.type == urdf::Joint::PRISMATIC) motion = Transform(Matrix3d::Identity(), axis * q[i]);
+    if (i >= 0 && joint.type != urdf::Joint::PRISMATIC) {
+      motion = Transform(Eigen::AngleAxisd(q[i], axis).toRotationMatrix(), Vector3d::Zero());
+    }
+    T = origin * motion * T;
+  }
+  return T;
+}
+
+// The written URDF loads in urdfdom and in chasles; FK to the marker link by both equals the
+// calibrated model's, so the zero offsets and the tool are where a URDF user finds them; the rest
+// of the robot (inertias, limits, links off the chain) is unchanged.
+TEST(calibrationUrdf, CorrectedUrdfCarriesTheCalibration) {
+  for (const char* robot : {"ur5", "panda", "arm"}) {
+    const std::string xml = testing::read_file(testing::data_path(std::string(robot) + ".urdf"));
+    const RobotModel nominal = load(robot);
+    const MeasurementModel model(nominal, exp6(Vector6d::Constant(0.2)), exp6(Vector6d::Constant(0.05)), 1e-4, 1e-3);
+    std::mt19937_64 rng(43);
+    std::normal_distribution<double> normal(0.0, 1.0);
+    Eigen::VectorXd x(model.num_parameters());
+    for (int j = 0; j < x.size(); ++j) x[j] = 0.01 * normal(rng);
+    x.segment<6>(model.layout().origin(0, 0)).setZero();  // one joint left alone
+    x[model.layout().offset(0)] = 0.0;
+    const KinematicCorrections c = model.corrections(x);
+    const std::string corrected = corrected_urdf(xml, nominal, c);
+
+    UrdfOptions to_marker;
+    to_marker.tip_link = "marker";
+    const RobotModel loaded = load_urdf_string(corrected, to_marker, "corrected");
+    UrdfOptions to_tip;
+    to_tip.tip_link = nominal.tip_link();
+    const RobotModel loaded_tip = load_urdf_string(corrected, to_tip, "corrected");
+    ASSERT_EQ(loaded.dof(), nominal.dof());
+    for (int k = 0; k < 10; ++k) {
+      const Eigen::VectorXd q = random_q(nominal, rng);
+      const Transform expected = inverse(c.T_tracker_base) * model.predict(x, q);
+      EXPECT_TRUE(testing::matrices_near(forward_kinematics_space(loaded, q).matrix(), expected.matrix(), 1e-12)) << robot;
+      EXPECT_TRUE(testing::matrices_near(urdfdom_pose(corrected, "marker", nominal, q).matrix(), expected.matrix(), 1e-12))
+          << robot;
+    }
+    for (int i = 0; i < nominal.dof(); ++i) {
+      EXPECT_TRUE(testing::matrices_near(loaded_tip.inertia(i), nominal.inertia(i), 1e-12)) << robot << " body " << i;
+      EXPECT_EQ(loaded_tip.joint(i).limits.lower, nominal.joint(i).limits.lower);
+      EXPECT_EQ(loaded_tip.joint(i).limits.upper, nominal.joint(i).limits.upper);
+      EXPECT_EQ(loaded_tip.joint(i).limits.effort, nominal.joint(i).limits.effort);
+    }
+    // The untouched joint keeps its original text; every corrected one records the original.
+    const std::string first = nominal.joint(0).name;
+    EXPECT_EQ(corrected.find("origin was", corrected.find("name=\"" + first + "\"")),
+              corrected.find("origin was", corrected.find("name=\"" + nominal.joint(1).name + "\"")));
+    size_t notes = 0;
+    for (size_t at = corrected.find("origin was"); at != std::string::npos; at = corrected.find("origin was", at + 1)) ++notes;
+    EXPECT_EQ(notes, static_cast<size_t>(nominal.dof() - 1)) << robot;
+    // Calibrating the corrected file again needs another marker name.
+    EXPECT_THROW(corrected_urdf(corrected, loaded_tip, c), CalibrationError);
+  }
+}
+
+// --- datasets ----------------------------------------------------------------------------------
+
+TEST(calibrationDataset, RoundTripsAndAcceptsAnyColumnOrder) {
+  const RobotModel nominal = load("ur5");
+  const Truth truth = make_truth(nominal, 51);
+  const std::vector<Measurement> rows = measure(truth, 5, 52, 1e-4, 1e-3, true);
+  const Dataset back = parse_dataset(format_dataset(nominal, rows, true), nominal, "d.csv");
+  ASSERT_EQ(back.rows.size(), rows.size());
+  EXPECT_TRUE(back.has_orientation);
+  for (size_t k = 0; k < rows.size(); ++k) {
+    EXPECT_EQ(back.rows[k].q, rows[k].q);
+    EXPECT_EQ(back.rows[k].p_tracker_marker, rows[k].p_tracker_marker);
+    EXPECT_TRUE(testing::matrices_near(back.rows[k].R_tracker_marker, rows[k].R_tracker_marker, 1e-15));
+    EXPECT_EQ(back.rows[k].line, static_cast<int>(k) + 2);
+  }
+  const std::string shuffled =
+      "# measured 2024-05-01\r\nz, y, x, wrist_3_joint,wrist_2_joint,wrist_1_joint,elbow_joint,shoulder_lift_joint,"
+      "shoulder_pan_joint\r\n\r\n3,2,1,0.6,0.5,0.4,0.3,0.2,0.1\r\n";
+  const Dataset d = parse_dataset(shuffled, nominal, "s.csv");
+  ASSERT_EQ(d.rows.size(), 1u);
+  EXPECT_FALSE(d.has_orientation);
+  EXPECT_EQ(d.rows[0].line, 4);
+  EXPECT_EQ(d.rows[0].p_tracker_marker, Vector3d(1, 2, 3));
+  EXPECT_NEAR(d.rows[0].q[0], 0.1, 0.0);
+  EXPECT_NEAR(d.rows[0].q[5], 0.6, 0.0);
+}
+
+TEST(calibrationDataset, BadInputNamesTheLine) {
+  const RobotModel nominal = load("ur5");
+  const std::string header =
+      "shoulder_pan_joint,shoulder_lift_joint,elbow_joint,wrist_1_joint,wrist_2_joint,wrist_3_joint,x,y,z";
+  const std::string good = "0,0,0,0,0,0,1,2,3";
+  struct Case {
+    std::string text, fragment;
+  };
+  const std::vector<Case> cases = {
+      {header + "\n" + good + "\n0,0,0,0,0,nan,1,2,3\n", "bad.csv:3: column 'wrist_3_joint': 'nan' is not a finite number"},
+      {header + "\n" + good + "\n" + good + "\n0,0,0,0,0,1,2,3\n", "bad.csv:4: 8 fields, expected 9"},
+      {header + "\n0,0,0,0,0,0,1,2,inf\n", "bad.csv:2: column 'z'"},
+      {header + "\n0,0,0,0,x,0,1,2,3\n", "bad.csv:2: column 'wrist_2_joint': 'x' is not a finite number"},
+      {header + "\n0,0,0,0,,0,1,2,3\n", "bad.csv:2: column 'wrist_2_joint'"},
+      {"shoulder_pan_joint,shoulder_lift_joint,elbow_joint,wrist_1_joint,wrist_2_joint,wrist_9_joint,x,y,z\n" + good,
+       "bad.csv:1: unknown column 'wrist_9_joint'"},
+      {"shoulder_pan_joint,shoulder_lift_joint,elbow_joint,wrist_1_joint,wrist_2_joint,x,y,z\n0,0,0,0,0,1,2,3",
+       "bad.csv:1: no column for joint 'wrist_3_joint'"},
+      {header + ",x\n", "bad.csv:1: column 'x' appears twice"},
+      {header + ",qw,qx\n", "bad.csv:1: the orientation needs all four columns"},
+      {header + ",qw,qx,qy,qz\n" + good + ",2,0,0,0\n", "bad.csv:2: the quaternion (qw, qx, qy, qz) has norm 2"},
+      {header + "\n", "no data rows"},
+      {"", "no header line"},
+  };
+  for (const Case& c : cases) {
+    try {
+      parse_dataset(c.text, nominal, "bad.csv");
+      ADD_FAILURE() << "no error for: " << c.text;
+    } catch (const CalibrationError& e) {
+      EXPECT_NE(std::string(e.what()).find(c.fragment), std::string::npos) << e.what();
+    }
   }
 }
 
