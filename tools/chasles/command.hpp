@@ -1,6 +1,8 @@
 // The pieces every chasles subcommand shares. A subcommand is a register_<name>() function that
 // adds a CLI11 subcommand with its options and returns a Command whose run() builds the whole
 // JSON answer; main prints it only once it is complete, so an error never leaves half a document.
+// A command whose output is not a JSON document (the monitor's screen, a CSV on standard output)
+// writes it itself and returns a null Json, and main prints nothing more.
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -14,7 +16,7 @@ namespace chasles::cli {
 
 struct Command {
   CLI::App* app = nullptr;    ///< the CLI11 subcommand
-  std::function<Json()> run;  ///< the answer; throws InputError or ModelError on bad input
+  std::function<Json()> run;  ///< the answer, or null if run() wrote its own; throws InputError or ModelError
 };
 
 /// --urdf FILE and --tip LINK, as every model-based subcommand takes them.
@@ -40,5 +42,7 @@ Command register_rnea(CLI::App& app);
 Command register_fd(CLI::App& app);
 Command register_ik(CLI::App& app);      ///< inverse kinematics (chasles::ik)
 Command register_target(CLI::App& app);  ///< sends an arm_target_t over LCM
+Command register_monitor(CLI::App& app); ///< a live view of the controller's status, in the terminal
+Command register_log(CLI::App& app);     ///< LCM logs of a run: export a channel as CSV, plot
 
 }  // namespace chasles::cli

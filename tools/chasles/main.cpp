@@ -1,5 +1,6 @@
 // chasles: the model's answers as JSON on stdout, and `target`, which sends the controller one goal
-// and prints it. Errors: one line "chasles: ..." on stderr, nothing on stdout; exit 2 for a usage
+// and prints it; `monitor` shows the running controller and `log` exports and plots a run's log.
+// Errors: one line "chasles: ..." on stderr, nothing on stdout; exit 2 for a usage
 // error, 1 for bad input (URDF, cases file, a refused target) or when LCM cannot start.
 #include <iostream>
 #include <string>
@@ -42,10 +43,13 @@ int main(int argc, char** argv) {
       "  chasles --pretty eval --urdf ur5.urdf --tip tool0 --cases cases.json\n"
       "  chasles ik --urdf ur5.urdf --tip tool0 --targets targets.json\n"
       "  chasles target --robot ur5.urdf --tip tool0 --joint 0,-1.57,1.57,0,0,0 --duration 2\n"
+      "  chasles monitor --urdf ur5.urdf --tip tool0\n"
+      "  chasles log plot run.lcmlog --out plots/ --urdf ur5.urdf --tip tool0\n"
       "Run 'chasles COMMAND --help' for a command's input and output.");
 
   const std::vector<Command> commands = {register_inspect(app), register_eval(app), register_rnea(app),
-                                         register_fd(app), register_ik(app), register_target(app)};
+                                         register_fd(app), register_ik(app), register_target(app),
+                                         register_monitor(app), register_log(app)};
 
   try {
     app.parse(argc, argv);
@@ -53,7 +57,11 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     std::string help = "chasles --help";
-    for (const CLI::App* sub : app.get_subcommands()) help = "chasles " + sub->get_name() + " --help";
+    for (const CLI::App* sub : app.get_subcommands()) {
+      help = "chasles " + sub->get_name();
+      for (const CLI::App* inner : sub->get_subcommands()) help += " " + inner->get_name();  // chasles log export
+      help += " --help";
+    }
     if (app.get_subcommands().empty()) {
       std::string names;
       for (const Command& command : commands) names += (names.empty() ? "" : ", ") + command.app->get_name();
@@ -75,7 +83,9 @@ int main(int argc, char** argv) {
   try {
     for (const Command& command : commands) {
       if (!command.app->parsed()) continue;
-      const std::string text = dump(command.run(), pretty);  // complete before anything is printed
+      const Json answer = command.run();
+      if (answer.is_null()) return 0;  // the command wrote its own output
+      const std::string text = dump(answer, pretty);  // complete before anything is printed
       std::cout << text << '\n';
       std::cout.flush();
       if (!std::cout) return fail("cannot write the output", 1);

@@ -1,0 +1,197 @@
+// chasles monitor against the real controller and plant over LCM, in a network namespace of this
+// test binary's own (tools/netns.sh launches it). The test listens to the same status messages as
+// the monitor and checks that the screen shows their values; then it checks what the monitor says
+// when there is no controller, when the controller goes away, and when junk arrives.
+#include <gtest/gtest.h>
+#include <lcm/lcm.h>
+#include <unistd.h>
+
+#include <chasles/controller_status_t.hpp>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <memory>
+#include <optional>
+#include <regex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "support/process.hpp"
+#include "support/reference.hpp"
+
+namespace chasles::testing {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr char kLcmUrl[] = "udpm://239.255.76.67:7667?ttl=0";  // the URL tools/netns.sh documents
+constexpr char kTip[] = "panda_hand";
+constexpr char kBentPose[] = "0.1,0.5,-0.2,-1.2,0.3,1.0,0.7";
+
+std::vector<std::string> concat(std::vector<std::string> a, const std::vector<std::string>& b) {
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
+std::vector<std::string> model() { return {"--robot", data_path("panda.urdf"), "--tip", kTip, "--lcm-url", kLcmUrl}; }
+
+// The latest controller_status_t, heard by the test itself.
+class StatusListener {
+ public:
+  StatusListener() : lcm_(lcm_create(kLcmUrl)) {
+    if (lcm_ == nullptr) throw std::runtime_error("LCM did not start: run the test under tools/netns.sh");
+    lcm_subscribe(lcm_, "CHASLES_STATUS", &StatusListener::on_status, this);
+  }
+  ~StatusListener() { lcm_destroy(lcm_); }
+
+  /// Handles messages until a status in `state` arrives, or `seconds` pass.
+  bool wait_for(int8_t state, double seconds) {
+    const auto deadline = Clock::now() + std::chrono::duration<double>(seconds);
+    while (!(latest && latest->state == state) && Clock::now() < deadline) lcm_handle_timeout(lcm_, 50);
+    return latest && latest->state == state;
+  }
+  void publish(const std::string& channel, const std::vector<uint8_t>& bytes) {
+    lcm_publish(lcm_, channel.c_str(), bytes.data(), static_cast<unsigned>(bytes.size()));
+  }
+
+  std::optional<controller_status_t> latest;
+
+ private:
+  static void on_status(const lcm_recv_buf_t* rbuf, const char*, void* self) {
+    controller_status_t status;
+    if (status.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) > 0) {
+      static_cast<StatusListener*>(self)->latest = status;
+    }
+  }
+  lcm_t* lcm_;
+};
+
+RunResult monitor(const std::vector<std::string>& args) {
+  return run_to_completion(concat({CHASLES_CLI, "monitor", "--lcm-url", kLcmUrl}, args));
+}
+
+// The number the regular expression's first group captures in the frame.
+double field(const std::string& frame, const std::string& pattern) {
+  std::smatch match;
+  if (!std::regex_search(frame, match, std::regex(pattern))) {
+    ADD_FAILURE() << "no match for " << pattern << " in:\n" << frame;
+    return NAN;
+  }
+  return std::stod(match[1].str());
+}
+
+TEST(monitor, OnceShowsTheLiveControllersValues) {
+  StatusListener bus;
+  ChildProcess plant(concat({CHASLES_PLANT, "--q0", kBentPose, "--damping", "0.5"}, model()));
+  ChildProcess controller(concat({CHASLES_CONTROLLER, "--damping", "0.5"}, model()));
+  ASSERT_TRUE(bus.wait_for(controller_status_t::HOLDING, 5.0)) << controller.stderr_text();
+
+  const RunResult r = monitor({"--once", "--seconds", "1.5", "--urdf", data_path("panda.urdf"), "--tip", kTip});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string& frame = r.out;
+  EXPECT_EQ(frame.find('\x1b'), std::string::npos) << "--once prints plain text";
+  EXPECT_NE(frame.find("controller  HOLDING"), std::string::npos) << frame;
+  bus.wait_for(controller_status_t::HOLDING, 0.2);
+  ASSERT_TRUE(bus.latest.has_value());
+  const controller_status_t& s = *bus.latest;
+
+  // Holding still: the joint values the test hears are the ones on screen, joint by joint.
+  const char* names[] = {"panda_joint1", "panda_joint2", "panda_joint3", "panda_joint4",
+                         "panda_joint5", "panda_joint6", "panda_joint7"};
+  for (int j = 0; j < 7; ++j) {
+    const std::string row = std::string("\n") + names[j] + " +(-?[0-9.]+) +(-?[0-9.]+) +(-?[0-9.]+) +(-?[0-9.]+) +([0-9.]+) %";
+    std::smatch match;
+    ASSERT_TRUE(std::regex_search(frame, match, std::regex(row))) << names[j] << " in:\n" << frame;
+    EXPECT_NEAR(std::stod(match[1].str()), s.q[size_t(j)], 2e-4) << names[j];
+    EXPECT_NEAR(std::stod(match[2].str()), s.q_desired[size_t(j)], 2e-4) << names[j];
+    EXPECT_NEAR(std::stod(match[4].str()), s.torque[size_t(j)], 0.02 + 0.01 * std::abs(s.torque[size_t(j)])) << names[j];
+  }
+  // The Panda's effort limits are 87 N·m for joints 1-4: the last column is |τ| as a share of it.
+  std::smatch match;
+  ASSERT_TRUE(std::regex_search(frame, match, std::regex("\npanda_joint2 .* ([0-9.]+) %")));
+  EXPECT_NEAR(std::stod(match[1].str()), 100.0 * std::abs(s.torque[1]) / 87.0, 0.2);
+
+  EXPECT_NEAR(field(frame, "p_sb \\((-?[0-9.]+),"), s.tip_position[0], 2e-4);
+  EXPECT_NEAR(field(frame, "R_sb as \\(w, x, y, z\\) \\((-?[0-9.]+),"), s.tip_quaternion[0], 2e-4);
+  // The controller ticks at 1 kHz and the plant sends 1 kHz; a loaded machine may stretch either.
+  EXPECT_NEAR(field(frame, "loop +([0-9.]+) Hz"), 1000.0, 300.0);
+  EXPECT_NEAR(field(frame, "plant states ([0-9.]+) Hz"), 1000.0, 300.0);
+  EXPECT_NEAR(field(frame, "commands ([0-9.]+) Hz"), 1000.0, 300.0);
+  EXPECT_NEAR(field(frame, "status ([0-9.]+) Hz"), 100.0, 40.0);
+  EXPECT_GE(field(frame, "Hz, ([0-9]+) ticks"), 1000.0);
+  EXPECT_EQ(field(frame, "faults ([0-9]+)"), double(s.faults));
+  EXPECT_EQ(field(frame, "rejected messages ([0-9]+)"), double(s.rejected_messages));
+  EXPECT_NE(frame.find("IK          no Cartesian goal solved yet"), std::string::npos) << frame;
+  for (const char* row : {"wake-up jitter", "compute \\(state to command\\)", "latency \\(arrival to sent\\)"}) {
+    EXPECT_TRUE(std::regex_search(frame, std::regex(std::string(row) + " +[0-9.]+ +[0-9.]+ +[0-9.]+\n"))) << row;
+  }
+}
+
+TEST(monitor, NoControllerIsSaidNotShownAsNumbers) {
+  const RunResult r = monitor({"--once", "--seconds", "0.6", "--prefix", "NOBODY_"});
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.out.find("no controller on NOBODY_STATUS for 0.6 s"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("joint "), std::string::npos) << r.out;
+  EXPECT_EQ(r.err.rfind("chasles: no controller on NOBODY_STATUS for 0.6 s", 0), 0u) << r.err;
+}
+
+// Live, to a pipe: a frame a second. The controller stops after the first frames: the later ones
+// say for how long there has been no status and what it last was, with no joint table.
+TEST(monitor, AControllerThatStopsIsReportedGone) {
+  StatusListener bus;
+  ChildProcess plant(concat({CHASLES_PLANT, "--q0", kBentPose}, model()));
+  auto controller = std::make_unique<ChildProcess>(concat({CHASLES_CONTROLLER}, model()));
+  ASSERT_TRUE(bus.wait_for(controller_status_t::HOLDING, 5.0)) << controller->stderr_text();
+  std::thread stopper([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1300));
+    controller->stop(SIGTERM);
+  });
+  const RunResult r = monitor({"--seconds", "3.2"});
+  stopper.join();
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out.find('\x1b'), std::string::npos) << "no escape codes to a pipe";
+  const size_t first_gone = r.out.find("no controller on CHASLES_STATUS for ");
+  ASSERT_NE(first_gone, std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("controller  HOLDING"), std::string::npos) << r.out;
+  EXPECT_LT(r.out.find("controller  HOLDING"), first_gone);
+  const std::string last_frame = r.out.substr(r.out.rfind("chasles monitor"));
+  EXPECT_NE(last_frame.find("(it was HOLDING, "), std::string::npos) << last_frame;
+  EXPECT_EQ(last_frame.find("panda_joint"), std::string::npos) << last_frame;
+  EXPECT_EQ(last_frame.find("j0 "), std::string::npos) << last_frame;
+  EXPECT_NEAR(field(last_frame, "commands ([0-9.]+) Hz"), 0.0, 1e-9) << "the controller is gone";
+}
+
+// Malformed status messages are counted and the last reason shown, never decoded into numbers.
+TEST(monitor, JunkIsCountedNotShown) {
+  StatusListener bus;
+  std::thread sender([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(400));
+    bus.publish("CHASLES_STATUS", {1, 2, 3});
+    controller_status_t status{};
+    status.num_joints = 0;
+    std::vector<uint8_t> bytes(size_t(status.getEncodedSize()));
+    status.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+    bytes[8 + 8 + 1 + 3] = 0;  // the string's length with its NUL, 1 -> 0: lcm-gen's decoder would throw
+    bus.publish("CHASLES_STATUS", bytes);
+  });
+  const RunResult r = monitor({"--seconds", "1.5"});
+  sender.join();
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("ignored 2 malformed status messages (last: CHASLES_STATUS: message string of 0 bytes"),
+            std::string::npos)
+      << r.out;
+  EXPECT_EQ(r.out.find("controller  "), std::string::npos) << r.out;
+}
+
+// SIGINT (Ctrl-C) ends a live monitor with exit status 0.
+TEST(monitor, SigintEndsItCleanly) {
+  ChildProcess process({CHASLES_CLI, "monitor", "--lcm-url", kLcmUrl});
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  ASSERT_TRUE(process.running()) << process.stderr_text();
+  EXPECT_EQ(process.stop(SIGINT), 0) << process.stderr_text();
+}
+
+}  // namespace
+}  // namespace chasles::testing

@@ -1,0 +1,702 @@
+// chasles log export | plot: what happened in a run, from the LCM log lcm-logger wrote.
+//
+// export: one channel's messages as CSV, one column per field, joint arrays by joint name.
+// plot:   PNG figures made with gnuplot — joint positions against the reference, tracking error,
+//         torques against the effort limits, compute time, and the spread of the tick period.
+// A damaged log is read as far as it can be framed; what was readable is written, then the
+// command fails naming the byte offsets of the damage.
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <optional>
+#include <sstream>
+
+#include "command.hpp"
+#include "lcm_log.hpp"
+#include "messages.hpp"
+
+extern char** environ;
+
+namespace chasles::cli {
+namespace {
+
+struct LogOptions {
+  std::string log;
+  std::string channel;
+  std::string out;
+  std::string urdf;
+  std::string tip;
+  std::string prefix = "CHASLES_";
+};
+
+// The joints of the URDF's chain, when one is given.
+struct JointInfo {
+  std::vector<std::string> names;
+  std::vector<JointType> types;
+  std::vector<double> effort;  ///< limits, N·m or N
+};
+
+std::optional<JointInfo> load_joints(const LogOptions& options) {
+  if (options.urdf.empty()) return std::nullopt;
+  const RobotModel model = load_model({options.urdf, options.tip});
+  JointInfo info;
+  for (const Joint& joint : model.joints()) {
+    info.names.push_back(joint.name);
+    info.types.push_back(joint.type);
+    info.effort.push_back(joint.limits.effort);
+  }
+  return info;
+}
+
+// Labels for `count` joint columns: the URDF's names, which must then be as many.
+std::vector<std::string> labels_for(const std::optional<JointInfo>& joints, int count, const std::string& what) {
+  if (!joints) return joint_labels({}, count);
+  if (joints->names.size() != size_t(count)) {
+    throw InputError(what + " carry " + std::to_string(count) + " joints; the URDF's chain has " +
+                     std::to_string(joints->names.size()) + " (is --tip right?)");
+  }
+  return joints->names;
+}
+
+std::string csv_cell(const std::string& text) {
+  if (text.find_first_of(",\"\r\n") == std::string::npos) return text;
+  std::string quoted = "\"";
+  for (const char c : text) {
+    if (c == '"') quoted += '"';
+    quoted += c;
+  }
+  return quoted + "\"";
+}
+
+// A file written under a temporary name beside its destination and renamed over it once
+// complete, so a reader never sees half of it and a failed run leaves the old one.
+class AtomicFile {
+ public:
+  explicit AtomicFile(std::string path)
+      : path_(std::move(path)), temporary_(path_ + ".tmp-" + std::to_string(::getpid())) {
+    file_.open(temporary_, std::ios::binary | std::ios::trunc);
+    if (!file_) throw InputError(path_ + ": cannot write (" + std::strerror(errno) + ")");
+  }
+  ~AtomicFile() {
+    if (!committed_) std::remove(temporary_.c_str());
+  }
+  AtomicFile(const AtomicFile&) = delete;
+  AtomicFile& operator=(const AtomicFile&) = delete;
+
+  std::ostream& stream() { return file_; }
+
+  void commit() {
+    file_.close();
+    if (!file_ || std::rename(temporary_.c_str(), path_.c_str()) != 0) {
+      throw InputError(path_ + ": cannot write (" + std::strerror(errno) + ")");
+    }
+    committed_ = true;
+  }
+
+ private:
+  std::string path_, temporary_;
+  std::ofstream file_;
+  bool committed_ = false;
+};
+
+// The damage found, as one error: the first few places, and what was written regardless.
+[[noreturn]] void fail_damaged(const std::string& log, const std::vector<std::string>& problems,
+                               const std::string& written) {
+  std::string text = log + ": ";
+  const size_t shown = std::min<size_t>(problems.size(), 3);
+  for (size_t i = 0; i < shown; ++i) text += (i > 0 ? "; " : "") + problems[i];
+  if (problems.size() > shown) text += "; and " + std::to_string(problems.size() - shown) + " more";
+  throw InputError(text + " (" + written + ")");
+}
+
+// ---------------------------------------------------------------------------------------------
+// export
+// ---------------------------------------------------------------------------------------------
+
+std::string channel_list(const std::map<std::string, int64_t>& counts) {
+  std::string text;
+  for (const auto& [channel, count] : counts) text += (text.empty() ? "" : ", ") + channel + " " + std::to_string(count);
+  return text.empty() ? "none" : text;
+}
+
+Json run_export(const LogOptions& options) {
+  const std::optional<JointInfo> joints = load_joints(options);
+
+  // First pass: the channel's type and its widest joint array, so every row has the same columns
+  // (a HOLD target carries no joints, a JOINT target all of them).
+  std::map<std::string, int64_t> counts;
+  MessageType type = MessageType::Unknown;
+  int width = 0;
+  int64_t first_utime = 0;
+  bool any_event = false;
+  {
+    LogReader reader(options.log);
+    LogEvent event;
+    while (reader.next(event)) {
+      if (!any_event) first_utime = event.utime;
+      any_event = true;
+      ++counts[event.channel];
+      if (event.channel != options.channel) continue;
+      const MessageType this_type = message_type(event.data.data(), event.data.size());
+      if (type == MessageType::Unknown) type = this_type;
+      if (this_type != type) continue;
+      width = std::max(width, joint_count(type, event.data.data(), event.data.size()));
+    }
+    if (counts.count(options.channel) == 0) {
+      if (!reader.problems().empty()) fail_damaged(options.log, reader.problems(), "nothing on " + options.channel);
+      throw InputError(options.log + ": no messages on " + options.channel + " (channels in the log: " +
+                       channel_list(counts) + ")");
+    }
+  }
+  if (type == MessageType::Unknown) {
+    throw InputError(options.log + ": the messages on " + options.channel +
+                     " are not of a chasles type (robot_state_t, joint_torque_command_t, arm_target_t, "
+                     "controller_status_t)");
+  }
+  const std::vector<std::string> labels =
+      labels_for(joints, width, "the " + type_name(type) + " messages on " + options.channel);
+
+  // Second pass: the rows.
+  LogReader reader(options.log);
+  std::vector<std::string> problems;
+  std::unique_ptr<AtomicFile> file;
+  std::ostream* out = &std::cout;
+  if (options.out != "-") {
+    file = std::make_unique<AtomicFile>(options.out);
+    out = &file->stream();
+  }
+  out->precision(17);
+  LogEvent event;
+  Cells cells;
+  std::vector<std::string> header;
+  int64_t rows = 0;
+  while (reader.next(event)) {
+    if (event.channel != options.channel) continue;
+    const std::string why = message_cells(type, event.data.data(), event.data.size(), labels, cells);
+    if (!why.empty()) {
+      problems.push_back("byte " + std::to_string(event.offset) + ": event #" + std::to_string(event.number) + " on " +
+                         options.channel + " is " + (why.rfind("not a", 0) == 0 ? "" : "a message ") + why +
+                         "; skipped");
+      continue;
+    }
+    if (header.empty()) {
+      header = cells.names;
+      *out << "log_t,log_utime,log_event";
+      for (const std::string& name : header) *out << ',' << csv_cell(name);
+      *out << '\n';
+    }
+    *out << number_text(double(event.utime - first_utime) * 1e-6) << ',' << event.utime << ',' << event.number;
+    for (const std::string& value : cells.values) *out << ',' << csv_cell(value);
+    *out << '\n';
+    ++rows;
+  }
+  out->flush();
+  if (!*out) throw InputError((options.out == "-" ? std::string("standard output") : options.out) + ": write failed");
+  if (file) file->commit();
+
+  // The framing damage and the undecodable messages, in file order.
+  std::vector<std::string> all = reader.problems();
+  all.insert(all.end(), problems.begin(), problems.end());
+  std::sort(all.begin(), all.end(), [](const std::string& a, const std::string& b) {
+    return std::stoull(a.substr(5)) < std::stoull(b.substr(5));  // "byte N: ..."
+  });
+  if (!all.empty()) {
+    fail_damaged(options.log, all,
+                 "exported the " + std::to_string(rows) + " readable messages on " + options.channel + " to " +
+                     (options.out == "-" ? "standard output" : options.out));
+  }
+  if (options.out == "-") return Json();  // the CSV was the output
+  Json answer;
+  answer["log"] = options.log;
+  answer["channel"] = options.channel;
+  answer["type"] = type_name(type);
+  answer["messages"] = rows;
+  answer["columns"] = 3 + header.size();
+  answer["out"] = options.out;
+  return answer;
+}
+
+// ---------------------------------------------------------------------------------------------
+// plot
+// ---------------------------------------------------------------------------------------------
+
+struct Series {
+  std::vector<double> t;                  ///< s since the log's first event
+  std::vector<std::vector<double>> rows;  ///< one row of values per message
+};
+
+struct TargetMark {
+  double t;
+  std::string label;
+};
+
+// What the figures are drawn from, collected in one pass over the log.
+struct PlotData {
+  int joints = 0;
+  Series status;    ///< q[n], q_desired[n], tracking_error[n], jitter p50/p99/max, compute p50/p99/max
+  Series commands;  ///< torque[n]
+  std::vector<int64_t> command_utimes;
+  std::vector<TargetMark> targets;
+  std::vector<std::string> problems;
+  int64_t rejected = 0;  ///< messages on our channels that did not decode
+};
+
+std::string mode_name(int8_t mode) {
+  switch (mode) {
+    case arm_target_t::HOLD: return "HOLD";
+    case arm_target_t::JOINT: return "JOINT";
+    case arm_target_t::CARTESIAN: return "CARTESIAN";
+    default: return "mode " + std::to_string(int{mode});
+  }
+}
+
+PlotData collect(const LogOptions& options) {
+  const std::string status_channel = options.prefix + "STATUS", command_channel = options.prefix + "COMMAND",
+                    target_channel = options.prefix + "TARGET";
+  PlotData data;
+  LogReader reader(options.log);
+  LogEvent event;
+  std::optional<int64_t> first_utime;
+  std::map<std::string, int64_t> counts;
+  const auto skip = [&](const std::string& why) {
+    data.problems.push_back("byte " + std::to_string(event.offset) + ": event #" + std::to_string(event.number) +
+                            " on " + event.channel + " is " + (why.rfind("not a", 0) == 0 ? "" : "a message ") + why +
+                            "; skipped");
+  };
+  // Every joint-space message must have the first status's joint count.
+  const auto joints_ok = [&](int n) {
+    if (data.joints == 0) data.joints = n;
+    if (n == data.joints) return true;
+    skip("for " + std::to_string(n) + " joints, where the first had " + std::to_string(data.joints));
+    return false;
+  };
+  while (reader.next(event)) {
+    if (!first_utime) first_utime = event.utime;
+    ++counts[event.channel];
+    const double t = double(event.utime - *first_utime) * 1e-6;
+    if (event.channel == status_channel) {
+      controller_status_t m;
+      if (std::string why = decode_checked(event.data.data(), event.data.size(), m); !why.empty()) {
+        skip(why);
+        continue;
+      }
+      if (m.num_joints == 0 || !joints_ok(m.num_joints)) continue;  // WAITING: no joint values yet
+      std::vector<double> row;
+      for (const auto* v : {&m.q, &m.q_desired, &m.tracking_error}) row.insert(row.end(), v->begin(), v->end());
+      row.insert(row.end(), {m.jitter_p50_us, m.jitter_p99_us, m.jitter_max_us, m.compute_p50_us, m.compute_p99_us,
+                             m.compute_max_us});
+      data.status.t.push_back(t);
+      data.status.rows.push_back(std::move(row));
+    } else if (event.channel == command_channel) {
+      joint_torque_command_t m;
+      if (std::string why = decode_checked(event.data.data(), event.data.size(), m); !why.empty()) {
+        skip(why);
+        continue;
+      }
+      if (!joints_ok(m.num_joints)) continue;
+      data.commands.t.push_back(t);
+      data.commands.rows.push_back(m.torque);
+      data.command_utimes.push_back(m.utime);
+    } else if (event.channel == target_channel) {
+      arm_target_t m;
+      if (std::string why = decode_checked(event.data.data(), event.data.size(), m); !why.empty()) {
+        skip(why);
+        continue;
+      }
+      data.targets.push_back({t, mode_name(m.mode)});
+    }
+  }
+  data.problems.insert(data.problems.begin(), reader.problems().begin(), reader.problems().end());
+  if (data.status.t.empty() && data.commands.t.empty()) {
+    if (!data.problems.empty()) fail_damaged(options.log, data.problems, "nothing to plot");
+    throw InputError(options.log + ": nothing to plot: no " + status_channel + " or " + command_channel +
+                     " messages with joint values (channels in the log: " + channel_list(counts) +
+                     "; another --prefix?)");
+  }
+  return data;
+}
+
+double percentile(std::vector<double> values, double p) {
+  if (values.empty()) return NAN;
+  const size_t k = std::min(values.size() - 1, size_t(p / 100.0 * double(values.size() - 1) + 0.5));
+  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(k), values.end());
+  return values[k];
+}
+
+std::string quoted(const std::string& text) {
+  std::string out = "\"";
+  for (const char c : text) {
+    if (c == '\n') {
+      out += "\\n";  // gnuplot's line break in a double-quoted string
+      continue;
+    }
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out + "\"";
+}
+
+std::string fixed(double x, int digits) {
+  char text[64];
+  std::snprintf(text, sizeof(text), "%.*f", digits, x);
+  return text;
+}
+
+// A temporary directory for the data files and the script, removed with the object.
+class ScratchDir {
+ public:
+  explicit ScratchDir(const std::string& parent) {
+    std::string pattern = parent + "/.chasles-plot-XXXXXX";
+    if (::mkdtemp(pattern.data()) == nullptr) {
+      throw InputError(parent + ": cannot create a scratch directory (" + std::strerror(errno) + ")");
+    }
+    path = pattern;
+  }
+  ~ScratchDir() {
+    for (const std::string& file : files) std::remove(file.c_str());
+    ::rmdir(path.c_str());
+  }
+  ScratchDir(const ScratchDir&) = delete;
+  ScratchDir& operator=(const ScratchDir&) = delete;
+
+  std::string file(const std::string& name) {
+    files.push_back(path + "/" + name);
+    return files.back();
+  }
+
+  std::string path;
+  std::vector<std::string> files;
+};
+
+void write_series(const std::string& path, const Series& series) {
+  std::ofstream file(path);
+  file.precision(10);
+  for (size_t i = 0; i < series.t.size(); ++i) {
+    file << series.t[i];
+    for (const double x : series.rows[i]) file << ' ' << x;
+    file << '\n';
+  }
+  if (!file) throw InputError(path + ": cannot write");
+}
+
+// Runs gnuplot on `script`; its complaints become the error.
+void run_gnuplot(const std::string& script, const std::string& errors) {
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, "/dev/null", O_WRONLY, 0);
+  posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, errors.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+  std::string program = "gnuplot";
+  std::vector<char*> argv{program.data(), const_cast<char*>(script.c_str()), nullptr};
+  pid_t pid = 0;
+  const int spawned = posix_spawnp(&pid, "gnuplot", &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (spawned != 0) {
+    throw InputError(std::string("cannot run gnuplot (") + std::strerror(spawned) +
+                     "): install it (Debian: apt-get install gnuplot-nox)");
+  }
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+    std::ifstream file(errors);
+    std::string said, line;
+    while (std::getline(file, line)) {
+      if (line.find_first_not_of(" ^") != std::string::npos) said += (said.empty() ? "" : " ") + line;
+    }
+    throw InputError("gnuplot failed" + (said.empty() ? std::string() : ": " + said.substr(0, 400)) +
+                     (said.find("terminal") != std::string::npos ? " (its pngcairo terminal is needed: Debian's "
+                                                                   "gnuplot-nox has it)"
+                                                                 : ""));
+  }
+}
+
+constexpr int kWidth = 1200, kHeight = 800;
+
+// A round tick step near x: 1, 2, 2.5 or 5 times a power of ten.
+double nice_step(double x) {
+  if (!(x > 0)) return 1.0;
+  const double decade = std::pow(10.0, std::floor(std::log10(x)));
+  for (const double m : {1.0, 2.0, 2.5, 5.0}) {
+    if (m * decade >= x * 0.75) return m * decade;
+  }
+  return 10.0 * decade;
+}
+
+Json run_plot(const LogOptions& options) {
+  const std::optional<JointInfo> joints = load_joints(options);
+  PlotData data = collect(options);
+  const int n = data.joints;
+  const std::vector<std::string> names = labels_for(joints, n, "the messages on " + options.prefix + "*");
+
+  if (::mkdir(options.out.c_str(), 0777) != 0 && errno != EEXIST) {
+    throw InputError(options.out + ": cannot create the directory (" + std::strerror(errno) + ")");
+  }
+  struct stat info {};
+  if (::stat(options.out.c_str(), &info) != 0 || !S_ISDIR(info.st_mode)) {
+    throw InputError(options.out + ": not a directory");
+  }
+
+  bool prismatic = false, revolute = !joints;
+  if (joints) {
+    for (const JointType type : joints->types) (type == JointType::Prismatic ? prismatic : revolute) = true;
+  }
+  const std::string unit = prismatic && revolute ? "rad or m" : prismatic ? "m" : "rad";
+  const std::string milli = prismatic && revolute ? "mrad or mm" : prismatic ? "mm" : "mrad";
+  const std::string torque_unit = prismatic && revolute ? "N·m or N" : prismatic ? "N" : "N·m";
+  const std::string time_axis = "set xlabel \"time since the log's first message (s)\"\n";
+
+  ScratchDir scratch(options.out);
+  const std::string status_file = scratch.file("status.dat"), command_file = scratch.file("commands.dat"),
+                    period_file = scratch.file("period.dat");
+  write_series(status_file, data.status);
+  write_series(command_file, data.commands);
+
+  // The spread of the tick period: consecutive commands' utime (stamped by the controller as it
+  // computes each) differ by the period plus the difference of two ticks' wake-up and compute
+  // delays. Per-tick wake-up jitter is not on the wire; the status only has window percentiles.
+  std::vector<double> deviations;
+  double period_us = NAN;
+  {
+    std::vector<double> intervals;
+    for (size_t i = 1; i < data.command_utimes.size(); ++i) {
+      intervals.push_back(double(data.command_utimes[i] - data.command_utimes[i - 1]));
+    }
+    period_us = percentile(intervals, 50);
+    for (const double interval : intervals) deviations.push_back(interval - period_us);
+    std::ofstream file(period_file);
+    for (const double d : deviations) file << d << '\n';
+  }
+
+  std::ostringstream gp;
+  gp << "set terminal pngcairo size " << kWidth << "," << kHeight << " noenhanced font \"DejaVu Sans,11\"\n"
+     << "set grid lc rgb \"#d0d0d0\"\n"
+     << "set key outside right top box opaque\n"
+     << "set datafile missing \"nan\"\n"
+     << "set linetype 1 lc rgb \"#1f77b4\"\nset linetype 2 lc rgb \"#ff7f0e\"\nset linetype 3 lc rgb \"#2ca02c\"\n"
+     << "set linetype 4 lc rgb \"#d62728\"\nset linetype 5 lc rgb \"#9467bd\"\nset linetype 6 lc rgb \"#8c564b\"\n"
+     << "set linetype 7 lc rgb \"#e377c2\"\nset linetype 8 lc rgb \"#7f7f7f\"\nset linetype 9 lc rgb \"#bcbd22\"\n"
+     << "set linetype cycle 9\n"
+     << "set autoscale xfix\nset offsets 0, 0, graph 0.04, graph 0.04\n";
+  // Targets as dotted vertical lines, labelled with their mode, on the time plots.
+  std::string marks;
+  {
+    std::ostringstream m;
+    for (size_t i = 0; i < data.targets.size(); ++i) {
+      m << "set arrow " << i + 1 << " from " << data.targets[i].t << ", graph 0 to " << data.targets[i].t
+        << ", graph 1 nohead dt 3 lc rgb \"#808080\"\n"
+        << "set label " << i + 1 << " " << quoted(data.targets[i].label) << " at " << data.targets[i].t
+        << ", graph 0.98 left offset 0.3,0 textcolor rgb \"#606060\" font \",9\"\n";
+    }
+    marks = m.str();
+  }
+  const std::string unmark = "unset arrow\nunset label\n";
+  std::vector<std::string> produced;
+  const auto output = [&](const std::string& name) {
+    produced.push_back(name);
+    gp << "set output " << quoted(options.out + "/" + name + ".tmp") << "\n";
+  };
+  const std::string source = " (" + std::to_string(data.status.t.size()) + " " + options.prefix + "STATUS messages)";
+
+  if (!data.status.t.empty()) {
+    // Columns of status.dat: 1 t, then q, q_desired, tracking_error (n each), then timing.
+    const int q0 = 2, qd0 = 2 + n, e0 = 2 + 2 * n, timing0 = 2 + 3 * n;
+    output("joint_positions.png");
+    gp << "set title " << quoted("Joint positions: measured q (coloured) and desired q_d (black dashed)" + source)
+       << "\n" << time_axis << "set ylabel " << quoted("joint position (" + unit + ")") << "\n" << marks << "plot ";
+    for (int j = 0; j < n; ++j) {
+      gp << (j ? ", " : "") << quoted(status_file) << " using 1:" << q0 + j << " with lines lt " << j + 1
+         << " lw 2.5 title " << quoted(names[size_t(j)]);
+    }
+    // The reference drawn over the measurement: where they part, the tracking error shows.
+    for (int j = 0; j < n; ++j) {
+      gp << ", " << quoted(status_file) << " using 1:" << qd0 + j << " with lines lc rgb \"black\" lw 1 dt (4,4) "
+         << (j == 0 ? "title \"q_d (each joint)\"" : "notitle");
+    }
+    gp << "\n";
+
+    output("tracking_error.png");
+    gp << "set title " << quoted("Tracking error e = q_d - q" + source) << "\n"
+       << "set ylabel " << quoted("tracking error (" + milli + ")") << "\n" << marks << "plot ";
+    for (int j = 0; j < n; ++j) {
+      gp << (j ? ", " : "") << quoted(status_file) << " using 1:($" << e0 + j << "*1000) with lines lt " << j + 1
+         << " lw 1.5 title " << quoted(names[size_t(j)]);
+    }
+    gp << "\n" << unmark;
+
+    output("compute_time.png");
+    gp << "set title " << quoted("Tick compute time (state read to command encoded), per status window" + source)
+       << "\nset ylabel \"compute time (µs, log scale)\"\nset logscale y\nset offsets 0, 0, 0, 0\nset key inside top right box opaque width 1.5\n"
+       << marks << "plot " << quoted(status_file) << " using 1:" << timing0 + 4
+       << " with lines lt 2 lw 1.5 title \"p99\", " << quoted(status_file) << " using 1:" << timing0 + 3
+       << " with lines lt 1 lw 2 title \"p50\", " << quoted(status_file) << " using 1:" << timing0 + 5
+       << " with points pt 7 ps 0.5 lc rgb \"#d62728\" title \"max\"\n"
+       << "unset logscale y\nset offsets 0, 0, graph 0.04, graph 0.04\nset key outside right top box opaque\n"
+       << unmark;
+  }
+
+  if (!data.commands.t.empty()) {
+    // One panel per joint, each with its effort limits: how much headroom the controller had.
+    output("torques.png");
+    const int columns = n <= 3 ? 1 : 2, rows = (n + columns - 1) / columns;
+    gp << "set multiplot layout " << rows << "," << columns
+       << " margins 0.07, 0.98, 0.08, 0.93 spacing 0.08, 0.075 title "
+       << quoted("Commanded joint torques (" + std::to_string(data.commands.t.size()) + " " + options.prefix +
+                 "COMMAND messages)" +
+                 (joints ? "; dashed red: the URDF's effort limits" : "; effort limits unknown: give --urdf"))
+       << " font \",13\"\n"
+       << "set key off\n";
+    for (int j = 0; j < n; ++j) {
+      // Only the bottom panel of each column names the time axis.
+      gp << "set xlabel " << (j + columns >= n ? "\"time since the log's first message (s)\" offset 0,0.6" : "\"\"")
+         << "\n";
+      double peak = 0.0;
+      for (const auto& row : data.commands.rows) peak = std::max(peak, std::abs(row[size_t(j)]));
+      std::string title = names[size_t(j)] + ": peak |τ| " + fixed(peak, 2) + " " + torque_unit;
+      gp << "set ylabel " << quoted("τ (" + torque_unit + ")") << " offset 1,0\n";
+      if (joints && joints->effort[size_t(j)] > 0) {
+        const double limit = joints->effort[size_t(j)];
+        title += " = " + fixed(100.0 * peak / limit, 1) + " % of its limit " + number_text(limit) + " " + torque_unit;
+        gp << "set yrange [" << -1.15 * limit << ":" << 1.15 * limit << "]\nset ytics " << nice_step(limit / 2)
+           << "\n";
+        gp << "set title " << quoted(title) << " offset 0,-0.6\nplot " << quoted(command_file) << " using 1:" << 2 + j
+           << " with lines lt " << j + 1 << " lw 1.5, " << limit << " with lines lc rgb \"#d62728\" dt 2 lw 1.5, "
+           << -limit << " with lines lc rgb \"#d62728\" dt 2 lw 1.5\n";
+      } else {
+        gp << "set autoscale y\nset ytics autofreq\nset title " << quoted(title) << " offset 0,-0.6\nplot " << quoted(command_file)
+           << " using 1:" << 2 + j << " with lines lt " << j + 1 << " lw 1.5\n";
+      }
+    }
+    gp << "unset multiplot\nset autoscale y\nset ytics autofreq\nset key outside right top box opaque\n"
+       << "set xlabel offset 0,0\nset ylabel offset 0,0\n";
+  }
+
+  if (deviations.size() >= 2) {
+    // The axis spans twice the 99th percentile of |deviation| (at least ±20 µs), in bins of whole
+    // µs; the rare stalls beyond are counted in the title rather than squeezing the rest into a
+    // few bins.
+    std::vector<double> magnitudes;
+    for (const double d : deviations) magnitudes.push_back(std::abs(d));
+    const double range = std::max(20.0, std::ceil(2.0 * percentile(magnitudes, 99)));
+    const double bin = std::max(1.0, std::round(range / 50.0));
+    int64_t outside = 0;
+    double worst = 0.0;
+    for (const double d : deviations) {
+      if (std::abs(d) > range) ++outside;
+      worst = std::max(worst, std::abs(d));
+    }
+    output("jitter_histogram.png");
+    gp << "set title "
+       << quoted("Tick period jitter: the interval between consecutive " + options.prefix +
+                 "COMMAND utime stamps minus their median, " + fixed(period_us, 0) + " µs\n" +
+                 std::to_string(deviations.size()) + " intervals; p99 of |deviation| " +
+                 fixed(percentile(magnitudes, 99), 1) + " µs" +
+                 (outside > 0 ? "; " + std::to_string(outside) + " beyond ±" + fixed(range, 0) +
+                                    " µs not shown, the largest " + fixed(worst, 0) + " µs"
+                              : ""))
+       << "\nset xlabel \"interval - median interval (µs)\"\nset ylabel \"ticks (log scale)\"\n"
+       << "set logscale y\nset yrange [0.8:*]\nset xrange [" << -range - bin << ":" << range + bin << "]\n"
+       << "set style fill solid 0.7 border lc rgb \"#1f4f7f\"\nset boxwidth " << bin * 0.9 << "\nset key off\n"
+       << "bin(x) = " << bin << " * floor(x / " << bin << " + 0.5)\n"
+       << "plot " << quoted(period_file) << " using (bin($1)):(abs($1) <= " << range
+       << " ? 1 : 0) smooth frequency with boxes lc rgb \"#1f77b4\"\n"
+       << "unset logscale y\nset autoscale\nset key outside right top box opaque\n";
+  }
+
+  gp << "unset output\n";
+  const std::string script = scratch.file("plots.gp");
+  {
+    std::ofstream file(script);
+    file << gp.str();
+    if (!file) throw InputError(script + ": cannot write");
+  }
+  for (const std::string& name : produced) scratch.files.push_back(options.out + "/" + name + ".tmp");
+  run_gnuplot(script, scratch.file("gnuplot.err"));
+  Json plots = Json::array();
+  for (const std::string& name : produced) {
+    const std::string path = options.out + "/" + name;
+    if (std::rename((path + ".tmp").c_str(), path.c_str()) != 0) {
+      throw InputError(path + ": gnuplot wrote no plot (" + std::strerror(errno) + ")");
+    }
+    plots.push_back(path);
+  }
+  if (!data.problems.empty()) {
+    fail_damaged(options.log, data.problems, "plotted what was readable: " + std::to_string(produced.size()) +
+                                                 " figures in " + options.out);
+  }
+  Json answer;
+  answer["log"] = options.log;
+  answer["plots"] = std::move(plots);
+  answer["status_messages"] = data.status.t.size();
+  answer["command_messages"] = data.commands.t.size();
+  answer["targets"] = data.targets.size();
+  return answer;
+}
+
+void add_robot_options(CLI::App& command, LogOptions& options) {
+  command.add_option("--urdf,--robot", options.urdf, "Robot description: joint names (and, for plots, effort limits)")
+      ->type_name("FILE");
+  command.add_option("--tip", options.tip, "Link that ends the chain; needed when the URDF tree has several leaves")
+      ->type_name("LINK");
+}
+
+}  // namespace
+
+Command register_log(CLI::App& app) {
+  auto options = std::make_shared<LogOptions>();
+  CLI::App* log = app.add_subcommand("log", "Read an LCM log of a run (lcm-logger's): export a channel as CSV, plot");
+  log->require_subcommand(1);
+
+  CLI::App* exporter = log->add_subcommand("export", "One channel's messages as CSV, one column per field");
+  exporter->add_option("log", options->log, "LCM log file (lcm-logger's)")->required()->type_name("LOG");
+  exporter->add_option("--channel", options->channel, "The channel to export, e.g. CHASLES_STATUS")
+      ->required()
+      ->type_name("CHANNEL");
+  exporter->add_option("--out", options->out, "The CSV file to write ('-': standard output)")
+      ->required()
+      ->type_name("FILE");
+  add_robot_options(*exporter, *options);
+  exporter->footer(
+      "Columns: log_t (s since the log's first message), log_utime (the logger's receive time, µs since the\n"
+      "epoch), log_event (its event number), then the message's fields in the .lcm contract's order: joint\n"
+      "arrays one column per joint, named by the URDF's joints with --urdf (else j0, j1, ...), e.g.\n"
+      "position[panda_joint1]; tip_position[x], tip_quaternion[w]. Numbers are exact (shortest round trip).\n"
+      "Prints {\"log\", \"channel\", \"type\", \"messages\", \"columns\", \"out\"}. A damaged log: the readable\n"
+      "messages are written, then exit 1 with the byte offsets of the damage.\n"
+      "Example:\n"
+      "  chasles log export build/demo/<time>/chasles.lcmlog --channel CHASLES_STATUS --out status.csv \\\n"
+      "      --urdf tests/data/panda.urdf --tip panda_hand");
+
+  CLI::App* plotter = log->add_subcommand("plot", "PNG figures of a run, drawn with gnuplot");
+  plotter->add_option("log", options->log, "LCM log file (lcm-logger's)")->required()->type_name("LOG");
+  plotter->add_option("--out", options->out, "Directory for the PNGs (created if missing)")
+      ->required()
+      ->type_name("DIR");
+  plotter->add_option("--prefix", options->prefix, "Channel prefix: PREFIX STATUS, PREFIX COMMAND, PREFIX TARGET")
+      ->type_name("PREFIX")
+      ->capture_default_str();
+  add_robot_options(*plotter, *options);
+  plotter->footer(
+      "Writes 1200x800 PNGs: joint_positions.png (q and q_d), tracking_error.png, compute_time.png (from\n"
+      "PREFIX STATUS), torques.png (commanded, against the URDF's effort limits) and jitter_histogram.png\n"
+      "(the spread of the interval between commands), from PREFIX COMMAND; targets are marked on the time\n"
+      "axes. Prints {\"log\", \"plots\", \"status_messages\", \"command_messages\", \"targets\"}.\n"
+      "Example:\n"
+      "  chasles log plot build/demo/<time>/chasles.lcmlog --out plots/ --urdf tests/data/panda.urdf --tip panda_hand");
+
+  return {log, [options, exporter] { return exporter->parsed() ? run_export(*options) : run_plot(*options); }};
+}
+
+}  // namespace chasles::cli
