@@ -555,7 +555,8 @@ class Fit {
     x_ = x.data();
   }
 
-  ceres::Solver::Summary solve(LossType type, double scale, int max_iterations) {
+  /// Solves from the current x; `tolerance` is Ceres's relative function tolerance.
+  ceres::Solver::Summary solve(LossType type, double scale, int max_iterations, double tolerance = 1e-14) {
     current_loss_ = make_loss(type, scale);
     loss_->Reset(current_loss_.get(), ceres::DO_NOT_TAKE_OWNERSHIP);
     ceres::Solver::Options so;
@@ -567,8 +568,8 @@ class Fit {
     so.logging_type = ceres::SILENT;
     // Noise-free data must converge to round-off, so the tolerances are far below Ceres's defaults;
     // Levenberg-Marquardt's quadratic convergence makes that a step or two more.
-    so.function_tolerance = 1e-14;
-    so.parameter_tolerance = 1e-14;
+    so.function_tolerance = tolerance;
+    so.parameter_tolerance = tolerance;
     so.gradient_tolerance = 1e-16;
     ceres::Solver::Summary summary;
     ceres::Solve(so, problem_.get(), &summary);
@@ -683,8 +684,11 @@ CalibrationResult calibrate(const RobotModel& nominal, const std::vector<Measure
     for (int k = 0; k < 6; ++k) free.push_back(layout.base(k));
     for (int k = result.pose_data ? 0 : 3; k < 6; ++k) free.push_back(layout.tool(k));
     Fit stage(model, fit, use_orientation, x, free);
-    if (options.loss == LossType::Cauchy) stage.solve(LossType::Huber, options.loss_scale, options.max_iterations);
-    stage.solve(options.loss, options.loss_scale, options.max_iterations);
+    // The nominal robot misses its measurements by model error, far beyond σ: Cauchy's weights
+    // would treat every row as an outlier and crawl. Huber (or none, as asked) is convex here and
+    // settles quickly; a start and a "before" figure need no more.
+    const LossType loss = options.loss == LossType::None ? LossType::None : LossType::Huber;
+    stage.solve(loss, options.loss_scale, options.max_iterations, 1e-10);
     result.before = model.corrections(x);
   }
 

@@ -228,7 +228,8 @@ struct CalibrationResult {
 
 /// Calibrates `nominal` on the `fit` rows and evaluates on `holdout` (may be empty):
 ///   1. base and tool start from a closed-form registration of the nominal tip positions to the
-///      measured ones (Kabsch/Horn), then are refined with the robot held nominal — the "before"
+///      measured ones (Kabsch/Horn), then are refined with the robot held nominal, under a Huber
+///      loss (Cauchy would take every row of an uncalibrated arm for an outlier) — the "before"
 ///      model, the best the uncalibrated robot can do;
 ///   2. identifiability at that point (analyse_identifiability);
 ///   3. the free parameters by Levenberg-Marquardt under the robust loss (a Huber pass first
