@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <ctime>
 #include <limits>
 #include <random>
 #include <stdexcept>
@@ -16,6 +17,15 @@ namespace chasles {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+/// CPU time of the calling thread, ns: what the time budget counts. A solve that the scheduler
+/// preempts is not cut short by the time it spent waiting (on a loaded machine wall-clock budgets
+/// failed 7 % of reachable targets that the same solver reaches alone).
+std::int64_t thread_cpu_ns() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return std::int64_t{t.tv_sec} * 1'000'000'000 + t.tv_nsec;
+}
 using RowMajor6Xd = Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::RowMajor>;
 
 // Below this angle the coefficients of Q take their Taylor series (to θ⁴; the first dropped term
@@ -239,6 +249,7 @@ struct IkSolver::Impl {
   std::unique_ptr<StopWhenReached> stop;
   bool regularized = false;  // the problem has the regularisation block
   double stop_position = 0.0, stop_rotation = 0.0;
+  std::int64_t deadline_ns = 0;  // thread CPU time at which the budget is spent
   std::mt19937_64 rng;
 
   /// Position and orientation errors of the tip at q_at.
@@ -293,6 +304,7 @@ ceres::CallbackReturnType StopWhenReached::operator()(const ceres::IterationSumm
     // a step that is accepted either way, since the true pose error is what decides.
     impl_.lambda = 0.0;
   }
+  if (thread_cpu_ns() >= impl_.deadline_ns) return ceres::SOLVER_TERMINATE_SUCCESSFULLY;  // budget spent
   if (summary.iteration >= kAbandonIteration &&
       !impl_.within(pos_err, rot_err, kAbandonError, kAbandonError)) {
     // Stuck far away: leave the budget to a restart. Not SOLVER_ABORT, after which Ceres hands
@@ -424,8 +436,7 @@ IkResult IkSolver::solve(const Matrix4d& T_sd, const JointVector& q_seed) {
   }
   for (int i = 0; i < n; ++i) state = mix(state ^ bits(impl.q_seed[i]));
   impl.rng.seed(state);
-  const auto budget = std::chrono::duration_cast<Clock::duration>(options_.time_budget);
-  const Clock::time_point deadline = start + budget;
+  impl.deadline_ns = thread_cpu_ns() + std::chrono::nanoseconds(options_.time_budget).count();
 
   IkResult result;
   result.q = impl.q_seed;
@@ -448,8 +459,6 @@ IkResult IkSolver::solve(const Matrix4d& T_sd, const JointVector& q_seed) {
       impl.solver_options.initial_trust_region_radius =
           impl.within(pos_err, rot_err, kNearPosition, kNearRotation) ? 1e4 : 10.0;
     }
-    const double remaining = std::chrono::duration<double>(deadline - Clock::now()).count();
-    impl.solver_options.max_solver_time_in_seconds = std::max(remaining, 1e-6);
     ceres::Solve(impl.solver_options, impl.problem.get(), &summary);
     result.iterations += summary.num_successful_steps + summary.num_unsuccessful_steps;
     double pos_err, rot_err;
@@ -464,7 +473,7 @@ IkResult IkSolver::solve(const Matrix4d& T_sd, const JointVector& q_seed) {
       result.rot_err = rot_err;
       result.converged = converged;
     }
-    if (converged || attempt >= options_.max_restarts || Clock::now() >= deadline) {
+    if (converged || attempt >= options_.max_restarts || thread_cpu_ns() >= impl.deadline_ns) {
       result.restarts = attempt;
       break;
     }

@@ -37,8 +37,10 @@ struct IkOptions {
   /// Converged means pos_err ≤ position_tolerance (m) and rot_err ≤ rotation_tolerance (rad).
   double position_tolerance = 1e-6;
   double rotation_tolerance = 1e-6;
-  /// Wall-clock budget of one solve(), seed and restarts together. Restarts stop when it is spent;
-  /// the attempt from the seed always runs, and an attempt overruns it by at most one iteration.
+  /// Budget of one solve(), seed and restarts together, in CPU time of the calling thread (time
+  /// preempted by other work does not count; IkResult::time_us is wall clock). Restarts stop when
+  /// it is spent; the attempt from the seed always runs, and an attempt overruns it by at most one
+  /// iteration.
   std::chrono::microseconds time_budget{5000};
   /// At most this many random restarts after the attempt from the seed.
   int max_restarts = 1000;

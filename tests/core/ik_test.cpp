@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <fstream>
 #include <limits>
 #include <memory>
@@ -97,7 +98,8 @@ class Ik : public ::testing::TestWithParam<std::string> {
 // FK(IK(T)) = T for every reachable reference target, within the limits. Asserted with a restart
 // cap and a generous clock (the same answer on any machine); then measured with the default 5 ms
 // budget, cold from q_seed and warm from the solution plus 0.01 rad of noise, and printed, not
-// asserted: within a wall-clock budget the rate and the times depend on the machine and its load.
+// asserted: within a CPU-time budget the rate and the times depend on the machine (and on a
+// sanitizer build).
 TEST_P(Ik, ReachesTheReferenceTargets) {
   {
     IkOptions options;
@@ -121,7 +123,7 @@ TEST_P(Ik, ReachesTheReferenceTargets) {
     }
     std::printf("[ ik %s ] up to 200 restarts: %d/%zu converged (%.2f %%), %d restarts in all\n", GetParam().c_str(),
                 converged, ref_.cases.size(), 100.0 * converged / static_cast<double>(ref_.cases.size()), restarts);
-    EXPECT_GE(converged / static_cast<double>(ref_.cases.size()), 0.99);
+    EXPECT_EQ(converged, static_cast<int>(ref_.cases.size()));  // the issue asks ≥ 99.9 %: all 200
   }
 
   IkSolver solver(*model_);
@@ -204,6 +206,30 @@ TEST_P(Ik, ReportsAnUnreachableTarget) {
   pose_errors(*model_, result.q, T, pos_err, rot_err);
   EXPECT_NEAR(pos_err, result.pos_err, 1e-9);
   EXPECT_NEAR(rot_err, result.rot_err, 1e-9);
+}
+
+// An unreachable target with an unlimited restart cap: the budget, in the thread's CPU time, ends
+// the search, overrun by at most one iteration.
+TEST_P(Ik, StopsWhenTheBudgetIsSpent) {
+  IkOptions options;
+  options.time_budget = std::chrono::milliseconds(20);
+  options.max_restarts = 1'000'000;
+  IkSolver solver(*model_, options);
+  Matrix4d T = ref_.cases[3].T_target;
+  T(0, 3) += 10.0;
+  const auto cpu_ms = [] {
+    timespec t{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return 1e3 * static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_nsec);
+  };
+  const double start = cpu_ms();
+  const IkResult result = solver.solve(T, ref_.cases[3].q_seed);
+  const double spent = cpu_ms() - start;
+  EXPECT_FALSE(result.converged);
+  EXPECT_GT(result.restarts, 0);
+  EXPECT_LT(result.restarts, options.max_restarts);
+  EXPECT_GE(spent, 20.0);
+  EXPECT_LT(spent, 30.0);  // one iteration is ~5 µs (~50 µs under sanitizers)
 }
 
 // The tip reaches the position; the orientation is free.
