@@ -174,7 +174,7 @@ Command register_ik(CLI::App& app) {
           ->type_name("Q,Q,...");
   command
       ->add_option("--budget-ms", options->budget_ms,
-                   "Time budget per target, ms: restarts stop when it is spent")
+                   "Time budget per target, ms of the solving thread's CPU time: restarts stop when it is spent")
       ->check(CLI::Range(0.001, 3.6e6))
       ->capture_default_str();
   command->add_option("--seed-rng", options->rng_seed, "Seed of the random restarts")->capture_default_str();
