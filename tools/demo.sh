@@ -348,7 +348,7 @@ if [ -n "$summary" ]; then
 fi
 
 source "$root/tools/deps.sh"
-chasles_install_missing "${chasles_packages_build[@]}"
+chasles_install_missing "${chasles_packages_build[@]}" "${chasles_packages_plots[@]}"
 
 build=${CHASLES_BUILD_DIR:-$root/build}
 mkdir -p "$build"
@@ -367,6 +367,15 @@ export DEMO_INSIDE=1 DEMO_DIR="$dir" DEMO_BUILD="$build" DEMO_SECONDS="$seconds"
   DEMO_TIP="$tip" DEMO_SYNC_US="$sync_us"
 "$root/tools/netns.sh" bash "$root/tools/demo.sh"
 report
+
+# The figures of the run, from its LCM log.
+if ! "$build/tools/chasles" log plot "$dir/chasles.lcmlog" --out "$dir/plots" --urdf "$urdf" ${tip:+--tip "$tip"} \
+  >"$dir/plots.json" 2>"$dir/plots.err"; then
+  echo "demo.sh: chasles log plot failed: $(cat "$dir/plots.err")" >&2
+  exit 1
+fi
+echo "Plots: $dir/plots/ (joint_positions, tracking_error, torques, compute_time, jitter_histogram .png)"
+echo "  CSV of a channel: $build/tools/chasles log export $dir/chasles.lcmlog --channel CHASLES_STATUS --out status.csv"
 if [ -n "$summary" ]; then
   cp "$dir/summary.json" "$summary"
   echo "Controller summary copied to $summary"

@@ -12,6 +12,17 @@ chasles_packages_build=(
   iproute2 util-linux python3
 )
 
+# `chasles log plot` (the demo's figures): gnuplot with its pngcairo terminal, and a font.
+chasles_packages_plots=(gnuplot-nox fonts-dejavu-core)
+
+# Monitoring and its tests: the plots; tools/chasles-spy's chart library (liblcm-java does not pull
+# it in) and a Java runtime with AWT; Xvfb, ImageMagick, tesseract and xdotool for the test that
+# reads lcm-spy's window back from a virtual screen.
+chasles_packages_monitor=(
+  "${chasles_packages_plots[@]}" libjchart2d-java default-jre
+  xvfb imagemagick tesseract-ocr tesseract-ocr-eng xdotool
+)
+
 chasles_install_missing() {
   local missing=()
   local p
@@ -31,5 +42,5 @@ chasles_install_missing() {
 }
 
 if [ "${BASH_SOURCE[0]}" = "$0" ]; then
-  chasles_install_missing "${chasles_packages_build[@]}" "$@"
+  chasles_install_missing "${chasles_packages_build[@]}" "${chasles_packages_monitor[@]}" "$@"
 fi

@@ -7,7 +7,7 @@
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 source "$root/tools/deps.sh"
-chasles_install_missing "${chasles_packages_build[@]}"
+chasles_install_missing "${chasles_packages_build[@]}" "${chasles_packages_monitor[@]}"
 
 build="$root/build"
 options=(-DCHASLES_WERROR=ON)
