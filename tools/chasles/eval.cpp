@@ -2,33 +2,14 @@
 #include <memory>
 
 #include "chasles/core/dynamics/dynamics.hpp"
+#include "cases.hpp"
 #include "command.hpp"
 
 namespace chasles::cli {
 namespace {
 
-/// One case's inputs, checked against the model. Keys other than these are ignored, so the
-/// reference files are valid input.
-struct CaseInput {
-  Eigen::VectorXd q;
-  bool has_dynamics = false;  ///< the case has qd and qdd too
-  Eigen::VectorXd qd, qdd;
-};
-
-CaseInput parse_case(const RobotModel& model, const Json& item, const std::string& where) {
-  CaseInput input;
-  input.q = parse_vector(member(item, "q", where), model.dof(), where + ".q", "one per joint");
-  const auto qd = item.find("qd"), qdd = item.find("qdd");
-  input.has_dynamics = qd != item.end() && qdd != item.end();
-  if (input.has_dynamics) {
-    input.qd = parse_vector(*qd, model.dof(), where + ".qd", "one per joint");
-    input.qdd = parse_vector(*qdd, model.dof(), where + ".qdd", "one per joint");
-  }
-  return input;
-}
-
 /// One case's answer; each quantity is one key, so more (dynamics) slot in beside them.
-Json eval_case(const RobotModel& model, Data& data, const CaseInput& input) {
+Json eval_case(const RobotModel& model, Data& data, const EvalCase& input) {
   Json out;
   link_poses(model, data, input.q);  // runs forward_kinematics: data.T_sb, data.T_link
   out["T"] = transform_json(data.T_sb);
@@ -47,19 +28,10 @@ Json eval_case(const RobotModel& model, Data& data, const CaseInput& input) {
 }
 
 Json eval_json(const RobotModel& model, const std::string& cases_path) {
-  const Json document = read_json_file(cases_path, "cases file");
-  const std::string file = cases_path == "-" ? "<stdin>" : cases_path;
-  const Json& cases = cases_list(document, cases_path);
-
-  // Check every case before computing any, so a bad one late in the file fails fast.
-  std::vector<CaseInput> inputs;
-  inputs.reserve(cases.size());
-  for (size_t i = 0; i < cases.size(); ++i) {
-    inputs.push_back(parse_case(model, cases[i], file + ": cases[" + std::to_string(i) + "]"));
-  }
+  const std::vector<EvalCase> inputs = parse_eval_cases(read_json_file(cases_path, "cases file"), model, cases_path);
   Data data(model);
   Json results = Json::array();
-  for (const CaseInput& input : inputs) results.push_back(eval_case(model, data, input));
+  for (const EvalCase& input : inputs) results.push_back(eval_case(model, data, input));
   Json out;
   out["cases"] = std::move(results);
   return out;

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "chasles/core/ik/ik.hpp"
+#include "cases.hpp"
 #include "command.hpp"
 
 namespace chasles::cli {
@@ -26,59 +27,7 @@ struct IkCommandOptions {
   bool position_only = false;
 };
 
-struct IkInput {
-  Matrix4d T_sd;
-  Eigen::VectorXd q_seed;
-};
-
-/// The middle of every joint's range (0 for continuous joints): the seed when none is given.
-Eigen::VectorXd middle_of_limits(const RobotModel& model) {
-  Eigen::VectorXd q(model.dof());
-  for (int i = 0; i < model.dof(); ++i) {
-    const Joint& joint = model.joint(i);
-    q[i] = joint.type == JointType::Continuous ? 0.0 : 0.5 * (joint.limits.lower + joint.limits.upper);
-  }
-  return q;
-}
-
-/// A rigid transform from 4 rows of 4 finite numbers; InputError naming `where` otherwise.
-Matrix4d parse_transform(const Json& value, const std::string& where) {
-  Matrix4d T;
-  if (!value.is_array() || value.size() != 4)
-    throw InputError(where + " is " + describe_type(value) + ", expected 4 rows of 4 numbers");
-  for (size_t i = 0; i < 4; ++i) {
-    const Eigen::VectorXd row = parse_vector(value[i], 4, where + "[" + std::to_string(i) + "]", "a 4x4 row");
-    T.row(static_cast<Eigen::Index>(i)) = row.transpose();
-  }
-  try {
-    check_rigid_transform(T, where.c_str());
-  } catch (const std::invalid_argument& e) {
-    throw InputError(e.what());
-  }
-  return T;
-}
-
-std::vector<IkInput> read_targets(const RobotModel& model, const std::string& path) {
-  const Json document = read_json_file(path, "targets file");
-  const std::string file = path == "-" ? "<stdin>" : path;
-  const Json& cases = cases_list(document, path);
-  std::vector<IkInput> inputs;
-  inputs.reserve(cases.size());
-  for (size_t i = 0; i < cases.size(); ++i) {
-    const std::string where = file + ": cases[" + std::to_string(i) + "]";
-    const Json& item = cases[i];
-    IkInput input;
-    input.T_sd = parse_transform(member(item, "T_target", where), where + ".T_target");
-    const auto seed = item.is_object() ? item.find("q_seed") : item.end();
-    input.q_seed = seed == item.end()
-                       ? middle_of_limits(model)
-                       : parse_vector(*seed, model.dof(), where + ".q_seed", "one per joint");
-    inputs.push_back(std::move(input));
-  }
-  return inputs;
-}
-
-IkInput parse_pose_input(const RobotModel& model, const IkCommandOptions& options) {
+IkTarget parse_pose_input(const RobotModel& model, const IkCommandOptions& options) {
   const Eigen::VectorXd numbers = parse_list(options.pose, 7, "--pose");
   Eigen::Vector4d wxyz = numbers.tail<4>();
   const double norm = wxyz.norm();
@@ -88,7 +37,7 @@ IkInput parse_pose_input(const RobotModel& model, const IkCommandOptions& option
   }
   wxyz /= norm;
   const Eigen::Quaterniond rotation(wxyz[0], wxyz[1], wxyz[2], wxyz[3]);
-  IkInput input;
+  IkTarget input;
   input.T_sd = Matrix4d::Identity();
   input.T_sd.topLeftCorner<3, 3>() = rotation.toRotationMatrix();
   input.T_sd.topRightCorner<3, 1>() = numbers.head<3>();
@@ -109,8 +58,10 @@ double nearest_rank(const std::vector<double>& sorted, double p) {
 
 Json run_ik(const IkCommandOptions& options) {
   const RobotModel model = load_model(options.model);
-  const std::vector<IkInput> inputs = options.targets.empty() ? std::vector<IkInput>{parse_pose_input(model, options)}
-                                                              : read_targets(model, options.targets);
+  const std::vector<IkTarget> inputs =
+      options.targets.empty()
+          ? std::vector<IkTarget>{parse_pose_input(model, options)}
+          : parse_ik_targets(read_json_file(options.targets, "targets file"), model, options.targets);
   IkOptions ik_options;
   ik_options.position_only = options.position_only;
   ik_options.time_budget = std::chrono::microseconds(static_cast<std::int64_t>(std::llround(options.budget_ms * 1e3)));
@@ -121,7 +72,7 @@ Json run_ik(const IkCommandOptions& options) {
   Json cases = Json::array();
   std::vector<double> times;
   int converged = 0;
-  for (const IkInput& input : inputs) {
+  for (const IkTarget& input : inputs) {
     const IkResult result = solver.solve(input.T_sd, input.q_seed);
     Json out;
     out["q"] = vector_json(result.q);

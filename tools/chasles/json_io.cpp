@@ -73,8 +73,10 @@ const Json& cases_list(const Json& document, const std::string& path) {
 }
 
 Json read_json_file(const std::string& path, const std::string& what) {
-  const std::string text = read_text(path, what);
-  const std::string name = path == "-" ? "<stdin>" : path;
+  return parse_json_text(read_text(path, what), path == "-" ? "<stdin>" : path, what);
+}
+
+Json parse_json_text(const std::string& text, const std::string& name, const std::string& what) {
   try {
     return Json::parse(text);
   } catch (const Json::parse_error& e) {

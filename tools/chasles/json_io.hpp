@@ -40,6 +40,9 @@ Json transform_json(const Transform& T);
 /// column and byte where parsing stopped.
 Json read_json_file(const std::string& path, const std::string& what);
 
+/// The same for text already read; `name` is the file's name in messages.
+Json parse_json_text(const std::string& text, const std::string& name, const std::string& what);
+
 /// The "cases" list of a cases or targets document read from `path` ("-": standard input, named
 /// "<stdin>"); throws InputError naming the file when the top level is not an object with one.
 const Json& cases_list(const Json& document, const std::string& path);
