@@ -89,9 +89,12 @@ Dataset parse_dataset(const std::string& text, const RobotModel& model, const st
         const int joint = model.joint_index(name);
         if (joint >= 0) slot = &joint_column[static_cast<size_t>(joint)];
         if (slot == nullptr) {
+          char* end = nullptr;
+          std::strtod(name.c_str(), &end);
+          const bool number = !name.empty() && end == name.c_str() + name.size();
           fail(source, line,
                "unknown column '" + name + "': expected the chain's joints (" + joint_list(model) +
-                   "), x, y, z and optionally qw, qx, qy, qz");
+                   "), x, y, z and optionally qw, qx, qy, qz" + (number ? " (is the header line missing?)" : ""));
         }
         if (*slot >= 0) fail(source, line, "column '" + name + "' appears twice");
         *slot = column;

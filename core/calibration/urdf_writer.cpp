@@ -22,11 +22,6 @@ std::string comment_safe(std::string text) {
   return text;
 }
 
-Transform joint_motion(const Joint& joint, double t) {
-  if (joint.type == JointType::Prismatic) return Transform(Matrix3d::Identity(), joint.axis * t);
-  return Transform(exp3_unit(joint.axis, t), Vector3d::Zero());
-}
-
 void set_origin(tinyxml2::XMLElement* origin, const Transform& T) {
   origin->SetAttribute("xyz", triple(T.translation()).c_str());
   origin->SetAttribute("rpy", triple(rpy_from_rotation(T.linear())).c_str());
@@ -80,6 +75,7 @@ std::string corrected_urdf(const std::string& original_xml, const RobotModel& no
   }
   std::map<std::string, const ChainLink*> chain_links;
   for (const ChainLink& link : nominal.links()) chain_links[link.name] = &link;
+  const RobotModel corrected_chain = corrected_model(nominal, corrections);
 
   for (int i = 0; i < nominal.dof(); ++i) {
     const Joint& joint = nominal.joint(i);
@@ -95,9 +91,9 @@ std::string corrected_urdf(const std::string& original_xml, const RobotModel& no
     if (link == chain_links.end()) {
       throw CalibrationError(source + ": joint '" + joint.name + "' has no parent link on the chain");
     }
-    // T_parent_joint = T_body,parent_link · O (fixed joints merged), so O = T_body,parent_link⁻¹ · M.
-    const Transform O = inverse(link->second->T_body_link) * joint.T_parent_joint;
-    const Transform corrected = O * exp6(xi) * joint_motion(joint, offset);
+    // T_parent_joint = T_body,parent_link · O with the fixed joints between merged in, and links
+    // keep their place on their body, so the joint's own origin is T_body,parent_link⁻¹ · M'.
+    const Transform corrected = inverse(link->second->T_body_link) * corrected_chain.joint(i).T_parent_joint;
     tinyxml2::XMLElement* origin = element->FirstChildElement("origin");
     std::string was = "no origin";
     if (origin == nullptr) {

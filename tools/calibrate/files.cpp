@@ -41,6 +41,11 @@ void write_all(int fd, const std::string& content, const std::string& path) {
 }  // namespace
 
 void write_files_atomically(const std::vector<std::pair<std::string, std::string>>& files) {
+  for (size_t a = 0; a < files.size(); ++a) {
+    for (size_t b = a + 1; b < files.size(); ++b) {
+      if (files[a].first == files[b].first) throw InputError(files[a].first + ": named for two outputs");
+    }
+  }
   std::vector<std::string> temporaries;
   try {
     for (const auto& [path, content] : files) {
