@@ -96,7 +96,15 @@ ChildProcess::~ChildProcess() {
   std::remove(stderr_path_.c_str());
 }
 
-bool ChildProcess::running() const { return pid_ > 0 && exit_code_ < 0 && ::waitpid(pid_, nullptr, WNOHANG) == 0; }
+bool ChildProcess::running() {
+  if (pid_ <= 0 || exit_code_ >= 0) return false;
+  // A child that has ended is reaped here: keep its status, so that stop() and wait() report it
+  // rather than signal or wait for a pid that is no longer ours.
+  int status = 0;
+  if (::waitpid(pid_, &status, WNOHANG) == 0) return true;
+  exit_code_ = exit_code(status);
+  return false;
+}
 
 int ChildProcess::stop(int signal) {
   if (exit_code_ >= 0) return exit_code_;

@@ -42,7 +42,8 @@ class ChildProcess {
   ChildProcess(const ChildProcess&) = delete;
   ChildProcess& operator=(const ChildProcess&) = delete;
 
-  bool running() const;
+  /// Whether the process is still running; reaps it (and keeps its exit code) if not.
+  bool running();
   /// Sends `signal` and waits; the exit code, 128 + signal if it died of one.
   int stop(int signal = SIGTERM);
   /// Waits for the process to end by itself.
