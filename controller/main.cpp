@@ -189,6 +189,17 @@ int main(int argc, char** argv) {
     urdf.tip_link = flags.tip;
     const chasles::RobotModel model = chasles::load_urdf_file(flags.robot, urdf);
     const int n = model.dof();
+    for (const chasles::Joint& joint : model.joints()) {
+      // Said once at start, where whoever runs the arm reads it: nothing but the arm's own
+      // driver bounds this joint's torque (or, without a velocity limit, its planned speed).
+      if (std::isinf(joint.limits.effort) || std::isinf(joint.limits.velocity)) {
+        std::fprintf(stderr, "chasles_controller: warning: joint '%s' has no %s limit in the URDF (absent or 0)\n",
+                     joint.name.c_str(),
+                     std::isinf(joint.limits.effort) && std::isinf(joint.limits.velocity) ? "effort or velocity"
+                     : std::isinf(joint.limits.effort)                                     ? "effort"
+                                                                                            : "velocity");
+      }
+    }
     options.control = chasles::controller::Config::critically_damped(n, flags.omega);
     if (!flags.kp.empty()) options.control.kp = gains(flags.kp, n, "--kp");
     if (!flags.kd.empty()) options.control.kd = gains(flags.kd, n, "--kd");

@@ -23,6 +23,10 @@ chasles_packages_monitor=(
   xvfb imagemagick tesseract-ocr tesseract-ocr-eng xdotool
 )
 
+# The fuzz targets (tools/fuzz.sh, and the fuzz stage of tools/test.sh): clang with libFuzzer and
+# the sanitizer runtimes.
+chasles_packages_fuzz=(clang-14 libclang-rt-14-dev)
+
 chasles_install_missing() {
   local missing=()
   local p

@@ -54,8 +54,8 @@ void validate(const ChainDescription& d) {
     const JointLimits& l = j.limits;
     check(std::isfinite(l.lower) && std::isfinite(l.upper), d, where + "position limits are not finite");
     check(l.lower <= l.upper, d, where + "lower limit is above the upper limit");
-    check(!std::isnan(l.velocity) && l.velocity >= 0.0, d, where + "velocity limit is negative or NaN");
-    check(!std::isnan(l.effort) && l.effort >= 0.0, d, where + "effort limit is negative or NaN");
+    check(l.velocity > 0.0, d, where + "velocity limit is not positive (+inf: none)");
+    check(l.effort > 0.0, d, where + "effort limit is not positive (+inf: none)");
     const Matrix6d& G = d.inertia[i];
     check(G.allFinite() && (G - G.transpose()).cwiseAbs().maxCoeff() <= 1e-9 * (1.0 + G.cwiseAbs().maxCoeff()), d,
           "body of joint '" + j.name + "': spatial inertia is not finite and symmetric");

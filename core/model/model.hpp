@@ -26,7 +26,8 @@ enum class JointType { Revolute, Continuous, Prismatic };
 const char* to_string(JointType type);
 
 /// Position limits (rad or m; ±π for continuous joints, which wrap), velocity (rad/s or m/s)
-/// and effort (N·m or N) limits. An absent velocity or effort limit is +∞.
+/// and effort (N·m or N) limits. An absent velocity or effort limit is +∞, and so is one a URDF
+/// gives as 0 (what exporters write when they do not know it).
 struct JointLimits {
   double lower = 0.0;
   double upper = 0.0;

@@ -223,8 +223,10 @@ RobotModel load_urdf_string(const std::string& xml, const UrdfOptions& options, 
       joint.limits.upper = j->limits->upper;
     }
     if (j->limits) {
-      joint.limits.velocity = j->limits->velocity;
-      joint.limits.effort = j->limits->effort;
+      // URDF requires both attributes, so exporters that do not know a limit write 0; a joint
+      // that may not move or push is no joint at all, so 0 reads as "no limit given".
+      joint.limits.velocity = j->limits->velocity == 0.0 ? inf : j->limits->velocity;
+      joint.limits.effort = j->limits->effort == 0.0 ? inf : j->limits->effort;
       const double l[] = {j->limits->lower, j->limits->upper, j->limits->velocity, j->limits->effort};
       for (double v : l) {
         if (!std::isfinite(v)) fail(source, "joint '" + j->name + "': <limit> holds a non-finite number");

@@ -254,6 +254,14 @@ TEST(Model, MissingFile) {
   }
 }
 
+TEST(Model, AZeroVelocityOrEffortLimitMeansNone) {
+  // What CAD exporters write when they do not know the limit (URDF requires both attributes).
+  const RobotModel model = load_arm(replace(arm_urdf(), R"(effort="50" velocity="2")", R"(effort="0" velocity="0")"));
+  EXPECT_EQ(model.joint(0).limits.velocity, std::numeric_limits<double>::infinity());
+  EXPECT_EQ(model.joint(0).limits.effort, std::numeric_limits<double>::infinity());
+  EXPECT_EQ(model.joint(1).limits.effort, 100.0);
+}
+
 TEST(Model, MassZeroFramesLoad) {
   // ur5's base, ee_link and tool0 carry mass 0 and zero inertia: valid.
   UrdfOptions options;

@@ -40,9 +40,11 @@ class CommandInbox {
   /// Writes one stderr line about the rejections since the last report, at most once a second.
   void report_rejections(int64_t now_ns);
 
+  /// Checks one message and keeps it if valid. Public so that tests and fuzzers can feed it bytes.
+  void receive(const void* data, int size);
+
  private:
   static void on_message(const lcm_recv_buf_t* rbuf, const char* channel, void* self);
-  void receive(const void* data, int size);
   void reject(const char* format, long long a = 0, long long b = 0);
 
   lcm::LCM& lcm_;
