@@ -43,7 +43,7 @@ CC=clang-14 CXX=clang++-14 cmake -S "$root" -B "$build" -G Ninja -DCHASLES_FUZZ=
   -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCHASLES_FUZZ_SECONDS="$seconds" >/dev/null
 
 if [ "$mode" = "--ctest" ]; then
-  cmake --build "$build" -j 2
+  cmake --build "$build" -j 2 --target "${targets[@]/#/fuzz_}"
   exec ctest --test-dir "$build" --output-on-failure -j 2 -L fuzz
 fi
 

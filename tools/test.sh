@@ -1,9 +1,13 @@
 #!/usr/bin/env bash
 # Builds chasles and runs every test with ctest. Installs missing Debian packages first.
 #
-#   tools/test.sh                 Release build in build/, warnings are errors
-#   tools/test.sh --sanitize      ASan + UBSan build in build-sanitize/
-#   tools/test.sh -R lie          extra arguments go to ctest
+#   tools/test.sh                 Release build in build/, warnings are errors; then the fuzz stage:
+#                                 every libFuzzer target (tests/fuzz) for 10 s, built with clang,
+#                                 ASan and UBSan in build-fuzz/ (tools/fuzz.sh --ctest)
+#   tools/test.sh --sanitize      ASan + UBSan build of the whole suite in build-sanitize/
+#   tools/test.sh -R lie          extra arguments go to ctest; the fuzz stage is skipped
+#
+# Every build also replays the fuzz seed corpus and the crashers kept in it (fuzz_replay.*).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 source "$root/tools/deps.sh"
@@ -11,14 +15,20 @@ chasles_install_missing "${chasles_packages_build[@]}" "${chasles_packages_monit
 
 build="$root/build"
 options=(-DCHASLES_WERROR=ON)
+fuzz=1
 if [ "${1:-}" = "--sanitize" ]; then
   shift
   build="$root/build-sanitize"
+  fuzz=0
   # Warnings are enforced by the normal build; GCC 12 reports false maybe-uninitialized warnings
   # inside libstdc++ (std::regex) under -fsanitize, so they are not errors here.
   options=(-DCHASLES_WERROR=OFF -DCHASLES_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo)
 fi
+[ $# -eq 0 ] || fuzz=0
 
 cmake -S "$root" -B "$build" -G Ninja "${options[@]}" >/dev/null
 cmake --build "$build" -j 2
 ctest --test-dir "$build" --output-on-failure -j 2 "$@"
+if [ $fuzz -eq 1 ]; then
+  "$root/tools/fuzz.sh" --ctest 10
+fi
