@@ -47,7 +47,7 @@ struct Snapshot {
   double ik_residual = 0.0;
   bool ik_converged = false;
   LoopCounters loop;
-  int64_t stale = 0, faults = 0, rejected_targets = 0;
+  int64_t stale = 0, faults = 0, rejected_targets = 0, foreign_commands = 0;
   explicit Snapshot(int n = 0)
       : q(Eigen::VectorXd::Zero(n)), q_desired(Eigen::VectorXd::Zero(n)), error(Eigen::VectorXd::Zero(n)),
         torque(Eigen::VectorXd::Zero(n)) {}
@@ -92,6 +92,10 @@ struct Timing {
   }
 };
 
+// How long a controller listens on its command channel before it starts: several periods of a
+// controller that is already running, at any rate a sender at 20 Hz or more would show.
+constexpr double kListenBeforeStart_s = 0.05;
+
 }  // namespace
 
 struct Daemon::Impl {
@@ -113,7 +117,13 @@ struct Daemon::Impl {
   StateReceiver state_receiver;
   TargetReceiver target_receiver;
   CommandPublisher command_publisher;
+  SentCommands sent_commands;
+  CommandWatch command_watch;  // on the LCM thread, beside the receivers
   Controller controller;
+  // Set by the loop once another sender is heard on the command channel: FAULT for good, the
+  // reason formatted on the loop into a fixed buffer.
+  bool commanded_elsewhere = false;
+  char elsewhere_reason[192] = {};
   std::atomic<bool> done{false};
   bool realtime_granted = false;
 
@@ -141,6 +151,7 @@ struct Daemon::Impl {
         state_receiver(lcm_rx.get(), channels.state, m.dof(), states, rejections),
         target_receiver(lcm_rx.get(), channels.target, m.dof(), targets, rejections),
         command_publisher(lcm_command.get(), channels.command, m.dof()),
+        command_watch(lcm_rx.get(), channels.command, sent_commands),
         controller(m, o.control),
         last(m.dof()) {}
 
@@ -189,14 +200,23 @@ struct Daemon::Impl {
       record.jitter_us = 1e-3 * static_cast<double>(wake - next);
 
       if (states.read(state)) have_state = true;
-      while (targets.pop(target)) controller.set_target(target, wake);
-      if (controller.take_request(request)) requests.write(request);
-      if (paths.pop(path)) controller.follow(path, wake);
-      const bool command = controller.tick(wake, have_state ? &state : nullptr);
-      if (command) command_publisher.encode(realtime_us(), ++seq, state.seq, controller.torque());
+      if (!commanded_elsewhere && command_watch.foreign() > 0) stand_down(state, have_state);
+      bool command = false;
+      int64_t utime = 0;
+      if (commanded_elsewhere) {
+        while (targets.pop(target)) {
+        }  // nothing is driven any more; the status says why
+      } else {
+        while (targets.pop(target)) controller.set_target(target, wake);
+        if (controller.take_request(request)) requests.write(request);
+        if (paths.pop(path)) controller.follow(path, wake);
+        command = controller.tick(wake, have_state ? &state : nullptr);
+      }
+      if (command) command_publisher.encode(utime = realtime_us(), ++seq, state.seq, controller.torque());
       const int64_t computed = monotonic_ns();
       record.compute_us = 1e-3 * static_cast<double>(computed - wake);
       if (command) {
+        sent_commands.record(seq, utime);  // before the send: our own copy may come back at once
         if (!command_publisher.send()) ++counters.send_failures;
         const int64_t sent = monotonic_ns();
         record.publish_us = 1e-3 * static_cast<double>(sent - computed);
@@ -227,6 +247,32 @@ struct Daemon::Impl {
     }
   }
 
+  // Someone else commands this arm (a second controller, a log replayed onto the live bus): two
+  // senders on one command channel drive the arm with whatever torque came last, so this one
+  // stops commanding for good and reports a FAULT; the arm's own watchdog takes over if the
+  // other sender stops too. Latched: only an operator can tell which sender should drive.
+  void stand_down(const JointState& state, bool have_state) {
+    commanded_elsewhere = true;
+    std::snprintf(elsewhere_reason, sizeof(elsewhere_reason),
+                  "another sender is commanding %s (seq %lld answering state %lld; our latest state %lld): "
+                  "stopped commanding",
+                  channels.command.c_str(), static_cast<long long>(command_watch.first_seq()),
+                  static_cast<long long>(command_watch.first_state_seq()),
+                  static_cast<long long>(have_state ? state.seq : -1));
+  }
+
+  // Before the loop starts: listen on the command channel for a while; whatever is heard there
+  // comes from another sender (we have sent nothing yet). Empty, or why this controller must not
+  // start.
+  std::string bus_in_use() const {
+    const double window_s = std::max(3.0 * options.control.period, kListenBeforeStart_s);
+    sleep_until(monotonic_ns() + static_cast<int64_t>(window_s * 1e9));
+    if (command_watch.foreign() == 0) return {};
+    return "another controller is already commanding " + channels.command + " (heard " +
+           std::to_string(command_watch.foreign()) + " command(s) in " + std::to_string(std::lround(window_s * 1e3)) +
+           " ms, first seq " + std::to_string(command_watch.first_seq()) + "); refusing to start";
+  }
+
   // Phase lock to a plant that sends states on its own clock: shifts the next deadline so that
   // ticks come sync_margin after a state arrives instead of anywhere up to a period later. A
   // first-order loop with a small gain (robust to arrival jitter) and a bounded step (the rate
@@ -243,15 +289,16 @@ struct Daemon::Impl {
   void publish_snapshot(const LoopCounters& counters) {
     Snapshot& s = snapshots.back();
     s.loop = counters;
-    s.mode = controller.mode();
-    std::memcpy(s.fault, controller.fault_reason(), sizeof(s.fault));
+    s.mode = commanded_elsewhere ? Mode::kFault : controller.mode();
+    std::memcpy(s.fault, commanded_elsewhere ? elsewhere_reason : controller.fault_reason(), sizeof(s.fault));
     std::memcpy(s.rejection, controller.last_rejection(), sizeof(s.rejection));
     s.q_desired = controller.reference().q;
     s.error = controller.error();
     s.q = s.q_desired - s.error;
     s.torque = controller.torque();
     s.stale = controller.stale_ticks();
-    s.faults = controller.faults();
+    s.faults = controller.faults() + (commanded_elsewhere ? 1 : 0);
+    s.foreign_commands = command_watch.foreign();
     s.rejected_targets = controller.rejected_targets();
     s.ik_iterations = controller.ik_iterations();
     s.ik_residual = controller.ik_residual();
@@ -361,6 +408,11 @@ Summary Daemon::run(const std::atomic<bool>& stop) {
   Impl& d = *impl_;
   const int64_t start = monotonic_ns();
   std::thread receiver([&d] { d.receive_loop(); });
+  if (const std::string why = d.bus_in_use(); !why.empty()) {
+    d.done = true;
+    receiver.join();
+    throw std::runtime_error(why);
+  }
   std::thread status([&d] { d.status_loop(); });
   std::thread ik([&d] { d.ik_loop(); });
   std::thread loop([&d, &stop] { d.realtime_loop(stop); });
@@ -393,6 +445,7 @@ Summary Daemon::run(const std::atomic<bool>& stop) {
   summary.stale_states = s.stale;
   summary.rejected_messages = d.rejections.count() + s.rejected_targets;
   summary.faults = s.faults;
+  summary.foreign_commands = s.foreign_commands;
   summary.realtime_granted = d.realtime_granted;
   return summary;
 }

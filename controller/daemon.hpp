@@ -54,6 +54,7 @@ struct Summary {
   int64_t stale_states = 0;
   int64_t rejected_messages = 0;
   int64_t faults = 0;
+  int64_t foreign_commands = 0;  ///< messages heard on the command channel that this process did not send
   bool realtime_granted = false;
 };
 
@@ -65,7 +66,10 @@ class Daemon {
   Daemon(const Daemon&) = delete;
   Daemon& operator=(const Daemon&) = delete;
 
-  /// Runs until `stop` becomes true or options.seconds have passed; returns the summary.
+  /// Listens on the command channel first (at least 50 ms): if another sender is heard there,
+  /// throws std::runtime_error ("another controller is already commanding ...; refusing to
+  /// start"). Then runs until `stop` becomes true or options.seconds have passed; returns the
+  /// summary. A foreign command heard while running is a FAULT for good: no more commands.
   Summary run(const std::atomic<bool>& stop);
 
  private:

@@ -12,6 +12,8 @@ namespace {
 // contract (robot_state_t: utime, seq; arm_target_t: utime, mode).
 constexpr int kStateCountOffset = 8 + 8 + 8;
 constexpr int kTargetCountOffset = 8 + 8 + 1;
+// joint_torque_command_t: fingerprint, then utime, seq, state_seq (int64 each).
+constexpr int kCommandUtimeOffset = 8, kCommandSeqOffset = 16, kCommandStateSeqOffset = 24;
 
 /// Checks the fingerprint of Message and reads its num_joints field; empty string when both can be read.
 template <typename Message>
@@ -129,6 +131,53 @@ std::string TargetReceiver::receive(const void* data, int size) {
   target_.duration = message_.duration;
   if (!queue_.push(target_)) return "not taken: the controller has not caught up with the targets before it";
   return {};
+}
+
+SentCommands::SentCommands() {
+  for (auto& slot : utime_) slot.store(INT64_MIN, std::memory_order_relaxed);
+}
+
+void SentCommands::record(int64_t seq, int64_t utime) {
+  utime_[static_cast<size_t>(seq % kWindow)].store(utime, std::memory_order_release);
+  latest_.store(seq, std::memory_order_release);
+}
+
+bool SentCommands::take(int64_t seq, int64_t utime) {
+  const int64_t latest = latest_.load(std::memory_order_acquire);
+  if (seq <= 0 || seq > latest || seq <= latest - kWindow || utime == INT64_MIN) return false;
+  int64_t expected = utime;
+  return utime_[static_cast<size_t>(seq % kWindow)].compare_exchange_strong(expected, INT64_MIN,
+                                                                            std::memory_order_acq_rel);
+}
+
+CommandWatch::CommandWatch(lcm_t* lcm, const std::string& channel, SentCommands& sent)
+    : lcm_(lcm), sent_(sent) {
+  if (lcm_ != nullptr) subscription_ = lcm_subscribe(lcm_, channel.c_str(), &CommandWatch::on_message, this);
+}
+
+CommandWatch::~CommandWatch() {
+  if (subscription_ != nullptr) lcm_unsubscribe(lcm_, subscription_);
+}
+
+void CommandWatch::on_message(const lcm_recv_buf_t* rbuf, const char*, void* self) {
+  static_cast<CommandWatch*>(self)->receive(rbuf->data, static_cast<int>(rbuf->data_size));
+}
+
+bool CommandWatch::receive(const void* data, int size) {
+  int64_t fingerprint = 0, utime = 0, seq = -1, state_seq = -1;
+  const bool command =
+      __int64_t_decode_array(data, 0, size, &fingerprint, 1) == 8 &&
+      fingerprint == joint_torque_command_t::getHash() && size >= kCommandStateSeqOffset + 8 &&
+      __int64_t_decode_array(data, kCommandUtimeOffset, size - kCommandUtimeOffset, &utime, 1) == 8 &&
+      __int64_t_decode_array(data, kCommandSeqOffset, size - kCommandSeqOffset, &seq, 1) == 8 &&
+      __int64_t_decode_array(data, kCommandStateSeqOffset, size - kCommandStateSeqOffset, &state_seq, 1) == 8;
+  if (command && sent_.take(seq, utime)) return false;
+  if (foreign_.load(std::memory_order_relaxed) == 0) {
+    first_seq_.store(command ? seq : -1, std::memory_order_relaxed);
+    first_state_seq_.store(command ? state_seq : -1, std::memory_order_relaxed);
+  }
+  foreign_.fetch_add(1, std::memory_order_release);
+  return true;
 }
 
 CommandPublisher::CommandPublisher(lcm_t* lcm, std::string channel, int num_joints)

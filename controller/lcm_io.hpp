@@ -10,6 +10,7 @@
 
 #include <lcm/lcm.h>
 
+#include <array>
 #include <atomic>
 #include <chasles/arm_target_t.hpp>
 #include <chasles/joint_torque_command_t.hpp>
@@ -91,6 +92,59 @@ class TargetReceiver {
   Target target_;
   SpscRing<Target>& queue_;
   Rejections& rejections_;
+};
+
+/// The commands this process has sent, by (seq, utime), so that whoever hears the command channel
+/// can tell them from another sender's: LCM over UDP multicast delivers our own messages back to
+/// us. The real-time loop records before each send (two atomic stores, no allocation); the LCM
+/// thread asks.
+class SentCommands {
+ public:
+  SentCommands();
+  /// Real-time thread: the command about to be sent. seq starts at 1 and grows by 1.
+  void record(int64_t seq, int64_t utime);
+  /// Any thread: whether this process sent the command with this seq and utime, among the last
+  /// kWindow, and has not been asked about it before: our own multicast comes back once, so a
+  /// second copy is a replay (lcm-logplayer onto the live bus), not ours.
+  bool take(int64_t seq, int64_t utime);
+
+  /// About 4 s at 1 kHz: far longer than our own multicast takes to come back.
+  static constexpr int64_t kWindow = 4096;
+
+ private:
+  std::array<std::atomic<int64_t>, kWindow> utime_;  // slot seq % kWindow
+  std::atomic<int64_t> latest_{0};
+};
+
+/// Listens on the command channel for commands this process did not send (another controller on
+/// the same channels, a log replayed onto the live bus), which mean someone else drives the arm.
+/// Runs on the LCM thread and reports through atomics, so the real-time loop only loads them.
+class CommandWatch {
+ public:
+  CommandWatch(lcm_t* lcm, const std::string& channel, SentCommands& sent);
+  ~CommandWatch();
+  CommandWatch(const CommandWatch&) = delete;
+  CommandWatch& operator=(const CommandWatch&) = delete;
+
+  /// Judges one message heard on the command channel; true if it is foreign. Anything that is not
+  /// one of our own commands is foreign, a message that is not even a joint_torque_command_t too.
+  /// Public so that tests can feed it bytes.
+  bool receive(const void* data, int size);
+  /// Foreign messages so far.
+  int64_t foreign() const { return foreign_.load(std::memory_order_acquire); }
+  /// seq and state_seq of the first foreign command (both −1 if it did not decode as one); valid
+  /// once foreign() > 0.
+  int64_t first_seq() const { return first_seq_.load(std::memory_order_relaxed); }
+  int64_t first_state_seq() const { return first_state_seq_.load(std::memory_order_relaxed); }
+
+ private:
+  static void on_message(const lcm_recv_buf_t* rbuf, const char* channel, void* self);
+
+  lcm_t* lcm_;
+  lcm_subscription_t* subscription_ = nullptr;
+  SentCommands& sent_;
+  std::atomic<int64_t> first_seq_{-1}, first_state_seq_{-1};
+  std::atomic<int64_t> foreign_{0};
 };
 
 /// joint_torque_command_t, encoded into a buffer sized once and sent with lcm_publish (LCM's C++

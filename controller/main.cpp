@@ -3,8 +3,9 @@
 // targets (arm_target_t) it receives, and reports controller_status_t for monitors.
 //
 // Errors: one line "chasles_controller: ..." on stderr; exit 2 for a usage error, 1 for bad input
-// (URDF, gains, config file) or when LCM cannot start. SIGINT and SIGTERM stop it cleanly (exit
-// 0), after the summary is written.
+// (URDF, gains, config file), when LCM cannot start, or when another controller is already
+// commanding the arm (heard on the command channel before the loop starts). SIGINT and SIGTERM
+// stop it cleanly (exit 0), after the summary is written.
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -122,6 +123,7 @@ void write_summary(const std::string& path, const Summary& s) {
                      {"stale_states", s.stale_states},
                      {"rejected_messages", s.rejected_messages},
                      {"faults", s.faults},
+                     {"foreign_commands", s.foreign_commands},
                      {"realtime", s.realtime_granted}};
   const std::string tmp = path + ".tmp." + std::to_string(getpid());
   {

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chasles/arm_target_t.hpp>
+#include <chasles/joint_torque_command_t.hpp>
 #include <chasles/robot_state_t.hpp>
 #include <cmath>
 #include <limits>
@@ -545,6 +546,66 @@ TEST(TargetReceiver, PassesHoldAndJointTargetsAndRefusesAnOversizedCount) {
   const auto too_many = encode(joint);
   EXPECT_NE(receiver.receive(too_many.data(), int(too_many.size())).find("for 9 joints"), std::string::npos);
   EXPECT_FALSE(queue.pop(out));
+}
+
+std::vector<uint8_t> command_bytes(int64_t seq, int64_t utime, int64_t state_seq) {
+  joint_torque_command_t command{};
+  command.utime = utime;
+  command.seq = seq;
+  command.state_seq = state_seq;
+  command.num_joints = 2;
+  command.torque = {1.0, -1.0};
+  std::vector<uint8_t> bytes(size_t(command.getEncodedSize()));
+  command.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+  return bytes;
+}
+
+// Our own commands come back over multicast and are recognised by (seq, utime); anything else on
+// the command channel is foreign: a second controller counting from 1 with its own clock, a copy
+// of one of ours heard again (a replay), junk. The first foreign command's numbers are kept for the report.
+TEST(CommandWatch, TellsOurOwnCommandsFromAnotherSendersAndJunk) {
+  SentCommands sent;
+  CommandWatch watch(nullptr, "CHASLES_COMMAND", sent);
+  for (int64_t seq = 1; seq <= 10; ++seq) sent.record(seq, 1'000'000 + 1000 * seq);
+  for (int64_t seq = 1; seq <= 10; ++seq) {
+    const auto own = command_bytes(seq, 1'000'000 + 1000 * seq, seq + 100);
+    EXPECT_FALSE(watch.receive(own.data(), static_cast<int>(own.size()))) << seq;
+  }
+  EXPECT_EQ(watch.foreign(), 0);
+  const auto again = command_bytes(5, 1'000'000 + 5000, 105);  // one of ours, heard a second time
+  EXPECT_TRUE(watch.receive(again.data(), static_cast<int>(again.size()))) << "a replay of our own command";
+  EXPECT_EQ(watch.foreign(), 1);
+  EXPECT_EQ(watch.first_seq(), 5);
+
+  const auto other = command_bytes(3, 1'000'000 + 3000 + 1, 42);  // same seq, another clock
+  EXPECT_TRUE(watch.receive(other.data(), static_cast<int>(other.size())));
+  EXPECT_EQ(watch.foreign(), 2);
+  const auto ahead = command_bytes(11, 1'000'000 + 11'000, 0);  // a seq we have not sent yet
+  EXPECT_TRUE(watch.receive(ahead.data(), static_cast<int>(ahead.size())));
+  const uint8_t junk[5] = {1, 2, 3, 4, 5};
+  EXPECT_TRUE(watch.receive(junk, sizeof(junk)));
+  auto truncated = command_bytes(1, 1'001'000, 0);
+  EXPECT_TRUE(watch.receive(truncated.data(), 20));
+  EXPECT_EQ(watch.foreign(), 5);
+  EXPECT_EQ(watch.first_seq(), 5) << "the first foreign command is the one reported";
+  EXPECT_EQ(watch.first_state_seq(), 105);
+
+  // Older than the window: no longer known as ours.
+  for (int64_t seq = 11; seq <= 10 + SentCommands::kWindow; ++seq) sent.record(seq, 1'000'000 + 1000 * seq);
+  EXPECT_FALSE(sent.take(10, 1'000'000 + 10'000));
+  EXPECT_TRUE(sent.take(11, 1'000'000 + 11'000));
+  EXPECT_FALSE(sent.take(11, 1'000'000 + 11'000)) << "taken once";
+  EXPECT_TRUE(sent.take(10 + SentCommands::kWindow, 1'000'000 + 1000 * (10 + SentCommands::kWindow)));
+  EXPECT_FALSE(sent.take(0, 0));
+}
+
+// Recording runs on the real-time loop: it allocates nothing.
+TEST(CommandWatch, RecordingAllocatesNothing) {
+  SentCommands sent;
+  AllocationCounter counter;
+  for (int64_t seq = 1; seq <= 10'000; ++seq) sent.record(seq, seq);
+  EXPECT_EQ(counter.count(), 0);
+  EXPECT_TRUE(sent.take(10'000, 10'000));
 }
 
 }  // namespace
