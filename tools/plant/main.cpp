@@ -49,6 +49,7 @@ struct Options {
   bool lockstep = false;
   bool realtime = false;
   double timeout_ms = 50.0;
+  double max_lag_ms = -1.0;  // < 0: timeout_ms
   std::string prefix = "CHASLES_";
   std::string lcm_url;
   Faults faults;
@@ -165,7 +166,7 @@ class Simulation {
                  "chasles_plant: stopped after %lld steps (%.3f s simulated); commands rejected %lld, stale %lld; "
                  "states not sent %lld; overruns %lld; watchdog brakes %lld\n",
                  static_cast<long long>(seq_), static_cast<double>(seq_) * dt_,
-                 static_cast<long long>(inbox_.rejected()), static_cast<long long>(stale_),
+                 static_cast<long long>(inbox_.rejected()), static_cast<long long>(stale_ + inbox_.stale()),
                  static_cast<long long>(publisher_.dropped()), static_cast<long long>(overruns_),
                  static_cast<long long>(brakes_));
   }
@@ -175,7 +176,7 @@ class Simulation {
   // repeats, plus slack.
   static int max_in_flight(const Options& options) {
     const double per_second = options.rate_hz + 1e9 / kLockstepRepeatNs;
-    return static_cast<int>(std::ceil(options.faults.delay_ms * 1e-3 * per_second)) + 4;
+    return static_cast<int>(std::ceil((options.faults.delay_ms + options.faults.spike_ms) * 1e-3 * per_second)) + 4;
   }
 
   void step_and_publish(const Eigen::Ref<const Eigen::VectorXd>& tau, int64_t now_ns) {
@@ -193,8 +194,17 @@ class Simulation {
   // Real time: one step per period on an absolute CLOCK_MONOTONIC schedule, with the latest
   // command held. A wake-up more than a period late is an overrun; the schedule restarts from
   // then rather than racing to catch up.
+  // Real time: how many steps a command's state_seq may lag the newest state. The plant's own
+  // injected delays are added: they stand for the network, not for a late controller.
+  int64_t max_command_lag() const {
+    const double lag_ms = (options_.max_lag_ms < 0.0 ? options_.timeout_ms : options_.max_lag_ms) +
+                          options_.faults.delay_ms + options_.faults.spike_ms;
+    return static_cast<int64_t>(std::ceil(lag_ms * 1e-3 * options_.rate_hz));
+  }
+
   void run_real_time() {
     prctl(PR_SET_TIMERSLACK, 1UL);  // the default 50 µs slack is most of the wake-up jitter
+    inbox_.require_recent(&seq_, max_command_lag());
     int64_t next_ns = start_ns_;
     while (!g_stop) {
       next_ns += period_ns_;
@@ -318,6 +328,11 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--timeout-ms", o.timeout_ms, "Real time: brake after this long without a valid command")
       ->check(kPositive)
       ->capture_default_str();
+  app.add_option("--max-command-lag-ms", o.max_lag_ms,
+                 "Real time: ignore commands answering a state more than this much older than the newest "
+                 "(or one not sent yet), as if none had come (default: --timeout-ms)")
+      ->check(kNonNegative)
+      ->type_name("MS");
   app.add_option("--channel-prefix", o.prefix, "Channels are PREFIX STATE and PREFIX COMMAND")
       ->check(
           [](const std::string& prefix) {
@@ -338,6 +353,13 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--delay-ms", o.faults.delay_ms, "Send every state this long after it is produced")
       ->check(kNonNegative)
       ->type_name("D");
+  app.add_option("--delay-spike-ms", o.faults.spike_ms,
+                 "Every --delay-spike-every states, hold every state back for this long, then send them together")
+      ->check(kNonNegative)
+      ->type_name("D");
+  app.add_option("--delay-spike-every", o.faults.spike_every, "States between the starts of two delay spikes")
+      ->check(at_least(1.0, true, "a whole number of states, 1 or more"))
+      ->type_name("N");
   app.add_option("--noise", o.faults.noise, "Std. deviation of gaussian noise on the sent position, rad or m")
       ->check(kNonNegative)
       ->type_name("SIGMA");
@@ -359,12 +381,14 @@ int main(int argc, char** argv) {
       "Publishes chasles.robot_state_t on PREFIX STATE after every step; applies the latest valid\n"
       "chasles.joint_torque_command_t from PREFIX COMMAND (zero-order hold, clamped to the URDF effort\n"
       "limits). Dynamics: M(q) qdd = tau - c - g - D qd, RK4. Real time: without a valid command for\n"
-      "--timeout-ms the arm brakes to rest, tau = g(q) - M(q) qd / T.\n"
+      "--timeout-ms the arm brakes to rest, tau = g(q) - M(q) qd / T. A command answering a state older\n"
+      "than --max-command-lag-ms counts as none (and is reported).\n"
       "Examples:\n"
       "  tools/netns.sh chasles_plant --robot ur5.urdf --tip tool0 \\\n"
       "      --lcm-url 'udpm://239.255.76.67:7667?ttl=0'\n"
       "  chasles_plant --robot panda.urdf --tip panda_hand --lockstep --q0 0,0.5,0,-1.2,0,1,0\n"
-      "  chasles_plant --robot panda.urdf --tip panda_hand --seed 7 --drop 0.01 --delay-ms 2 --noise 1e-4");
+      "  chasles_plant --robot panda.urdf --tip panda_hand --seed 7 --drop 0.01 --delay-ms 2 --noise 1e-4\n"
+      "  chasles_plant --robot panda.urdf --tip panda_hand --delay-spike-ms 5 --delay-spike-every 500");
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& e) {  // --help

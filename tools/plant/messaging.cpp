@@ -64,6 +64,15 @@ void CommandInbox::receive(const void* data, int size) {
       return reject("a command with a non-finite torque for joint %lld of %lld", i + 1, num_joints_);
     }
   }
+  if (latest_seq_ != nullptr &&
+      (incoming_.state_seq > *latest_seq_ || incoming_.state_seq < *latest_seq_ - max_lag_)) {
+    ++stale_;
+    ++unreported_;
+    std::snprintf(reason_, sizeof(reason_), "a command answering state %lld, the latest is %lld (at most %lld steps behind)",
+                  static_cast<long long>(incoming_.state_seq), static_cast<long long>(*latest_seq_),
+                  static_cast<long long>(max_lag_));
+    return;
+  }
   std::swap(latest_, incoming_);
   fresh_ = true;
   arrival_ns_ = monotonic_ns();
@@ -93,7 +102,8 @@ StatePublisher::StatePublisher(lcm::LCM& lcm, std::string channel, int num_joint
     v->assign(static_cast<size_t>(num_joints), 0.0);
   }
   bytes_.resize(static_cast<size_t>(message_.getEncodedSize()));
-  queue_.resize(faults.delay_ms > 0.0 ? static_cast<size_t>(max_in_flight) : 0);
+  const bool spikes = faults.spike_ms > 0.0 && faults.spike_every > 0;
+  queue_.resize(faults.delay_ms > 0.0 || spikes ? static_cast<size_t>(max_in_flight) : 0);
   for (Delayed& slot : queue_) slot.bytes.resize(bytes_.size());
 }
 
@@ -115,13 +125,17 @@ void StatePublisher::send(int64_t now_ns) {
     ++dropped_;
     return;
   }
+  if (faults_.spike_every > 0 && faults_.spike_ms > 0.0 && ++sends_ % faults_.spike_every == 0) {
+    spike_end_ns_ = now_ns + static_cast<int64_t>(faults_.spike_ms * 1e6);
+  }
   if (queue_.empty()) return publish(bytes_);
   if (size_ == queue_.size()) {  // more in flight than the delay can hold: lost, as on a full link
     ++dropped_;
     return;
   }
   Delayed& slot = queue_[(head_ + size_) % queue_.size()];
-  slot.due_ns = now_ns + static_cast<int64_t>(faults_.delay_ms * 1e6);
+  // Never before the spike ends: the order of the states is kept.
+  slot.due_ns = std::max(now_ns + static_cast<int64_t>(faults_.delay_ms * 1e6), spike_end_ns_);
   std::copy(bytes_.begin(), bytes_.end(), slot.bytes.begin());
   ++size_;
 }

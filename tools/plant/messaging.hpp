@@ -36,6 +36,16 @@ class CommandInbox {
   /// CLOCK_MONOTONIC time the latest valid command arrived, ns.
   int64_t latest_arrival_ns() const { return arrival_ns_; }
   int64_t rejected() const { return rejected_; }
+  /// Valid commands refused because they answer a state too old (or one never sent).
+  int64_t stale() const { return stale_; }
+
+  /// From now on, keep only commands whose state_seq is within `max_lag` of *latest_seq (the
+  /// plant's newest state, read on this thread) and not beyond it: a command computed from an old
+  /// state — a controller whose input froze, a log replayed onto the live bus — is no command.
+  void require_recent(const int64_t* latest_seq, int64_t max_lag) {
+    latest_seq_ = latest_seq;
+    max_lag_ = max_lag;
+  }
 
   /// Writes one stderr line about the rejections since the last report, at most once a second.
   void report_rejections(int64_t now_ns);
@@ -57,6 +67,9 @@ class CommandInbox {
   int64_t arrival_ns_ = 0;
   int64_t received_ = 0;
   int64_t rejected_ = 0;
+  int64_t stale_ = 0;
+  const int64_t* latest_seq_ = nullptr;
+  int64_t max_lag_ = 0;
   int64_t unreported_ = 0;
   int64_t last_report_ns_ = 0;
   char reason_[160] = {};
@@ -67,6 +80,10 @@ struct Faults {
   double drop = 0.0;      ///< probability that a state message is not sent
   double delay_ms = 0.0;  ///< every state message is sent this long after it is produced
   double noise = 0.0;     ///< standard deviation of gaussian noise added to the sent position, rad or m
+  /// Delay spikes: every spike_every-th state opens a spike of spike_ms, during which every state
+  /// is held back and all are sent together, in order, when it ends (a stalled link or driver).
+  double spike_ms = 0.0;
+  int64_t spike_every = 0;
   uint64_t seed = 0;
 };
 
@@ -106,6 +123,8 @@ class StatePublisher {
   std::uniform_real_distribution<double> uniform_{0.0, 1.0};
   std::normal_distribution<double> gaussian_{0.0, 1.0};
   int64_t dropped_ = 0;
+  int64_t sends_ = 0;          // states handed to send(), for the spikes
+  int64_t spike_end_ns_ = 0;   // the current spike holds states until then
 };
 
 }  // namespace chasles::plant
