@@ -1,0 +1,147 @@
+// The fault harness: the test's seat on an arm's bus. A background thread records every command
+// (decoded, with the state it answers as the test heard it), every status report and the latest
+// state; check_commands() then judges the command stream against exactly what the controller's
+// safety pipeline promises (controller.cpp): every torque finite and within the URDF effort
+// limit, every step within effort / torque_ramp × period of the previous command — or, for the
+// first command after WAITING or a FAULT, of g(q) at the state it answers, where the rate limiter
+// restarts.
+#pragma once
+
+#include <lcm/lcm.h>
+
+#include <Eigen/Core>
+#include <atomic>
+#include <chasles/controller_status_t.hpp>
+#include <chasles/joint_torque_command_t.hpp>
+#include <chasles/robot_state_t.hpp>
+#include <functional>
+#include <mutex>
+#include <optional>
+#include <set>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "chasles/core/model/model.hpp"
+
+namespace chasles::faults {
+
+/// A command as heard, with what it answers.
+struct HeardCommand {
+  joint_torque_command_t message;
+  int64_t index = 0;  ///< arrival order among everything the bus heard
+  std::optional<Eigen::VectorXd> q_answered;  ///< position of the state with seq == state_seq, as last heard
+  /// The test heard that state → the test heard this command, µs (−1: state not heard): the
+  /// round trip through the controller, as a process beside the plant sees it.
+  double round_trip_us = -1.0;
+};
+
+struct HeardStatus {
+  controller_status_t message;
+  int64_t index = 0;
+};
+
+class Bus {
+ public:
+  /// Joins `url` and listens to PREFIX STATE, COMMAND and STATUS.
+  explicit Bus(const std::string& url, const std::string& prefix = "CHASLES_");
+  ~Bus();
+  Bus(const Bus&) = delete;
+  Bus& operator=(const Bus&) = delete;
+
+  /// Polls `done` (under the bus's lock) until it holds or `seconds` pass; whether it held.
+  bool until(const std::function<bool(const Bus&)>& done, double seconds) const;
+  void listen(double seconds) const;
+  bool status_is(int8_t mode) const;  ///< call from until() (the lock is held) or after
+  /// Waits for a status in `mode`.
+  bool wait_for(int8_t mode, double seconds) const;
+
+  /// Publishes raw bytes or a message on PREFIX + channel (e.g. "TARGET"). Commands sent this
+  /// way are remembered, so check_commands() judges only the controller's.
+  void publish(const std::string& channel, const std::vector<uint8_t>& bytes);
+  template <typename Message>
+  void publish(const std::string& channel, const Message& message) {
+    std::vector<uint8_t> bytes(size_t(message.getEncodedSize()));
+    message.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+    publish(channel, bytes);
+  }
+  void publish_command(const joint_torque_command_t& command);
+
+  // Copies, taken under the lock.
+  std::vector<HeardCommand> commands() const;
+  std::vector<HeardStatus> statuses() const;
+  std::optional<controller_status_t> status() const;
+  std::optional<robot_state_t> state() const;
+  int64_t state_count() const;
+  /// Forgets the commands heard so far (e.g. to see whether any come after a point).
+  void clear_commands();
+
+  // Read inside until() only (the lock is held there).
+  const std::optional<controller_status_t>& status_locked() const { return status_; }
+  const std::optional<robot_state_t>& state_locked() const { return state_; }
+  size_t commands_locked() const { return commands_.size(); }
+
+ private:
+  static void on_state(const lcm_recv_buf_t* rbuf, const char*, void* self);
+  static void on_command(const lcm_recv_buf_t* rbuf, const char*, void* self);
+  static void on_status(const lcm_recv_buf_t* rbuf, const char*, void* self);
+
+  std::string prefix_;
+  lcm_t* rx_;
+  lcm_t* tx_;
+  mutable std::mutex mutex_;
+  std::atomic<bool> done_{false};
+  int64_t index_ = 0;
+  struct Heard {
+    int64_t seq = -1, arrival_ns = 0;
+    Eigen::VectorXd q;
+  };
+  std::vector<Heard> positions_;  // the states heard, a ring by seq
+  std::optional<robot_state_t> state_;
+  int64_t state_count_ = 0;
+  std::optional<controller_status_t> status_;
+  std::vector<HeardStatus> statuses_;
+  std::vector<HeardCommand> commands_;
+  std::set<std::pair<int64_t, int64_t>> own_commands_;  // (seq, utime) of commands the test sent
+  std::thread thread_;
+};
+
+/// What the command stream showed; every *_violations must be 0.
+struct CommandReport {
+  int64_t commands = 0;
+  int64_t non_finite = 0, effort_violations = 0, rate_violations = 0;
+  int64_t restarts_from_gravity = 0;  ///< first commands after WAITING / a FAULT, checked against g(q)
+  int64_t seq_gaps = 0;               ///< commands the test did not hear (not judged)
+  double max_effort_ratio = 0.0;      ///< max |τ_i| / effort_i
+  double max_rate_ratio = 0.0;        ///< max |Δτ_i| / (effort_i / ramp × period), over judged steps
+  double spacing_p50_us = 0.0, spacing_p99_us = 0.0;  ///< utime spacing of consecutive commands
+  std::string first_violation;
+};
+
+/// Judges the controller's commands: `ramp_s` and `period_s` as configured.
+CommandReport check_commands(const RobotModel& model, const std::vector<HeardCommand>& commands,
+                             const std::vector<HeardStatus>& statuses, double ramp_s, double period_s);
+
+/// What the status stream showed.
+struct StatusReport {
+  std::string modes;  ///< the sequence of states, repeats collapsed: "WAITING>HOLDING>RUNNING>..."
+  int64_t fault_transitions = 0;
+  std::vector<std::string> fault_messages;  ///< one per FAULT reported, as first reported
+  double jitter_p99_median_us = 0.0;        ///< median over status windows of jitter_p99_us
+  double latency_p99_median_us = 0.0;
+  int64_t ticks = 0, overruns = 0, stale = 0, rejected = 0, faults = 0;
+};
+StatusReport summarise(const std::vector<HeardStatus>& statuses);
+
+/// One line for the fault table, printed by each test.
+std::string table_row(const std::string& fault, const CommandReport& c, const StatusReport& s);
+
+/// The arm's model as the tests run it (the Panda to its TCP).
+const RobotModel& panda();
+Eigen::VectorXd bent_pose();
+std::string list(const Eigen::VectorXd& v);
+Eigen::VectorXd vector_of(const std::vector<double>& v);
+joint_torque_command_t command_of(int64_t seq, int64_t utime, int64_t state_seq, const Eigen::VectorXd& tau);
+
+}  // namespace chasles::faults
