@@ -716,7 +716,12 @@ CalibrationResult calibrate(const RobotModel& nominal, const std::vector<Measure
   result.stddev = Eigen::VectorXd::Constant(p, std::numeric_limits<double>::quiet_NaN());
   if (options.covariance) {
     ceres::Covariance::Options co;
-    co.algorithm_type = ceres::DENSE_SVD;
+    // SPARSE_QR (SuiteSparseQR): the free set is well conditioned by construction, so no SVD is
+    // needed. DENSE_SVD would run Eigen's BDCSVD inside the prebuilt libceres, whose JacobiSVD
+    // instantiation the linker shares with ours; under AddressSanitizer Eigen allocates with
+    // its own alignment offset (it does not trust ASan's malloc), and the two copies then free
+    // each other's memory.
+    co.algorithm_type = ceres::SPARSE_QR;
     co.num_threads = 1;
     ceres::Covariance covariance(co);
     const double* block = stage.parameters();

@@ -190,7 +190,7 @@ struct CalibrationOptions {
   /// Relative singular value below which a direction counts as unidentifiable.
   double rank_tolerance = 1e-6;
   int max_iterations = 100;
-  /// Standard deviations by ceres::Covariance (dense SVD).
+  /// Standard deviations by ceres::Covariance (sparse QR).
   bool covariance = true;
   /// A row is flagged as an outlier when its whitened residual norm under the calibrated model
   /// exceeds max(outlier_threshold, 5 × the median norm). Flagged rows stay in the fit (the loss
