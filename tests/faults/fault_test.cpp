@@ -83,10 +83,12 @@ void expect_safe(const Bus& bus, const std::string& fault, const ChildProcess& c
   EXPECT_GE(c.restarts_from_gravity, 1);
   EXPECT_LE(c.restarts_from_gravity, 1 + s.faults);
   // Timing: commands a period apart at the median, tick wake-ups late by less than a period at the
-  // 99th percentile in most status windows, and few overruns.
+  // 99th percentile in most status windows, and overruns a small fraction of the ticks. Not
+  // tighter: without SCHED_FIFO this VM stalls a process for milliseconds now and then (2-5 % of
+  // ticks overran in loaded runs), while a loop that fell behind for good would overrun on most.
   EXPECT_NEAR(c.spacing_p50_us, kPeriod * 1e6, 0.1 * kPeriod * 1e6);
   EXPECT_LT(s.jitter_p99_median_us, kPeriod * 1e6);
-  EXPECT_LE(s.overruns, s.ticks / 50 + 5) << controller.stderr_text();
+  EXPECT_LE(s.overruns, s.ticks / 10 + 5) << controller.stderr_text();
 }
 
 // Starts plant and controller and waits for the controller to hold the arm.
