@@ -12,7 +12,7 @@
 #include <numeric>
 #include <sstream>
 
-#include "chasles/core/lie/se3.hpp"
+#include "chasles/core/lie/jacobians.hpp"
 
 namespace chasles {
 
@@ -37,35 +37,6 @@ Vector6d local_screw(const Joint& joint) {
 Transform joint_motion(const Joint& joint, double t) {
   if (joint.type == JointType::Prismatic) return Transform(Matrix3d::Identity(), joint.axis * t);
   return Transform(exp3_unit(joint.axis, t), Vector3d::Zero());
-}
-
-/// Jr⁻¹(φ) of SO(3) = I + [φ]/2 + D(θ)[φ]²: log(R e^[ω]) ≈ log(R) + Jr⁻¹(log R) ω
-/// (Barfoot eq. 7.45 with Jr(φ) = Jl(−φ); the same D(θ) as log6).
-Matrix3d so3_right_jacobian_inverse(const Vector3d& phi) {
-  const double d = detail::log_coefficient(phi.norm());
-  const Matrix3d P = hat3(phi);
-  return Matrix3d::Identity() + 0.5 * P + d * (P * P);
-}
-
-/// Q(φ, ρ), the off-diagonal block of SE(3)'s left Jacobian (Barfoot eq. 7.86); the same series
-/// cut-off as chasles::ik's copy (core/lie has no SE(3) Jacobians yet).
-Matrix3d se3_q(const Vector3d& phi, const Vector3d& rho) {
-  const double theta = phi.norm();
-  const double t2 = theta * theta;
-  double c1, c2, c3;
-  if (theta < 0.1) {
-    c1 = 1.0 / 6.0 - t2 / 120.0 + t2 * t2 / 5040.0;      // (θ − sin θ)/θ³
-    c2 = 1.0 / 24.0 - t2 / 720.0 + t2 * t2 / 40320.0;    // (θ² + 2 cos θ − 2)/(2θ⁴)
-    c3 = 1.0 / 120.0 - t2 / 2520.0 + t2 * t2 / 120960.0;  // (2θ − 3 sin θ + θ cos θ)/(2θ⁵)
-  } else {
-    const double s = std::sin(theta), c = std::cos(theta);
-    c1 = (theta - s) / (t2 * theta);
-    c2 = (t2 + 2.0 * c - 2.0) / (2.0 * t2 * t2);
-    c3 = (2.0 * theta - 3.0 * s + theta * c) / (2.0 * t2 * t2 * theta);
-  }
-  const Matrix3d P = hat3(phi), X = hat3(rho);
-  const Matrix3d PX = P * X, XP = X * P, PXP = PX * P, PP = P * P;
-  return 0.5 * X + c1 * (PX + XP + PXP) + c2 * (PP * X + X * PP - 3.0 * PXP) + c3 * (PXP * P + P * PXP);
 }
 
 Matrix3d project_to_rotation(const Matrix3d& M) {
@@ -143,18 +114,6 @@ RobotModel corrected_model(const RobotModel& nominal, const KinematicCorrections
 
 Transform predict_marker(const RobotModel& corrected, const KinematicCorrections& corrections, const JointVector& q) {
   return corrections.T_tracker_base * forward_kinematics_space(corrected, q) * corrections.T_tip_marker;
-}
-
-Matrix6d se3_right_jacobian(const Vector6d& xi) {
-  // Jr(ξ) = Jl(−ξ) = [[Jl3(−φ), 0], [Q(−φ, −ρ), Jl3(−φ)]] in (ω, v) order, with
-  // Jl3(−φ) = I − b[φ] + c[φ]² (b = (1 − cos θ)/θ², c = (θ − sin θ)/θ³).
-  const Vector3d phi = xi.head<3>(), rho = xi.tail<3>();
-  const auto k = detail::rodrigues_coefficients(phi.norm());
-  const Matrix3d P = hat3(phi);
-  const Matrix3d J = Matrix3d::Identity() - k.b * P + k.c * (P * P);
-  Matrix6d out;
-  out << J, Matrix3d::Zero(), se3_q(-phi, -rho), J;
-  return out;
 }
 
 // --- parameters ---------------------------------------------------------------------------------

@@ -249,8 +249,4 @@ ResidualStats residual_stats(const RobotModel& corrected, const KinematicCorrect
                              const std::vector<Measurement>& rows, bool use_orientation,
                              const std::vector<int>& excluded = {});
 
-/// The right Jacobian of SE(3) for ξ = (ω, v): exp([ξ + dξ]) ≈ exp([ξ]) exp([J_r(ξ) dξ])
-/// (Barfoot, State Estimation for Robotics, eq. 7.86 with J_r(ξ) = J_l(−ξ), reordered for (ω, v)).
-Matrix6d se3_right_jacobian(const Vector6d& xi);
-
 }  // namespace chasles

@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "chasles/core/lie/se3.hpp"
+#include "chasles/core/lie/jacobians.hpp"
 
 namespace chasles {
 
@@ -27,54 +27,6 @@ std::int64_t thread_cpu_ns() {
   return std::int64_t{t.tv_sec} * 1'000'000'000 + t.tv_nsec;
 }
 using RowMajor6Xd = Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::RowMajor>;
-
-// Below this angle the coefficients of Q take their Taylor series (to θ⁴; the first dropped term
-// is O(θ⁶) ≈ 1e-6 relative to the leading one at the cut-off, below 1e-11 absolute). Above it the
-// closed forms, whose worst cancellation ((2θ − 3 sin θ + θ cos θ)/θ⁵) loses ~1e-10 relative
-// here: plenty for a Jacobian.
-constexpr double kQSeriesCutoff = 0.1;
-
-/// Jl⁻¹(φ) = I − [φ]/2 + D(θ)[φ]² for SO(3), D = (1 − (θ/2)cot(θ/2))/θ², which stays finite up to
-/// and at θ = π (Barfoot eq. 7.45; the same D as log6).
-Matrix3d so3_left_jacobian_inverse(const Vector3d& phi) {
-  const double d = detail::log_coefficient(phi.norm());
-  const Matrix3d P = hat3(phi);
-  return Matrix3d::Identity() - 0.5 * P + d * (P * P);
-}
-
-/// Q(φ, ρ), the off-diagonal block of the left Jacobian of SE(3) (Barfoot eq. 7.86).
-Matrix3d se3_q(const Vector3d& phi, const Vector3d& rho) {
-  const double theta = phi.norm();
-  const double t2 = theta * theta;
-  double c1, c2, c3;
-  if (theta < kQSeriesCutoff) {
-    c1 = 1.0 / 6.0 - t2 / 120.0 + t2 * t2 / 5040.0;      // (θ − sin θ)/θ³
-    c2 = 1.0 / 24.0 - t2 / 720.0 + t2 * t2 / 40320.0;    // (θ² + 2 cos θ − 2)/(2θ⁴)
-    c3 = 1.0 / 120.0 - t2 / 2520.0 + t2 * t2 / 120960.0;  // (2θ − 3 sin θ + θ cos θ)/(2θ⁵)
-  } else {
-    const double s = std::sin(theta), c = std::cos(theta);
-    c1 = (theta - s) / (t2 * theta);
-    c2 = (t2 + 2.0 * c - 2.0) / (2.0 * t2 * t2);
-    c3 = (2.0 * theta - 3.0 * s + theta * c) / (2.0 * t2 * t2 * theta);
-  }
-  const Matrix3d P = hat3(phi), X = hat3(rho);
-  const Matrix3d PX = P * X, XP = X * P, PXP = PX * P, PP = P * P;
-  return 0.5 * X + c1 * (PX + XP + PXP) + c2 * (PP * X + X * PP - 3.0 * PXP) + c3 * (PXP * P + P * PXP);
-}
-
-/// Jr⁻¹(ξ) of SE(3) for ξ = (φ, ρ), angular first: Jr(ξ) = Jl(−ξ), and
-/// Jl⁻¹ = [[Jl3⁻¹, 0], [−Jl3⁻¹ Q Jl3⁻¹, Jl3⁻¹]] (Barfoot eq. 7.95, reordered for (ω, v)). It maps
-/// a small body-frame twist η to the change of the logarithm: log(T e^[η]) ≈ log T + Jr⁻¹ η.
-Matrix6d se3_right_jacobian_inverse(const Vector6d& xi) {
-  const Vector3d phi = -xi.head<3>(), rho = -xi.tail<3>();
-  const Matrix3d Jinv = so3_left_jacobian_inverse(phi);
-  Matrix6d out;
-  out.topLeftCorner<3, 3>() = Jinv;
-  out.topRightCorner<3, 3>().setZero();
-  out.bottomLeftCorner<3, 3>() = -Jinv * se3_q(phi, rho) * Jinv;
-  out.bottomRightCorner<3, 3>() = Jinv;
-  return out;
-}
 
 // An attempt still more than kAbandonError (m or rad) away after kAbandonIteration iterations is
 // abandoned for a restart. Measured on the reference targets (UR5): by iteration 8, 84 % of the

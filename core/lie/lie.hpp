@@ -2,6 +2,7 @@
 #pragma once
 
 #include "chasles/core/lie/screw.hpp"
+#include "chasles/core/lie/jacobians.hpp"
 #include "chasles/core/lie/se3.hpp"
 #include "chasles/core/lie/so3.hpp"
 #include "chasles/core/lie/types.hpp"

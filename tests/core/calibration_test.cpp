@@ -147,25 +147,6 @@ TEST(calibration, JacobianMatchesCentralDifferences) {
   }
 }
 
-TEST(calibration, RightJacobianOfSe3) {
-  // exp(ξ + h e_j) ≈ exp(ξ) exp(h J_r e_j): compare the twist log(exp(ξ)⁻¹ exp(ξ + h e_j))/h.
-  std::mt19937_64 rng(2);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  for (double scale : {1e-9, 1e-3, 0.05, 0.5, 2.0}) {
-    Vector6d xi;
-    for (int k = 0; k < 6; ++k) xi[k] = scale * normal(rng);
-    const Matrix6d J = se3_right_jacobian(xi);
-    for (int j = 0; j < 6; ++j) {
-      const double h = 1e-6;
-      Vector6d plus = xi, minus = xi;
-      plus[j] += h;
-      minus[j] -= h;
-      const Vector6d d = (log6(inverse(exp6(xi)) * exp6(plus)) - log6(inverse(exp6(xi)) * exp6(minus))) / (2.0 * h);
-      EXPECT_TRUE(testing::matrices_near(J.col(j), d, 1e-8)) << "scale " << scale << " column " << j;
-    }
-  }
-}
-
 // The SVD finds exactly the theory's count — 4R + 2P + 6 with pose data, 3 fewer with positions —
 // for a 6R, a 7R and an R-P-R arm, and the free set has that size and is well conditioned.
 TEST(calibration, IdentifiableCountMatchesTheory) {

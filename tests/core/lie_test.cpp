@@ -329,5 +329,28 @@ TEST(Lie, LogNearPiKeepsTheSign) {
   }
 }
 
+// exp(ξ + h e_j) ≈ exp(ξ) exp(h Jr e_j): Jr by finite differences of the body-frame twist, from
+// tiny to large angles; and Jr⁻¹ is its inverse.
+TEST(Jacobians, RightJacobianOfSe3AndItsInverse) {
+  std::mt19937_64 rng(2);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (double scale : {1e-9, 1e-3, 0.05, 0.5, 2.0}) {
+    Vector6d xi;
+    for (int k = 0; k < 6; ++k) xi[k] = scale * normal(rng);
+    const Matrix6d J = se3_right_jacobian(xi);
+    for (int j = 0; j < 6; ++j) {
+      const double h = 1e-6;
+      Vector6d plus = xi, minus = xi;
+      plus[j] += h;
+      minus[j] -= h;
+      const Vector6d d = (log6(inverse(exp6(xi)) * exp6(plus)) - log6(inverse(exp6(xi)) * exp6(minus))) / (2.0 * h);
+      EXPECT_TRUE(matrices_near(J.col(j), d, 1e-8)) << "scale " << scale << " column " << j;
+    }
+    EXPECT_TRUE(matrices_near(se3_right_jacobian_inverse(xi) * J, Matrix6d::Identity(), 1e-9)) << scale;
+    const Vector3d phi = xi.head<3>();
+    EXPECT_TRUE(matrices_near(so3_right_jacobian_inverse(phi) * so3_left_jacobian(-phi), Matrix3d::Identity(), 1e-9));
+  }
+}
+
 }  // namespace
 }  // namespace chasles
