@@ -356,11 +356,18 @@ TEST(plant, WatchdogBrakesToRestWhenCommandsStop) {
   EXPECT_GT(falling_speed, 0.3) << "the arm should be falling";
 
   // Silence: after the 50 ms timeout the brake takes the velocity down with a 50 ms time constant
-  // (slower at first where the effort limits clamp it): 0.7 s is ten time constants and more.
-  controller.listen(0.7);
-  state = controller.wait_state(0);
-  const double final_speed = vector_of(state->velocity).cwiseAbs().maxCoeff();
-  EXPECT_LT(final_speed, 1e-3) << "falling at " << falling_speed << " rad/s, still " << final_speed << " after 0.7 s";
+  // (slower at first where the effort limits clamp it): 0.7 s of simulated time is ten time
+  // constants and more. The plant's clock is the wall clock, and a loaded machine can starve it of
+  // steps, so the test waits for rest up to 3 s rather than judging at a fixed moment.
+  double final_speed = falling_speed;
+  const auto give_up = Clock::now() + std::chrono::seconds(3);
+  while (final_speed >= 1e-3 && Clock::now() < give_up) {
+    controller.listen(0.1);
+    state = controller.wait_state(0);
+    ASSERT_TRUE(state);
+    final_speed = vector_of(state->velocity).cwiseAbs().maxCoeff();
+  }
+  EXPECT_LT(final_speed, 1e-3) << "falling at " << falling_speed << " rad/s, still " << final_speed << " after 3 s";
   EXPECT_EQ(plant.stop(), 0);
   const std::string err = plant.stderr_text();
   EXPECT_NE(err.find("no valid command on TEST_COMMAND for 50 ms: braking to rest"), std::string::npos) << err;
