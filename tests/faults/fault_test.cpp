@@ -26,7 +26,6 @@ namespace chasles::faults {
 namespace {
 
 using controller::monotonic_ns;
-using controller::realtime_us;
 using controller::sleep_until;
 using Eigen::VectorXd;
 using testing::ChildProcess;
@@ -48,17 +47,6 @@ std::vector<std::string> controller_args(std::vector<std::string> extra) {
                                 "--lcm-url", kLcmUrl};
   argv.insert(argv.end(), extra.begin(), extra.end());
   return argv;
-}
-
-arm_target_t joint_target(const VectorXd& q, double duration) {
-  arm_target_t target{};
-  target.utime = realtime_us();
-  target.mode = arm_target_t::JOINT;
-  target.num_joints = static_cast<int32_t>(q.size());
-  target.joint_position.assign(q.data(), q.data() + q.size());
-  target.tip_quaternion[0] = 1.0;
-  target.duration = duration;
-  return target;
 }
 
 VectorXd goal_a() {

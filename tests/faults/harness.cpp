@@ -175,6 +175,17 @@ void Bus::on_status(const lcm_recv_buf_t* rbuf, const char*, void* self) {
   bus->statuses_.push_back(std::move(s));
 }
 
+arm_target_t joint_target(const Eigen::VectorXd& q, double duration) {
+  arm_target_t target{};
+  target.utime = controller::realtime_us();
+  target.mode = arm_target_t::JOINT;
+  target.num_joints = static_cast<int32_t>(q.size());
+  target.joint_position.assign(q.data(), q.data() + q.size());
+  target.tip_quaternion[0] = 1.0;
+  target.duration = duration;
+  return target;
+}
+
 CommandReport check_commands(const RobotModel& model, const std::vector<HeardCommand>& commands,
                              const std::vector<HeardStatus>& statuses, double ramp_s, double period_s) {
   const int n = model.dof();

@@ -11,6 +11,7 @@
 
 #include <Eigen/Core>
 #include <atomic>
+#include <chasles/arm_target_t.hpp>
 #include <chasles/controller_status_t.hpp>
 #include <chasles/joint_torque_command_t.hpp>
 #include <chasles/robot_state_t.hpp>
@@ -118,6 +119,9 @@ struct CommandReport {
   double spacing_p50_us = 0.0, spacing_p99_us = 0.0;  ///< utime spacing of consecutive commands
   std::string first_violation;
 };
+
+/// A JOINT target to q over `duration` seconds, stamped now.
+arm_target_t joint_target(const Eigen::VectorXd& q, double duration);
 
 /// Judges the controller's commands: `ramp_s` and `period_s` as configured.
 CommandReport check_commands(const RobotModel& model, const std::vector<HeardCommand>& commands,

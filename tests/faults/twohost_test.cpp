@@ -21,7 +21,6 @@
 namespace chasles::faults {
 namespace {
 
-using controller::realtime_us;
 using Eigen::VectorXd;
 using testing::ChildProcess;
 using testing::data_path;
@@ -41,17 +40,6 @@ std::vector<std::string> remote_controller_args(const std::string& prefix, const
   return {"/usr/bin/nsenter", std::string("--net=") + b, "--",         CHASLES_CONTROLLER, "--robot",
           data_path("panda.urdf"), "--tip", "panda_hand_tcp", "--lcm-url", kLcmUrl, "--channel-prefix", prefix,
           "--summary", summary};
-}
-
-arm_target_t joint_target(const VectorXd& q, double duration) {
-  arm_target_t target{};
-  target.utime = realtime_us();
-  target.mode = arm_target_t::JOINT;
-  target.num_joints = static_cast<int32_t>(q.size());
-  target.joint_position.assign(q.data(), q.data() + q.size());
-  target.tip_quaternion[0] = 1.0;
-  target.duration = duration;
-  return target;
 }
 
 std::string temp_path(const std::string& name) {
