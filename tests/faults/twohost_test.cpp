@@ -13,7 +13,6 @@
 #include <string>
 #include <vector>
 
-#include "chasles/controller/clock.hpp"
 #include "harness.hpp"
 #include "support/process.hpp"
 #include "support/reference.hpp"
