@@ -8,22 +8,12 @@
 #include <vector>
 
 #include "chasles/core/calibration/calibration.hpp"
+#include "chasles/tools/error_line.hpp"
 #include "commands.hpp"
 
 namespace {
 
-std::string one_line(std::string text) {
-  while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();
-  for (char& c : text) {
-    if (c == '\n' || c == '\r') c = ' ';
-  }
-  return text;
-}
-
-int fail(const std::string& message, int code) {
-  std::cerr << "chasles_calibrate: " << one_line(message) << std::endl;
-  return code;
-}
+int fail(const std::string& message, int code) { return chasles::tools::fail("chasles_calibrate", message, code); }
 
 }  // namespace
 

@@ -6,23 +6,12 @@
 #include <string>
 #include <vector>
 
+#include "chasles/tools/error_line.hpp"
 #include "command.hpp"
 
 namespace {
 
-// Messages come from several libraries; keep each on one line.
-std::string one_line(std::string text) {
-  while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();
-  for (char& c : text) {
-    if (c == '\n' || c == '\r') c = ' ';
-  }
-  return text;
-}
-
-int fail(const std::string& message, int code) {
-  std::cerr << "chasles: " << one_line(message) << std::endl;
-  return code;
-}
+int fail(const std::string& message, int code) { return chasles::tools::fail("chasles", message, code); }
 
 }  // namespace
 
