@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -86,6 +87,11 @@ ChildProcess::ChildProcess(std::vector<std::string> argv_strings)
     ::dup2(null, 0);
     ::dup2(null, 1);
     ::dup2(err, 2);
+    // A ChildProcess is a loop under test (plant, controller, logger). Nice −10 gives it the edge
+    // over whatever CPU hogs share the test machine, as SCHED_FIFO does in a deployment, without
+    // real-time scheduling's mlockall (which sanitizer builds cannot afford). Refused without
+    // CAP_SYS_NICE, and then the test runs at the ordinary priority.
+    ::setpriority(PRIO_PROCESS, 0, -10);
     ::execv(argv[0], argv.data());
     ::_exit(127);
   }
