@@ -109,6 +109,17 @@ void Controller::fault(const char* format, ...) {
   mode_ = Mode::kFault;
 }
 
+void Controller::stand_down(const char* format, ...) {
+  if (stood_down_) return;
+  va_list args;
+  va_start(args, format);
+  format_into(fault_reason_, format, args);
+  va_end(args);
+  ++faults_;  // a fault of its own, even while another is on
+  mode_ = Mode::kFault;
+  stood_down_ = true;
+}
+
 void Controller::hold_at(const Eigen::VectorXd& q) {
   ref_.hold(q);
   mode_ = Mode::kHolding;
@@ -221,7 +232,7 @@ void Controller::update_reference(int64_t now_ns) {
 }
 
 bool Controller::tick(int64_t now_ns, const JointState* state) {
-  if (state == nullptr) return false;
+  if (state == nullptr || stood_down_) return false;
   if (now_ns - state->arrival_ns > config_.stale_ns) {
     ++stale_ticks_;
     if (mode_ != Mode::kWaiting) {

@@ -78,6 +78,12 @@ class Controller {
   /// when a command is to be sent: torque() then holds it. Allocates nothing.
   bool tick(int64_t now_ns, const JointState* state);
 
+  /// Stops commanding for good: FAULT, latched against every state and target that follows, and
+  /// counted once. For what only an operator can resolve, such as another sender commanding the
+  /// same arm. Allocates nothing.
+  void stand_down(const char* format, ...) __attribute__((format(printf, 2, 3)));
+  bool stood_down() const { return stood_down_; }
+
   Mode mode() const { return mode_; }
   /// Why the controller is in FAULT (or was, last).
   const char* fault_reason() const { return fault_reason_; }
@@ -124,6 +130,7 @@ class Controller {
   bool ik_converged_ = false;
   int64_t motion_start_ns_ = 0;
   Mode mode_ = Mode::kWaiting;
+  bool stood_down_ = false;
   // Fixed buffers: the reasons are formatted on the real-time thread, which must not allocate.
   char fault_reason_[192] = {};
   char rejection_[192] = {};

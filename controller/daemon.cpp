@@ -120,10 +120,6 @@ struct Daemon::Impl {
   SentCommands sent_commands;
   CommandWatch command_watch;  // on the LCM thread, beside the receivers
   Controller controller;
-  // Set by the loop once another sender is heard on the command channel: FAULT for good, the
-  // reason formatted on the loop into a fixed buffer.
-  bool commanded_elsewhere = false;
-  char elsewhere_reason[192] = {};
   std::atomic<bool> done{false};
   bool realtime_granted = false;
 
@@ -200,18 +196,12 @@ struct Daemon::Impl {
       record.jitter_us = 1e-3 * static_cast<double>(wake - next);
 
       if (states.read(state)) have_state = true;
-      if (!commanded_elsewhere && command_watch.foreign() > 0) stand_down(state, have_state);
-      bool command = false;
+      if (command_watch.foreign() > 0 && !controller.stood_down()) stand_down(state, have_state);
+      while (targets.pop(target)) controller.set_target(target, wake);
+      if (controller.take_request(request)) requests.write(request);
+      if (paths.pop(path)) controller.follow(path, wake);
+      const bool command = controller.tick(wake, have_state ? &state : nullptr);
       int64_t utime = 0;
-      if (commanded_elsewhere) {
-        while (targets.pop(target)) {
-        }  // nothing is driven any more; the status says why
-      } else {
-        while (targets.pop(target)) controller.set_target(target, wake);
-        if (controller.take_request(request)) requests.write(request);
-        if (paths.pop(path)) controller.follow(path, wake);
-        command = controller.tick(wake, have_state ? &state : nullptr);
-      }
       if (command) command_publisher.encode(utime = realtime_us(), ++seq, state.seq, controller.torque());
       const int64_t computed = monotonic_ns();
       record.compute_us = 1e-3 * static_cast<double>(computed - wake);
@@ -252,13 +242,11 @@ struct Daemon::Impl {
   // stops commanding for good and reports a FAULT; the arm's own watchdog takes over if the
   // other sender stops too. Latched: only an operator can tell which sender should drive.
   void stand_down(const JointState& state, bool have_state) {
-    commanded_elsewhere = true;
-    std::snprintf(elsewhere_reason, sizeof(elsewhere_reason),
-                  "another sender is commanding %s (seq %lld answering state %lld; our latest state %lld): "
-                  "stopped commanding",
-                  channels.command.c_str(), static_cast<long long>(command_watch.first_seq()),
-                  static_cast<long long>(command_watch.first_state_seq()),
-                  static_cast<long long>(have_state ? state.seq : -1));
+    controller.stand_down("another sender is commanding %s (seq %lld answering state %lld; our latest state %lld): "
+                          "stopped commanding",
+                          channels.command.c_str(), static_cast<long long>(command_watch.first_seq()),
+                          static_cast<long long>(command_watch.first_state_seq()),
+                          static_cast<long long>(have_state ? state.seq : -1));
   }
 
   // Before the loop starts: listen on the command channel for a while; whatever is heard there
@@ -289,15 +277,15 @@ struct Daemon::Impl {
   void publish_snapshot(const LoopCounters& counters) {
     Snapshot& s = snapshots.back();
     s.loop = counters;
-    s.mode = commanded_elsewhere ? Mode::kFault : controller.mode();
-    std::memcpy(s.fault, commanded_elsewhere ? elsewhere_reason : controller.fault_reason(), sizeof(s.fault));
+    s.mode = controller.mode();
+    std::memcpy(s.fault, controller.fault_reason(), sizeof(s.fault));
     std::memcpy(s.rejection, controller.last_rejection(), sizeof(s.rejection));
     s.q_desired = controller.reference().q;
     s.error = controller.error();
     s.q = s.q_desired - s.error;
     s.torque = controller.torque();
     s.stale = controller.stale_ticks();
-    s.faults = controller.faults() + (commanded_elsewhere ? 1 : 0);
+    s.faults = controller.faults();
     s.foreign_commands = command_watch.foreign();
     s.rejected_targets = controller.rejected_targets();
     s.ik_iterations = controller.ik_iterations();

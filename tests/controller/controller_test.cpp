@@ -449,6 +449,28 @@ TEST_F(ControllerTest, NonFiniteStateFaults) {
   EXPECT_EQ(controller.mode(), Mode::kFault);
 }
 
+// Another sender on the command channel: the daemon stands the controller down. Unlike a stale
+// state's FAULT, fresh states do not bring it back, and it is counted even during another FAULT.
+TEST_F(ControllerTest, StandingDownIsLatchedAgainstFreshStatesAndTargets) {
+  Controller controller(model_, config_);
+  ASSERT_TRUE(controller.tick(0, fresh(0)));
+  EXPECT_FALSE(controller.tick(config_.stale_ns + 1, &state_));
+  ASSERT_EQ(controller.faults(), 1);
+  AllocationCounter counter;
+  controller.stand_down("another sender is commanding %s", "CHASLES_COMMAND");
+  controller.stand_down("a second reason %d", 2);
+  EXPECT_EQ(counter.count(), 0);
+  EXPECT_TRUE(controller.stood_down());
+  EXPECT_EQ(controller.faults(), 2);
+  EXPECT_STREQ(controller.fault_reason(), "another sender is commanding CHASLES_COMMAND");
+  for (int64_t t = 20 * kMs; t < 40 * kMs; t += kMs) EXPECT_FALSE(controller.tick(t, fresh(t))) << t;
+  EXPECT_EQ(controller.mode(), Mode::kFault);
+  EXPECT_FALSE(controller.set_target(joint_target(bent_pose(), 1.0), 40 * kMs));
+  EXPECT_NE(std::string(controller.last_rejection()).find("another sender"), std::string::npos)
+      << controller.last_rejection();
+  EXPECT_EQ(controller.faults(), 2);
+}
+
 TEST_F(ControllerTest, TheTickAllocatesNothing) {
   Controller controller(model_, config_);
   CommandPublisher publisher(nullptr, "UNUSED", 7);  // encoding only: sending is tested in a netns
