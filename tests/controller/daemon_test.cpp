@@ -17,7 +17,6 @@
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <optional>
-#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -29,6 +28,7 @@
 #include "chasles/core/lie/se3.hpp"
 #include "chasles/core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
+#include "support/arm.hpp"
 #include "support/process.hpp"
 #include "support/reference.hpp"
 
@@ -36,6 +36,10 @@ namespace chasles::controller {
 namespace {
 
 using Eigen::VectorXd;
+using testing::bent_pose;
+using testing::joint_target;
+using testing::list;
+using testing::vector_of;
 using testing::ChildProcess;
 using testing::data_path;
 
@@ -46,23 +50,6 @@ RobotModel panda() {
   UrdfOptions options;
   options.tip_link = kTip;
   return load_urdf_file(data_path("panda.urdf"), options);
-}
-
-VectorXd bent_pose() {
-  VectorXd q(7);
-  q << 0.0, 0.5, 0.0, -1.2, 0.0, 1.0, 0.0;
-  return q;
-}
-
-std::string list(const VectorXd& v) {
-  std::ostringstream text;
-  text.precision(17);
-  for (Eigen::Index i = 0; i < v.size(); ++i) text << (i > 0 ? "," : "") << v[i];
-  return text.str();
-}
-
-VectorXd vector_of(const std::vector<double>& v) {
-  return Eigen::Map<const VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
 }
 
 std::vector<std::string> plant_args(std::vector<std::string> extra) {
@@ -140,16 +127,6 @@ class Bus {
   lcm_t* lcm_;
 };
 
-arm_target_t joint_target(const VectorXd& q, double duration) {
-  arm_target_t target{};
-  target.utime = realtime_us();
-  target.mode = arm_target_t::JOINT;
-  target.num_joints = static_cast<int32_t>(q.size());
-  target.joint_position.assign(q.data(), q.data() + q.size());
-  target.tip_quaternion[0] = 1.0;
-  target.duration = duration;
-  return target;
-}
 
 nlohmann::json read_json(const std::string& path) {
   std::ifstream in(path);

@@ -175,17 +175,6 @@ void Bus::on_status(const lcm_recv_buf_t* rbuf, const char*, void* self) {
   bus->statuses_.push_back(std::move(s));
 }
 
-arm_target_t joint_target(const Eigen::VectorXd& q, double duration) {
-  arm_target_t target{};
-  target.utime = controller::realtime_us();
-  target.mode = arm_target_t::JOINT;
-  target.num_joints = static_cast<int32_t>(q.size());
-  target.joint_position.assign(q.data(), q.data() + q.size());
-  target.tip_quaternion[0] = 1.0;
-  target.duration = duration;
-  return target;
-}
-
 CommandReport check_commands(const RobotModel& model, const std::vector<HeardCommand>& commands,
                              const std::vector<HeardStatus>& statuses, double ramp_s, double period_s) {
   const int n = model.dof();
@@ -323,23 +312,6 @@ const RobotModel& panda() {
     return load_urdf_file(testing::data_path("panda.urdf"), options);
   }();
   return model;
-}
-
-Eigen::VectorXd bent_pose() {
-  Eigen::VectorXd q(7);
-  q << 0.0, 0.5, 0.0, -1.2, 0.0, 1.0, 0.0;
-  return q;
-}
-
-std::string list(const Eigen::VectorXd& v) {
-  std::ostringstream text;
-  text.precision(17);
-  for (Eigen::Index i = 0; i < v.size(); ++i) text << (i > 0 ? "," : "") << v[i];
-  return text.str();
-}
-
-Eigen::VectorXd vector_of(const std::vector<double>& v) {
-  return Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
 }
 
 joint_torque_command_t command_of(int64_t seq, int64_t utime, int64_t state_seq, const Eigen::VectorXd& tau) {

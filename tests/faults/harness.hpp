@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "chasles/core/model/model.hpp"
+#include "support/arm.hpp"
 
 namespace chasles::faults {
 
@@ -120,9 +121,6 @@ struct CommandReport {
   std::string first_violation;
 };
 
-/// A JOINT target to q over `duration` seconds, stamped now.
-arm_target_t joint_target(const Eigen::VectorXd& q, double duration);
-
 /// Judges the controller's commands: `ramp_s` and `period_s` as configured.
 CommandReport check_commands(const RobotModel& model, const std::vector<HeardCommand>& commands,
                              const std::vector<HeardStatus>& statuses, double ramp_s, double period_s);
@@ -143,9 +141,10 @@ std::string table_row(const std::string& fault, const CommandReport& c, const St
 
 /// The arm's model as the tests run it (the Panda to its TCP).
 const RobotModel& panda();
-Eigen::VectorXd bent_pose();
-std::string list(const Eigen::VectorXd& v);
-Eigen::VectorXd vector_of(const std::vector<double>& v);
+using testing::bent_pose;
+using testing::joint_target;
+using testing::list;
+using testing::vector_of;
 joint_torque_command_t command_of(int64_t seq, int64_t utime, int64_t state_seq, const Eigen::VectorXd& tau);
 
 }  // namespace chasles::faults

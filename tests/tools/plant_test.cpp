@@ -16,13 +16,13 @@
 #include <lcm/lcm-cpp.hpp>
 #include <limits>
 #include <optional>
-#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/model/urdf.hpp"
+#include "support/arm.hpp"
 #include "support/process.hpp"
 #include "support/reference.hpp"
 
@@ -39,24 +39,6 @@ RobotModel panda() {
   UrdfOptions options;
   options.tip_link = "panda_hand";
   return load_urdf_file(data_path("panda.urdf"), options);
-}
-
-// A bent pose, within the Panda's limits, where gravity pulls hard on the shoulder and elbow.
-Eigen::VectorXd bent_pose() {
-  Eigen::VectorXd q(7);
-  q << 0.0, 0.5, 0.0, -1.2, 0.0, 1.0, 0.0;
-  return q;
-}
-
-std::string list(const Eigen::VectorXd& v) {
-  std::ostringstream text;
-  text.precision(17);
-  for (Eigen::Index i = 0; i < v.size(); ++i) text << (i > 0 ? "," : "") << v[i];
-  return text.str();
-}
-
-Eigen::VectorXd vector_of(const std::vector<double>& v) {
-  return Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
 }
 
 // chasles_plant with `args` (plus the test's LCM URL and channel prefix).

@@ -1,0 +1,20 @@
+// What the tests that run the plant and the controller as processes say to them: the Panda pose
+// they start from, joint vectors as command-line lists and back from messages, JOINT targets.
+#pragma once
+
+#include <Eigen/Core>
+#include <chasles/arm_target_t.hpp>
+#include <string>
+#include <vector>
+
+namespace chasles::testing {
+
+/// A bent Panda pose, within its limits, where gravity pulls hard on the shoulder and elbow.
+Eigen::VectorXd bent_pose();
+/// "v0,v1,..." at full precision, as --q0 and the like take it.
+std::string list(const Eigen::VectorXd& v);
+Eigen::VectorXd vector_of(const std::vector<double>& v);
+/// A JOINT target to q over `duration` seconds, stamped now.
+arm_target_t joint_target(const Eigen::VectorXd& q, double duration);
+
+}  // namespace chasles::testing
