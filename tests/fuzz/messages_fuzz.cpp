@@ -1,16 +1,20 @@
 // Every reader of chasles messages on arbitrary bytes, and the controller behind them. Byte 0
 // picks the reader, the rest is the message: 0 the controller's robot_state_t receiver, 1 its
 // arm_target_t receiver and Controller::set_target, 2 the plant's joint_torque_command_t inbox,
-// 3 the checked decoders of `chasles log` for all four types. What a receiver accepts must be
-// what the contract promises (the arm's joint count, finite values), and after every input the
-// controller ticks (1 ms later, with the latest state accepted) and must command finite torques
-// within the effort limits, whatever it was fed. LCM is the in-process memq provider: no sockets.
+// 3 the checked decoders of `chasles log` for all four types, 4 the controller's watch for other
+// senders on its command channel. What a reader accepts must be what the contract promises (the
+// arm's joint count, finite values; for the watch, a command of its own, once), and after every
+// input the controller ticks (1 ms later, with the latest state accepted) and must command finite
+// torques within the effort limits, whatever it was fed. LCM is the in-process memq provider: no
+// sockets.
 #include <lcm/lcm-cpp.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "chasles/controller/controller.hpp"
 #include "chasles/controller/lcm_io.hpp"
@@ -35,10 +39,50 @@ struct Readers {
   TargetReceiver target_receiver{lcm.getUnderlyingLCM(), "TARGET", n, targets, rejections};
   plant::CommandInbox commands{lcm, "COMMAND", n};
   Controller controller{model, Config::critically_damped(n, 20.0)};
+  SentCommands sent;
+  CommandWatch watch{nullptr, "COMMAND", sent};
+  CommandPublisher publisher{nullptr, "COMMAND", n};
+  int64_t sent_seq = 0;
+  std::vector<bool> heard{false};  // by seq: our command has come back
   JointState state{n};  // the latest state accepted
   bool have_state = false;
   int64_t now_ns = 0;
 };
+
+int64_t big_endian(const uint8_t* p) {
+  uint64_t v = 0;
+  for (int i = 0; i < 8; ++i) v = v << 8 | p[i];
+  return static_cast<int64_t>(v);
+}
+
+// Two commands of ours per input, stamped utime = 1000·seq: the odd one comes back at once (ours)
+// and again (a replay: foreign); the even one stays unheard, for the input to name. The input is
+// ours exactly when it carries joint_torque_command_t's fingerprint and names an unheard command
+// of ours, with its utime, still within the window the watch remembers.
+void judge_the_command_watch(Readers& r, const uint8_t* message, int bytes) {
+  for (int k = 0; k < 2; ++k) {
+    const int64_t seq = ++r.sent_seq;
+    r.publisher.encode(1000 * seq, seq, 0, Eigen::VectorXd::Zero(r.n));
+    r.sent.record(seq, 1000 * seq);
+    r.heard.push_back(false);
+    if (k == 0) {
+      const auto& own = r.publisher.bytes();
+      FUZZ_CHECK(!r.watch.receive(own.data(), static_cast<int>(own.size())));
+      FUZZ_CHECK(r.watch.receive(own.data(), static_cast<int>(own.size())));
+      r.heard[size_t(seq)] = true;
+    }
+  }
+  const int64_t seq = bytes >= 32 ? big_endian(message + 16) : -1;
+  const bool names_unheard_own =
+      bytes >= 32 && static_cast<uint64_t>(big_endian(message)) == uint64_t(joint_torque_command_t::getHash()) &&
+      seq > std::max<int64_t>(0, r.sent_seq - SentCommands::kWindow) && seq <= r.sent_seq &&
+      big_endian(message + 8) == 1000 * seq && !r.heard[size_t(seq)];
+  const int64_t before = r.watch.foreign();
+  const bool foreign = r.watch.receive(message, bytes);
+  FUZZ_CHECK(foreign == !names_unheard_own);
+  FUZZ_CHECK(r.watch.foreign() == before + (foreign ? 1 : 0));
+  if (!foreign) r.heard[size_t(seq)] = true;
+}
 
 template <typename Message>
 void decode_as(const uint8_t* data, size_t size) {
@@ -54,7 +98,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   Readers& r = *readers;
   const uint8_t* message = data + 1;
   const int bytes = static_cast<int>(size - 1);
-  switch (data[0] % 4) {
+  switch (data[0] % 5) {
     case 0:
       if (r.state_receiver.receive(message, bytes, r.now_ns).empty()) {
         JointState state(r.n);
@@ -82,6 +126,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       }
       break;
     }
+    case 4:
+      judge_the_command_watch(r, message, bytes);
+      break;
     default: {
       decode_as<robot_state_t>(message, size - 1);
       decode_as<joint_torque_command_t>(message, size - 1);
