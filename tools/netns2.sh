@@ -9,8 +9,8 @@
 #   tools/netns2.sh CMD [ARGS...]
 #
 # Use the LCM URL  udpm://239.255.76.67:7667?ttl=1  (ttl=1: one hop, across the veth). Both
-# namespaces (and with them the veth pair) are removed when CMD ends, fails or is interrupted;
-# the exit status is CMD's. Needs root (ip netns add).
+# namespaces (and with them the veth pair) are removed when CMD ends, fails or is interrupted, or
+# by the next run if this one was killed; the exit status is CMD's. Needs root (ip netns add).
 set -euo pipefail
 
 if [ $# -eq 0 ] || [ "$1" = "-h" ] || [ "$1" = "--help" ]; then
@@ -25,6 +25,12 @@ if [ "$(id -u)" -ne 0 ]; then
   echo "netns2.sh: needs root to create named network namespaces (ip netns add); tools/netns.sh needs no root" >&2
   exit 1
 fi
+
+# Namespaces a killed run left behind (SIGKILL runs no trap): removed once their script is gone.
+for ns in $(ip netns list | awk '/^chasles-[0-9]+-[ab]( |$)/ {print $1}'); do
+  pid=${ns#chasles-}
+  kill -0 "${pid%-*}" 2>/dev/null || ip netns del "$ns" 2>/dev/null || true
+done
 
 # Unique per run, so parallel runs do not meet.
 a="chasles-$$-a" b="chasles-$$-b"
