@@ -191,9 +191,6 @@ class Simulation {
     return {command.torque.data(), static_cast<Eigen::Index>(command.torque.size())};
   }
 
-  // Real time: one step per period on an absolute CLOCK_MONOTONIC schedule, with the latest
-  // command held. A wake-up more than a period late is an overrun; the schedule restarts from
-  // then rather than racing to catch up.
   // Real time: how many steps a command's state_seq may lag the newest state. The plant's own
   // injected delays are added: they stand for the network, not for a late controller.
   int64_t max_command_lag() const {
@@ -202,6 +199,9 @@ class Simulation {
     return static_cast<int64_t>(std::ceil(lag_ms * 1e-3 * options_.rate_hz));
   }
 
+  // Real time: one step per period on an absolute CLOCK_MONOTONIC schedule, with the latest
+  // command held. A wake-up more than a period late is an overrun; the schedule restarts from
+  // then rather than racing to catch up.
   void run_real_time() {
     prctl(PR_SET_TIMERSLACK, 1UL);  // the default 50 µs slack is most of the wake-up jitter
     inbox_.require_recent(&seq_, max_command_lag());

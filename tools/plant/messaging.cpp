@@ -102,8 +102,7 @@ StatePublisher::StatePublisher(lcm::LCM& lcm, std::string channel, int num_joint
     v->assign(static_cast<size_t>(num_joints), 0.0);
   }
   bytes_.resize(static_cast<size_t>(message_.getEncodedSize()));
-  const bool spikes = faults.spike_ms > 0.0 && faults.spike_every > 0;
-  queue_.resize(faults.delay_ms > 0.0 || spikes ? static_cast<size_t>(max_in_flight) : 0);
+  queue_.resize(faults.delay_ms > 0.0 || faults.spikes() ? static_cast<size_t>(max_in_flight) : 0);
   for (Delayed& slot : queue_) slot.bytes.resize(bytes_.size());
 }
 
@@ -125,7 +124,7 @@ void StatePublisher::send(int64_t now_ns) {
     ++dropped_;
     return;
   }
-  if (faults_.spike_every > 0 && faults_.spike_ms > 0.0 && ++sends_ % faults_.spike_every == 0) {
+  if (faults_.spikes() && ++sends_ % faults_.spike_every == 0) {
     spike_end_ns_ = now_ns + static_cast<int64_t>(faults_.spike_ms * 1e6);
   }
   if (queue_.empty()) return publish(bytes_);

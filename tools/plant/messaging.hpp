@@ -84,6 +84,7 @@ struct Faults {
   /// is held back and all are sent together, in order, when it ends (a stalled link or driver).
   double spike_ms = 0.0;
   int64_t spike_every = 0;
+  bool spikes() const { return spike_ms > 0.0 && spike_every > 0; }
   uint64_t seed = 0;
 };
 
