@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "chasles/controller/clock.hpp"
+#include "chasles/controller/controller.hpp"
 #include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/model/urdf.hpp"
 #include "support/reference.hpp"
@@ -20,32 +21,18 @@ using controller::monotonic_ns;
 // Room for about 8 s of states by seq, far more than any state a command can still answer.
 constexpr size_t kPositions = 8192;
 
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<size_t>(p * static_cast<double>(v.size())))];
-}
-
-const char* mode_name(int8_t mode) {
-  switch (mode) {
-    case controller_status_t::WAITING:
-      return "WAITING";
-    case controller_status_t::RUNNING:
-      return "RUNNING";
-    case controller_status_t::HOLDING:
-      return "HOLDING";
-    case controller_status_t::FAULT:
-      return "FAULT";
-  }
-  return "?";
-}
-
 template <typename Message>
 bool decode(const lcm_recv_buf_t* rbuf, Message& message) {
   return message.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) == static_cast<int>(rbuf->data_size);
 }
 
 }  // namespace
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<size_t>(p * static_cast<double>(v.size())))];
+}
 
 Bus::Bus(const std::string& url, const std::string& prefix)
     : prefix_(prefix), rx_(lcm_create(url.c_str())), tx_(lcm_create(url.c_str())), positions_(kPositions) {
@@ -268,7 +255,7 @@ StatusReport summarise(const std::vector<HeardStatus>& statuses) {
   for (const auto& heard : statuses) {
     const controller_status_t& s = heard.message;
     if (s.state != last) {
-      r.modes += (r.modes.empty() ? "" : ">") + std::string(mode_name(s.state));
+      r.modes += (r.modes.empty() ? "" : ">") + std::string(controller::to_string(static_cast<controller::Mode>(s.state)));
       if (s.state == controller_status_t::FAULT) {
         ++r.fault_transitions;
         r.fault_messages.push_back(s.message);  // as first reported (the age in it grows later)

@@ -139,6 +139,9 @@ StatusReport summarise(const std::vector<HeardStatus>& statuses);
 /// One line for the fault table, printed by each test.
 std::string table_row(const std::string& fault, const CommandReport& c, const StatusReport& s);
 
+/// The p-quantile of v by rank (0 for none).
+double percentile(std::vector<double> v, double p);
+
 /// The arm's model as the tests run it (the Panda to its TCP).
 const RobotModel& panda();
 using testing::bent_pose;

@@ -47,12 +47,6 @@ std::string temp_path(const std::string& name) {
   return ::testing::TempDir() + "twohost_" + name + "_" + std::to_string(::getpid()) + ".json";
 }
 
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<size_t>(p * static_cast<double>(v.size())))];
-}
-
 // The test must not pass by accident on one host: the controller really is in another namespace.
 TEST(twohost, TheControllerRunsInTheOtherNamespace) {
   const char* b = std::getenv("CHASLES_NETNS_B");
