@@ -110,6 +110,10 @@ int64_t Bus::state_count() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return state_count_;
 }
+Bus::StateGaps Bus::state_gaps() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return gaps_;
+}
 void Bus::clear_commands() {
   std::lock_guard<std::mutex> lock(mutex_);
   commands_.clear();
@@ -131,6 +135,15 @@ void Bus::on_state(const lcm_recv_buf_t* rbuf, const char*, void* self) {
   auto& slot = bus->positions_[static_cast<size_t>(m.seq) % kPositions];
   slot.seq = m.seq;
   slot.arrival_ns = monotonic_ns();
+  if (bus->last_seq_ >= 0 && m.seq > bus->last_seq_) {
+    bus->gaps_.max_missing_run = std::max(bus->gaps_.max_missing_run, m.seq - bus->last_seq_ - 1);
+    bus->gaps_.max_arrival_gap_ms =
+        std::max(bus->gaps_.max_arrival_gap_ms, 1e-6 * static_cast<double>(slot.arrival_ns - bus->last_arrival_ns_));
+  }
+  if (m.seq > bus->last_seq_ || m.seq + 1000 < bus->last_seq_) {  // the latter: a plant restarted at 0
+    bus->last_seq_ = m.seq;
+    bus->last_arrival_ns_ = slot.arrival_ns;
+  }
   slot.q = vector_of(m.position);
   bus->state_ = std::move(m);
 }
@@ -264,6 +277,7 @@ StatusReport summarise(const std::vector<HeardStatus>& statuses) {
     }
     if (s.ticks > 0) jitter.push_back(s.jitter_p99_us);
     if (s.latency_p99_us > 0.0) latency.push_back(s.latency_p99_us);
+    r.jitter_max_us = std::max(r.jitter_max_us, s.jitter_max_us);
   }
   r.jitter_p99_median_us = percentile(jitter, 0.5);
   r.latency_p99_median_us = percentile(latency, 0.5);
@@ -275,17 +289,31 @@ StatusReport summarise(const std::vector<HeardStatus>& statuses) {
   return r;
 }
 
+std::string unexplained_faults(const Bus::StateGaps& gaps, const StatusReport& s, double stale_ms, double injected_ms) {
+  if (s.faults == 0) return "";
+  // 0.8: the bus and the controller stamp arrivals from different threads and processes.
+  const double late_ms = 1e-3 * s.jitter_max_us;
+  if (gaps.max_arrival_gap_ms >= 0.8 * stale_ms || late_ms + injected_ms >= 0.8 * stale_ms) return "";
+  char why[320];
+  std::snprintf(why, sizeof(why),
+                "%lld FAULT(s) that no stall explains: longest wait for a state on the bus %.1f ms, the controller's "
+                "latest wake-up %.1f ms late, injected gaps up to %.1f ms, stale limit %.1f ms",
+                static_cast<long long>(s.faults), gaps.max_arrival_gap_ms, late_ms, injected_ms, stale_ms);
+  return why;
+}
+
 std::string table_row(const std::string& fault, const CommandReport& c, const StatusReport& s) {
   char row[1024];
   std::snprintf(row, sizeof(row),
                 "FAULT TABLE | %s | modes %s | faults %lld, stale ticks %lld, rejected %lld | %lld commands, "
                 "max |tau|/effort %.2f, max |dtau|/limit %.2f, %lld restarts from g(q), %lld bound violations | "
-                "spacing p50 %.0f us p99 %.0f us, jitter p99 (median window) %.0f us, overruns %lld of %lld ticks",
+                "spacing p50 %.0f us p99 %.0f us, jitter p99 (median window) %.0f us max %.0f us, overruns %lld of %lld "
+                "ticks",
                 fault.c_str(), s.modes.c_str(), static_cast<long long>(s.faults), static_cast<long long>(s.stale),
                 static_cast<long long>(s.rejected), static_cast<long long>(c.commands), c.max_effort_ratio,
                 c.max_rate_ratio, static_cast<long long>(c.restarts_from_gravity),
                 static_cast<long long>(c.non_finite + c.effort_violations + c.rate_violations), c.spacing_p50_us,
-                c.spacing_p99_us, s.jitter_p99_median_us, static_cast<long long>(s.overruns),
+                c.spacing_p99_us, s.jitter_p99_median_us, s.jitter_max_us, static_cast<long long>(s.overruns),
                 static_cast<long long>(s.ticks));
   std::string text = row;
   for (const auto& m : s.fault_messages) text += "\n    FAULT message: " + m;

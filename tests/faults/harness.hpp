@@ -76,6 +76,13 @@ class Bus {
   std::optional<controller_status_t> status() const;
   std::optional<robot_state_t> state() const;
   int64_t state_count() const;
+  /// The longest wait between two states the test heard, and the longest run of seqs it did not
+  /// hear (states the plant dropped, or the test missed): what the state stream itself explains.
+  struct StateGaps {
+    double max_arrival_gap_ms = 0.0;
+    int64_t max_missing_run = 0;
+  };
+  StateGaps state_gaps() const;
   /// Forgets the commands heard so far (e.g. to see whether any come after a point).
   void clear_commands();
 
@@ -102,6 +109,8 @@ class Bus {
   std::vector<Heard> positions_;  // the states heard, a ring by seq
   std::optional<robot_state_t> state_;
   int64_t state_count_ = 0;
+  StateGaps gaps_;
+  int64_t last_seq_ = -1, last_arrival_ns_ = 0;
   std::optional<controller_status_t> status_;
   std::vector<HeardStatus> statuses_;
   std::vector<HeardCommand> commands_;
@@ -132,9 +141,18 @@ struct StatusReport {
   std::vector<std::string> fault_messages;  ///< one per FAULT reported, as first reported
   double jitter_p99_median_us = 0.0;        ///< median over status windows of jitter_p99_us
   double latency_p99_median_us = 0.0;
+  double jitter_max_us = 0.0;               ///< the controller's longest wake-up delay, any window
   int64_t ticks = 0, overruns = 0, stale = 0, rejected = 0, faults = 0;
 };
 StatusReport summarise(const std::vector<HeardStatus>& statuses);
+
+/// Whether the FAULTs counted in `s` are ones a stall explains. Each test injects gaps in the
+/// state stream no longer than `injected_ms` (dropped runs, delay spikes, or one period), well
+/// under `stale_ms`, so those alone never fault; but a CI machine can stall a process for tens of
+/// milliseconds. Explained: the bus itself waited near `stale_ms` for a state (the plant or the
+/// network stalled), or the controller woke so late that, added to the injected gap, the state it
+/// found was near the limit. Empty when every FAULT is explained (or there is none); else why not.
+std::string unexplained_faults(const Bus::StateGaps& gaps, const StatusReport& s, double stale_ms, double injected_ms);
 
 /// One line for the fault table, printed by each test.
 std::string table_row(const std::string& fault, const CommandReport& c, const StatusReport& s);
