@@ -296,6 +296,74 @@ TEST_P(Ik, AnalyticJacobianMatchesFiniteDifferences) {
 
 INSTANTIATE_TEST_SUITE_P(Robots, Ik, ::testing::Values("ur5", "panda"));
 
+// Arms no solver setting was tuned on (tests/data/lbr7.urdf, a 7-DOF arm laid out like the KUKA
+// LBR iiwa; skew6.urdf, six tilted, offset axes and a continuous wrist; arm.urdf, a prismatic and a
+// continuous joint): 200 targets each, FK of configurations drawn 5 % inside the limits (FK is
+// checked against Pinocchio in kinematics_test), seeds drawn independently. Every one is reached
+// within the limits under the restart cap; the 5 ms budget's figures are printed.
+struct HeldOutArm {
+  const char* urdf;
+  const char* tip;
+};
+
+class IkHeldOut : public ::testing::TestWithParam<HeldOutArm> {};
+
+TEST_P(IkHeldOut, ReachesTargetsOnAnArmNotTunedFor) {
+  UrdfOptions urdf_options;
+  urdf_options.tip_link = GetParam().tip;
+  const RobotModel model = load_urdf_file(testing::data_path(GetParam().urdf), urdf_options);
+  std::mt19937_64 rng(2026);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  auto draw = [&](double margin) {
+    Eigen::VectorXd q(model.dof());
+    for (int i = 0; i < model.dof(); ++i) {
+      const JointLimits& l = model.joint(i).limits;
+      q[i] = l.lower + (l.upper - l.lower) * (margin + (1.0 - 2.0 * margin) * unit(rng));
+    }
+    return q;
+  };
+  std::vector<IkCase> cases(200);
+  for (IkCase& c : cases) {
+    c.T_target = forward_kinematics_space(model, draw(0.05)).matrix();
+    c.q_seed = draw(0.0);
+  }
+  IkOptions capped;
+  capped.time_budget = std::chrono::seconds(1);
+  capped.max_restarts = 200;
+  for (const IkOptions& options : {capped, IkOptions{}}) {
+    IkSolver solver(model, options);
+    int converged = 0;
+    std::vector<double> us;
+    for (const IkCase& c : cases) {
+      const IkResult result = solver.solve(c.T_target, c.q_seed);
+      EXPECT_TRUE(within_limits(model, result.q));
+      double pos_err, rot_err;
+      pose_errors(model, result.q, c.T_target, pos_err, rot_err);
+      if (result.converged) {
+        EXPECT_LE(pos_err, 1e-6);
+        EXPECT_LE(rot_err, 1e-6);
+        ++converged;
+      }
+      us.push_back(result.time_us);
+    }
+    const bool budget = options.max_restarts == IkOptions{}.max_restarts;
+    std::printf("[ ik %s ] %s: %d/%zu converged, median %.1f us, p99 %.1f us\n", GetParam().urdf,
+                budget ? "5 ms budget, cold" : "up to 200 restarts", converged, cases.size(), percentile(us, 0.5),
+                percentile(us, 0.99));
+    if (!budget) {
+      EXPECT_EQ(converged, static_cast<int>(cases.size()));
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Arms, IkHeldOut,
+                         ::testing::Values(HeldOutArm{"lbr7.urdf", "flange"}, HeldOutArm{"skew6.urdf", "tool"},
+                                           HeldOutArm{"arm.urdf", "tip"}),
+                         [](const ::testing::TestParamInfo<HeldOutArm>& arm) {
+                           std::string name = arm.param.urdf;
+                           return name.substr(0, name.find('.'));
+                         });
+
 class IkTargets : public ::testing::Test {
  protected:
   void SetUp() override {

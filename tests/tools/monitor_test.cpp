@@ -85,7 +85,7 @@ double field(const std::string& frame, const std::string& pattern) {
 TEST(monitor, OnceShowsTheLiveControllersValues) {
   StatusListener bus;
   ChildProcess plant(concat({CHASLES_PLANT, "--q0", kBentPose, "--damping", "0.5"}, model()));
-  ChildProcess controller(concat({CHASLES_CONTROLLER, "--damping", "0.5"}, model()));
+  ChildProcess controller(concat({CHASLES_CONTROLLER, "--damping", "0.5", "--stale-ms", "100"}, model()));
   ASSERT_TRUE(bus.wait_for(controller_status_t::HOLDING, 5.0)) << controller.stderr_text();
 
   const RunResult r = monitor({"--once", "--seconds", "1.5", "--urdf", data_path("panda.urdf"), "--tip", kTip});
