@@ -297,7 +297,7 @@ std::string unexplained_faults(const Bus::StateGaps& gaps, const StatusReport& s
   char why[320];
   std::snprintf(why, sizeof(why),
                 "%lld FAULT(s) that no stall explains: longest wait for a state on the bus %.1f ms, the controller's "
-                "latest wake-up %.1f ms late, injected gaps up to %.1f ms, stale limit %.1f ms",
+                "worst wake-up %.1f ms late, injected gaps up to %.1f ms, stale limit %.1f ms",
                 static_cast<long long>(s.faults), gaps.max_arrival_gap_ms, late_ms, injected_ms, stale_ms);
   return why;
 }
