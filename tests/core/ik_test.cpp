@@ -327,11 +327,18 @@ TEST_P(IkHeldOut, ReachesTargetsOnAnArmNotTunedFor) {
     c.T_target = forward_kinematics_space(model, draw(0.05)).matrix();
     c.q_seed = draw(0.0);
   }
-  IkOptions capped;
-  capped.time_budget = std::chrono::seconds(1);
-  capped.max_restarts = 200;
-  for (const IkOptions& options : {capped, IkOptions{}}) {
-    IkSolver solver(model, options);
+  // Asserted where the restart cap ends the search (the same on any machine); printed for the
+  // default 5 ms budget.
+  struct Pass {
+    const char* name;
+    IkOptions options;
+    bool asserted;
+  };
+  Pass capped{"up to 200 restarts", {}, true};
+  capped.options.time_budget = std::chrono::seconds(1);
+  capped.options.max_restarts = 200;
+  for (const Pass& pass : {capped, Pass{"5 ms budget, cold", {}, false}}) {
+    IkSolver solver(model, pass.options);
     int converged = 0;
     std::vector<double> us;
     for (const IkCase& c : cases) {
@@ -346,11 +353,9 @@ TEST_P(IkHeldOut, ReachesTargetsOnAnArmNotTunedFor) {
       }
       us.push_back(result.time_us);
     }
-    const bool budget = options.max_restarts == IkOptions{}.max_restarts;
-    std::printf("[ ik %s ] %s: %d/%zu converged, median %.1f us, p99 %.1f us\n", GetParam().urdf,
-                budget ? "5 ms budget, cold" : "up to 200 restarts", converged, cases.size(), percentile(us, 0.5),
-                percentile(us, 0.99));
-    if (!budget) {
+    std::printf("[ ik %s ] %s: %d/%zu converged, median %.1f us, p99 %.1f us\n", GetParam().urdf, pass.name, converged,
+                cases.size(), percentile(us, 0.5), percentile(us, 0.99));
+    if (pass.asserted) {
       EXPECT_EQ(converged, static_cast<int>(cases.size()));
     }
   }
