@@ -212,17 +212,18 @@ struct IkSolver::Impl {
   bool regularized = false;  // the problem has the regularisation block
   double stop_position = 0.0, stop_rotation = 0.0;
   std::int64_t deadline_ns = 0;  // thread CPU time at which the budget is spent
-  // Reading the thread's CPU time is a system call (~0.4 µs here, a tenth of an iteration); the
-  // steady clock is not. CPU time never runs faster than wall time, so after a reading that
-  // leaves L ns of budget, the budget cannot be spent before L ns of wall time have passed: only
-  // then is the CPU time read again. The answer is the same as reading it every time.
-  Clock::time_point next_reading;
+  Clock::time_point next_reading;  // before it, the budget cannot be spent (see budget_spent)
+  std::mt19937_64 rng;
 
   void start_budget(std::chrono::microseconds budget) {
     deadline_ns = thread_cpu_ns() + std::chrono::nanoseconds(budget).count();
     next_reading = Clock::now() + budget;
   }
 
+  /// Reading the thread's CPU time is a system call (~0.4 µs here, a tenth of an iteration); the
+  /// steady clock is not. CPU time never runs faster than wall time, so after a reading that
+  /// leaves L ns of budget, the budget cannot be spent before L ns of wall time have passed: only
+  /// then is the CPU time read again. The answer is the same as reading it every time.
   bool budget_spent() {
     const Clock::time_point now = Clock::now();
     if (now < next_reading) return false;
@@ -231,7 +232,6 @@ struct IkSolver::Impl {
     next_reading = now + std::chrono::nanoseconds(left_ns);
     return false;
   }
-  std::mt19937_64 rng;
 
   /// Position and orientation errors of the tip at q_at.
   void errors(const Eigen::VectorXd& q_at, double& pos_err, double& rot_err) {

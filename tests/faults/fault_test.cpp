@@ -86,10 +86,10 @@ struct Rig {
       : plant(std::make_unique<ChildProcess>(plant_args(plant_extra))),
         controller(std::make_unique<ChildProcess>(controller_args(controller_extra))) {}
   bool holding() const { return bus.wait_for(controller_status_t::HOLDING, 5.0); }
-  // A JOINT move to `goal` over `duration` s; whether it ends in HOLDING within tolerance.
-  // A FAULT that cuts the move short leaves the arm held where it was; the target is sent once
-  // more then (twice at most), as an operator would (whether that FAULT was the test's own is judged apart, by
-  // expect_no_fault_of_its_own).
+  // A JOINT move to `goal` over `duration` s; whether it ends in HOLDING within tolerance. A FAULT
+  // that cuts the move short leaves the arm held where it was; the target is then sent again (at
+  // most twice), as an operator would. Whether that FAULT was the test's own is judged apart, by
+  // expect_no_fault_of_its_own.
   ::testing::AssertionResult move(const VectorXd& goal, double duration, double tolerance) {
     VectorXd q;
     for (int attempt = 0; attempt < 3; ++attempt) {
@@ -106,6 +106,9 @@ struct Rig {
     }
     return ::testing::AssertionFailure() << "ended at " << q.transpose() << ", goal " << goal.transpose();
   }
+  // The longest the dropped states left the controller without one: the run the bus missed, plus
+  // the period before the next state, ms.
+  double drop_gap_ms() const { return static_cast<double>(bus.state_gaps().max_missing_run + 1) * kPeriod * 1e3; }
   // No FAULT but those a stall of the machine explains, given gaps of up to `injected_ms`.
   void expect_no_fault_of_its_own(double injected_ms, double stale_ms = kStaleMs) const {
     const std::string why = unexplained_faults(bus.state_gaps(), summarise(bus.statuses()), stale_ms, injected_ms);
@@ -155,10 +158,9 @@ TEST(faults, TenPercentOfStatesDropped) {
   EXPECT_TRUE(rig.move(goal_a(), 1.0, 2e-3));
   // The drops alone never leave the controller without a state for stale-ms (a run of 10 has
   // p = 1e-10 per state)...
-  const int64_t run = rig.bus.state_gaps().max_missing_run;
-  EXPECT_LT(static_cast<double>(run + 1) * kPeriod * 1e3, kStaleMs);
+  EXPECT_LT(rig.drop_gap_ms(), kStaleMs);
   // ...so any FAULT must be a stall's.
-  rig.expect_no_fault_of_its_own(static_cast<double>(run + 1) * kPeriod * 1e3);
+  rig.expect_no_fault_of_its_own(rig.drop_gap_ms());
   expect_safe(rig.bus, "10 % state drop", *rig.controller);
 }
 
@@ -180,9 +182,8 @@ TEST(faults, FiftyPercentOfStatesDropped) {
   Rig rig({"--drop", "0.5", "--seed", "5"}, {"--stale-ms", "30"});
   ASSERT_TRUE(rig.holding()) << rig.controller->stderr_text();
   EXPECT_TRUE(rig.move(goal_a(), 1.0, 3e-3));
-  const int64_t run = rig.bus.state_gaps().max_missing_run;
-  EXPECT_LT(static_cast<double>(run + 1) * kPeriod * 1e3, 30.0);
-  rig.expect_no_fault_of_its_own(static_cast<double>(run + 1) * kPeriod * 1e3, 30.0);
+  EXPECT_LT(rig.drop_gap_ms(), 30.0);
+  rig.expect_no_fault_of_its_own(rig.drop_gap_ms(), 30.0);
   expect_safe(rig.bus, "50 % state drop, stale-ms 30", *rig.controller);
 }
 
