@@ -19,6 +19,7 @@
 #include <thread>
 
 #include "chasles/controller/daemon.hpp"
+#include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/model/urdf.hpp"
 
 namespace {
@@ -190,6 +191,14 @@ int main(int argc, char** argv) {
     chasles::UrdfOptions urdf;
     urdf.tip_link = flags.tip;
     const chasles::RobotModel model = chasles::load_urdf_file(flags.robot, urdf);
+    for (const std::string& warning : model.warnings()) {
+      std::fprintf(stderr, "chasles_controller: warning: %s: %s\n", flags.robot.c_str(), warning.c_str());
+    }
+    // The computed-torque law needs no M⁻¹, but the arm it drives does: a model whose M is singular
+    // cannot describe a real arm's motion, and every model-based estimate built on it would be wrong.
+    if (const std::string defect = chasles::mass_matrix_defect(model); !defect.empty()) {
+      throw std::runtime_error(flags.robot + ": cannot control this chain: " + defect);
+    }
     const int n = model.dof();
     for (const chasles::Joint& joint : model.joints()) {
       // Said once at start, where whoever runs the arm reads it: nothing but the arm's own

@@ -1,5 +1,8 @@
 #include "chasles/core/dynamics/dynamics.hpp"
 
+#include <cmath>
+#include <limits>
+
 #include "chasles/core/lie/se3.hpp"
 
 namespace chasles {
@@ -93,6 +96,11 @@ Vector6d inertia_times_axis(const SpatialInertia& G, const Joint& joint) {
   return P;
 }
 
+// The largest Cholesky pivot of M that is still rounding: n ε max_i M_ii.
+double singular_pivot(const Eigen::MatrixXd& M) {
+  return static_cast<double>(M.rows()) * std::numeric_limits<double>::epsilon() * M.diagonal().cwiseAbs().maxCoeff();
+}
+
 }  // namespace
 
 const Eigen::VectorXd& inverse_dynamics(const RobotModel& model, Data& data, const JointVector& q,
@@ -147,11 +155,44 @@ const Eigen::VectorXd& forward_dynamics(const RobotModel& model, Data& data, con
   rnea<true, false>(model, data, qd.data(), nullptr, model.gravity(), F_tip, data.qdd);
   data.qdd = tau - data.qdd;
   data.M_llt.compute(data.M);
-  if (data.M_llt.info() != Eigen::Success) {
-    throw std::domain_error("mass matrix is not positive definite: some joint moves no mass");
+  // A pivot (L_kk²) at rounding level is a singular M too: q̈ would be noise. The same test as
+  // mass_matrix_defect's, so the two always agree.
+  if (data.M_llt.info() != Eigen::Success ||
+      !(data.M_llt.matrixLLT().diagonal().minCoeff() > std::sqrt(singular_pivot(data.M)))) {
+    const std::string defect = mass_matrix_defect(model, data, q);
+    throw std::domain_error(defect.empty() ? "the mass matrix is not positive definite" : defect);
   }
   data.M_llt.solveInPlace(data.qdd);
   return data.qdd;
+}
+
+std::string mass_matrix_defect(const RobotModel& model, Data& data, const JointVector& q) {
+  mass_matrix(model, data, q);
+  // Cholesky by hand, outside any tick: the first pivot that vanishes names the joint whose
+  // column adds nothing to those before it. Eigen's LLT only says that one did.
+  const int n = model.dof();
+  Eigen::MatrixXd L = Eigen::MatrixXd::Zero(n, n);
+  const double scale = data.M.diagonal().cwiseAbs().maxCoeff();
+  for (int k = 0; k < n; ++k) {
+    const double pivot = data.M(k, k) - L.row(k).head(k).squaredNorm();
+    if (!(pivot > singular_pivot(data.M))) {
+      return "the mass matrix is singular: joint '" + model.joint(k).name +
+             "' moves no inertia beyond what the joints before it move (Cholesky pivot " + std::to_string(pivot) +
+             " against a largest diagonal of " + std::to_string(scale) +
+             "), so forward dynamics cannot run; the bodies from it to the tip are massless or carry their mass on "
+             "its axis: give them an inertia or end the chain before it";
+    }
+    L(k, k) = std::sqrt(pivot);
+    for (int i = k + 1; i < n; ++i) L(i, k) = (data.M(i, k) - L.row(i).head(k).dot(L.row(k).head(k))) / L(k, k);
+  }
+  return {};
+}
+
+std::string mass_matrix_defect(const RobotModel& model) {
+  Data data(model);
+  Eigen::VectorXd q(model.dof());
+  for (int i = 0; i < model.dof(); ++i) q(i) = 0.5 * (model.joint(i).limits.lower + model.joint(i).limits.upper);
+  return mass_matrix_defect(model, data, q);
 }
 
 double kinetic_energy(const RobotModel& model, Data& data, const JointVector& q, const JointVector& qd) {

@@ -6,6 +6,8 @@
 // wrench the tip applies to the environment, in the tip frame, (m, f) order (MR eq. 8.1, 8.54).
 #pragma once
 
+#include <string>
+
 #include "chasles/core/kinematics/kinematics.hpp"
 
 namespace chasles {
@@ -30,6 +32,14 @@ const Eigen::MatrixXd& mass_matrix(const RobotModel& model, Data& data, const Jo
 const Eigen::VectorXd& forward_dynamics(const RobotModel& model, Data& data, const JointVector& q,
                                         const JointVector& qd, const JointVector& tau,
                                         const Vector6d& F_tip = Vector6d::Zero());
+
+/// Why M(q) is singular, naming the first joint whose column adds no inertia, or "" when M(q) is
+/// positive definite. Allocates: for start-up checks and error messages, not for a tick.
+std::string mass_matrix_defect(const RobotModel& model, Data& data, const JointVector& q);
+
+/// The same at the middle of every joint's range: the check a controller or simulator makes before
+/// it starts (a chain whose last bodies are massless is singular everywhere).
+std::string mass_matrix_defect(const RobotModel& model);
 
 /// ½ q̇ᵀ M(q) q̇, summed body by body as ½ Σ V_iᵀ G_i V_i.
 double kinetic_energy(const RobotModel& model, Data& data, const JointVector& q, const JointVector& qd);

@@ -88,6 +88,9 @@ struct ChainDescription {
   std::vector<ChainLink> links;                  ///< every link from base to tip
   Transform T_last_tip = Transform::Identity();  ///< tip frame in the frame of body n
   Vector3d gravity = Vector3d(0.0, 0.0, -9.81);  ///< in the base frame, m/s²
+  /// Questionable but loadable data met on the way (a point mass, a link whose own inertia is not
+  /// physical though its body is), one sentence each, naming the link; tools print them once.
+  std::vector<std::string> warnings;
 };
 
 /// The immutable model of a serial chain, with the quantities of Modern Robotics ch. 4 and 8
@@ -110,6 +113,7 @@ class RobotModel {
   const SpatialInertia& body_inertia(int i) const { return G_[static_cast<size_t>(i)]; }
   const Transform& T_last_tip() const { return d_.T_last_tip; }
   const Vector3d& gravity() const { return d_.gravity; }
+  const std::vector<std::string>& warnings() const { return d_.warnings; }
 
   /// M: the tip pose at q = 0.
   const Transform& home_tip() const { return M_; }

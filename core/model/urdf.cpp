@@ -4,7 +4,6 @@
 #include <tinyxml2.h>
 #include <urdf_parser/urdf_parser.h>
 
-#include <Eigen/Eigenvalues>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -15,6 +14,8 @@
 #include <sstream>
 
 #include "chasles/core/lie/se3.hpp"
+#include "chasles/core/lie/so3.hpp"
+#include "chasles/core/model/inertia.hpp"
 
 namespace chasles {
 namespace {
@@ -114,9 +115,16 @@ bool is_finite(const urdf::Pose& pose) {
          std::isfinite(pose.rotation.w);
 }
 
-// Spatial inertia of a link about its own frame, (ω, v) order: the rotational inertia at the
-// centre of mass c, turned by the <inertial> rpy, then moved to the link origin (MR eq. 8.32).
-Matrix6d link_spatial_inertia(const urdf::Inertial& in, const std::string& link, const std::string& source) {
+// A link's <inertial>: mass, rotational inertia about the centre of mass c in the link frame
+// (turned by the <inertial> rpy), and c. Non-finite values and negative masses are malformed
+// whatever link they are on; whether the inertia is physical is judged by the caller.
+struct LinkInertial {
+  double mass;
+  Matrix3d I_c;
+  Transform T_link_com;
+};
+
+LinkInertial read_inertial(const urdf::Inertial& in, const std::string& link, const std::string& source) {
   const std::string where = "link '" + link + "': ";
   const double values[] = {in.mass, in.ixx, in.ixy, in.ixz, in.iyy, in.iyz, in.izz};
   for (double v : values) {
@@ -124,20 +132,20 @@ Matrix6d link_spatial_inertia(const urdf::Inertial& in, const std::string& link,
   }
   if (!is_finite(in.origin)) fail(source, where + "<inertial> origin is not finite");
   if (in.mass < 0.0) fail(source, where + "mass " + std::to_string(in.mass) + " is negative");
-  Matrix3d I_c;
-  I_c << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
-  const Eigen::SelfAdjointEigenSolver<Matrix3d> eig(I_c, Eigen::EigenvaluesOnly);
-  const double smallest = eig.eigenvalues().minCoeff();
-  // A massless link (a frame) may carry zero inertia; a massive one needs a positive definite one.
-  const bool valid = in.mass > 0.0 ? smallest > 0.0 : smallest >= 0.0;
-  if (!valid) {
-    fail(source, where + "inertia is not positive definite (smallest eigenvalue " + std::to_string(smallest) + ")");
-  }
-  const Transform T_link_com = to_transform(in.origin);
-  const Matrix3d& R = T_link_com.linear();
-  const Matrix3d C = hat3(T_link_com.translation());
+  LinkInertial out{in.mass, Matrix3d(), to_transform(in.origin)};
+  Matrix3d I_com;
+  I_com << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
+  const Matrix3d& R = out.T_link_com.linear();
+  out.I_c = R * I_com * R.transpose();
+  return out;
+}
+
+// Spatial inertia about the link frame, (ω, v) order: the rotational inertia at the centre of
+// mass moved to the link origin (MR eq. 8.32).
+Matrix6d link_spatial_inertia(const LinkInertial& in) {
+  const Matrix3d C = hat3(in.T_link_com.translation());
   Matrix6d G;
-  G << R * I_c * R.transpose() + in.mass * C * C.transpose(), in.mass * C,  //
+  G << in.I_c + in.mass * C * C.transpose(), in.mass * C,  //
       in.mass * C.transpose(), in.mass * Matrix3d::Identity();
   return G;
 }
@@ -249,18 +257,41 @@ RobotModel load_urdf_string(const std::string& xml, const UrdfOptions& options, 
   };
   std::map<std::string, Placement> placement{{root->name, {0, Transform::Identity()}}};
   d.inertia.assign(d.joints.size(), Matrix6d::Zero());
+  // Links whose own inertia is not physical; what the dynamics sees is the body they ride on,
+  // judged once every link is on it.
+  struct OddLink {
+    int body;
+    std::string link, problem;
+  };
+  std::vector<OddLink> odd_links;
+  std::vector<std::vector<std::string>> body_links(d.joints.size() + 1);
   std::vector<urdf::LinkConstSharedPtr> stack{root};
   while (!stack.empty()) {
     const urdf::LinkConstSharedPtr link = stack.back();
     stack.pop_back();
     const Placement here = placement.at(link->name);
-    if (link->inertial && here.body > 0) {
-      const Matrix6d G_link = link_spatial_inertia(*link->inertial, link->name, source);
-      // G_body = [Ad_{T_link,body}]ᵀ G_link [Ad_{T_link,body}] (MR eq. 8.42).
-      const Matrix6d Ad = adjoint(inverse(here.T_body_link));
-      d.inertia[static_cast<size_t>(here.body - 1)] += Ad.transpose() * G_link * Ad;
-    } else if (link->inertial) {
-      link_spatial_inertia(*link->inertial, link->name, source);  // validated, though the base never moves
+    body_links[static_cast<size_t>(here.body)].push_back(link->name);
+    if (link->inertial) {
+      const LinkInertial inertial = read_inertial(*link->inertial, link->name, source);
+      const InertiaCheck check = check_inertia(inertial.mass, inertial.I_c);
+      const std::string where = "link '" + link->name + "': ";
+      if (here.body == 0) {
+        if (!check.physical()) {
+          d.warnings.push_back(where + check.problem + "; it is fixed to the base '" + root->name +
+                               "', so its inertia never enters the dynamics");
+        }
+      } else {
+        if (!check.physical()) odd_links.push_back({here.body, link->name, check.problem});
+        if (check.point_mass) {
+          std::ostringstream mass;
+          mass << inertial.mass;
+          d.warnings.push_back(where + "a point mass (" + mass.str() +
+                               " kg, no rotational inertia about its centre of mass)");
+        }
+        // G_body = [Ad_{T_link,body}]ᵀ G_link [Ad_{T_link,body}] (MR eq. 8.42).
+        const Matrix6d Ad = adjoint(inverse(here.T_body_link));
+        d.inertia[static_cast<size_t>(here.body - 1)] += Ad.transpose() * link_spatial_inertia(inertial) * Ad;
+      }
     }
     for (const auto& j : link->child_joints) {
       if (!is_finite(j->parent_to_joint_origin_transform)) {
@@ -275,6 +306,26 @@ RobotModel load_urdf_string(const std::string& xml, const UrdfOptions& options, 
         placement[j->child_link_name] = {here.body, T_parent_joint};
       }
       stack.push_back(urdf->getLink(j->child_link_name));
+    }
+  }
+  // Each moving body as a whole must be physical: the sum of physical parts always is, so a body
+  // fails only through a part that is not, and then the message names both.
+  for (size_t b = 1; b < body_links.size(); ++b) {
+    const SpatialInertia G = SpatialInertia::from_matrix(d.inertia[b - 1]);
+    const InertiaCheck check = check_inertia(G.mass, inertia_about_centre_of_mass(G.mass, G.h, G.I));
+    const std::string body = "the body moved by joint '" + d.joints[b - 1].name + "' (links " +
+                             quoted_list(body_links[b]) + ")";
+    if (!check.physical()) {
+      std::string parts;
+      for (const OddLink& odd : odd_links) {
+        if (odd.body == static_cast<int>(b)) parts += "; its link '" + odd.link + "': " + odd.problem;
+      }
+      fail(source, body + " has an inertia that is not physical: " + check.problem + parts);
+    }
+    for (const OddLink& odd : odd_links) {
+      if (odd.body != static_cast<int>(b)) continue;
+      d.warnings.push_back("link '" + odd.link + "': " + odd.problem + "; " + body +
+                           " is physical as a whole, so the model loads");
     }
   }
   for (const auto& name : path_links) {

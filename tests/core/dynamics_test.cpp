@@ -210,10 +210,10 @@ TEST_P(Dynamics, WrongSizesAreRejected) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Robots, ReferenceDynamics,
-                         ::testing::Values(Robot{"ur5", "tool0"}, Robot{"panda", "panda_hand"}),
+                         ::testing::Values(Robot{"ur5", "tool0"}, Robot{"panda", "panda_hand"}, Robot{"tiago", "hand_grasping_frame"}, Robot{"talos_left_arm", "gripper_left_motor_double_link"}, Robot{"finger_edu", "finger_tip_link"}),
                          [](const ::testing::TestParamInfo<Robot>& p) { return p.param.name; });
 INSTANTIATE_TEST_SUITE_P(Robots, Dynamics,
-                         ::testing::Values(Robot{"ur5", "tool0"}, Robot{"panda", "panda_hand"}, Robot{"arm", "tip"}),
+                         ::testing::Values(Robot{"ur5", "tool0"}, Robot{"panda", "panda_hand"}, Robot{"arm", "tip"}, Robot{"tiago", "hand_grasping_frame"}, Robot{"talos_left_arm", "gripper_left_motor_double_link"}, Robot{"finger_edu", "finger_tip_link"}),
                          [](const ::testing::TestParamInfo<Robot>& p) { return p.param.name; });
 
 // A passive swing: τ = 0, no damping, so kinetic + potential energy is conserved. Integrated with

@@ -144,7 +144,7 @@ TEST_P(Kinematics, WrongSizeIsRejected) {
   EXPECT_THROW(forward_kinematics_space(*model_, q), std::invalid_argument);
 }
 
-INSTANTIATE_TEST_SUITE_P(Robots, Kinematics, ::testing::Values("ur5", "panda"));
+INSTANTIATE_TEST_SUITE_P(Robots, Kinematics, ::testing::Values("ur5", "panda", "tiago", "talos_left_arm", "finger_edu"));
 
 }  // namespace
 }  // namespace chasles

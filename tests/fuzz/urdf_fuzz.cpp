@@ -1,7 +1,8 @@
 // The URDF loader on arbitrary text. Input: the first line names the tip link (empty: the tree's
 // single leaf), the rest is the URDF. The loader either throws ModelError or returns a model the
-// algorithms can run on: unit axes, ordered finite limits, finite inertias, and finite kinematics
-// and dynamics at the middle of the limits.
+// algorithms can run on: unit axes, ordered finite limits, finite and physical body inertias, and
+// finite kinematics and dynamics at the middle of the limits (forward dynamics too, unless the
+// loader's start-up check says why M is singular there).
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -9,6 +10,7 @@
 
 #include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/kinematics/kinematics.hpp"
+#include "chasles/core/model/inertia.hpp"
 #include "chasles/core/model/urdf.hpp"
 #include "fuzz/check.hpp"
 
@@ -29,6 +31,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       FUZZ_CHECK(joint.limits.lower <= joint.limits.upper);
       FUZZ_CHECK(joint.limits.velocity > 0.0 && joint.limits.effort > 0.0);
       FUZZ_CHECK(model.inertia(i).allFinite());
+      const SpatialInertia& G = model.body_inertia(i);
+      FUZZ_CHECK(check_inertia(G.mass, inertia_about_centre_of_mass(G.mass, G.h, G.I)).physical());
       q[i] = 0.5 * (joint.limits.lower + joint.limits.upper);
     }
     Data data_(model);
@@ -36,6 +40,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     FUZZ_CHECK(body_jacobian(model, data_, q).allFinite());
     const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.dof());
     FUZZ_CHECK(inverse_dynamics(model, data_, q, zero, zero).allFinite());
+    if (mass_matrix_defect(model, data_, q).empty()) {
+      FUZZ_CHECK(forward_dynamics(model, data_, q, zero, zero).allFinite());
+    }
   } catch (const ModelError&) {
     // refused, with a message: what bad input should get
   }

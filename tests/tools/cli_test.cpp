@@ -65,9 +65,19 @@ std::vector<std::string> concat(std::vector<std::string> a, const std::vector<st
   return a;
 }
 
+// The lines "chasles: warning: ..." on stderr: what a model loaded with but a user should know.
+std::vector<std::string> warning_lines(const std::string& err) {
+  std::vector<std::string> lines;
+  std::istringstream in(err);
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
+}
+
 json parse_output(const Result& result) {
   EXPECT_EQ(result.exit_code, 0) << "stderr: " << result.err;
-  EXPECT_EQ(result.err, "");
+  for (const std::string& line : warning_lines(result.err)) {
+    EXPECT_EQ(line.rfind("chasles: warning: ", 0), 0u) << "stderr holds more than warnings: " << line;
+  }
   try {
     return json::parse(result.out);
   } catch (const json::exception& e) {
@@ -185,9 +195,17 @@ TEST_P(cliReference, RneaTipWrench) {
 
 TEST_P(cliReference, InspectMatchesReference) {
   const Reference ref = load_reference(GetParam());
-  const json out = parse_output(run_cli(concat({"inspect"}, model_args(ref))));
+  const Result result = run_cli(concat({"inspect"}, model_args(ref)));
+  const json out = parse_output(result);
   const auto n = static_cast<Eigen::Index>(ref.joint_names.size());
-  EXPECT_EQ(out.at("robot"), ref.robot);
+  // The warnings in the JSON are the ones on stderr, in order.
+  const std::vector<std::string> lines = warning_lines(result.err);
+  const auto warnings = out.at("warnings").get<std::vector<std::string>>();
+  ASSERT_EQ(warnings.size(), lines.size());
+  for (size_t i = 0; i < lines.size(); ++i) {
+    EXPECT_EQ(lines[i], "chasles: warning: " + ref.urdf + ": " + warnings[i]);
+  }
+  EXPECT_EQ(out.at("robot"), load_urdf_file(ref.urdf, UrdfOptions{ref.tip_link, {0.0, 0.0, -9.81}}).name());
   EXPECT_EQ(out.at("base_link"), ref.base_link);
   EXPECT_EQ(out.at("tip_link"), ref.tip_link);
   EXPECT_EQ(out.at("dof"), n);
@@ -226,7 +244,7 @@ TEST_P(cliReference, InspectMatchesReference) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Robots, cliReference, ::testing::Values("ur5", "panda"),
+INSTANTIATE_TEST_SUITE_P(Robots, cliReference, ::testing::Values("ur5", "panda", "tiago", "talos_left_arm", "finger_edu"),
                          [](const ::testing::TestParamInfo<std::string>& robot) { return robot.param; });
 
 // The printed numbers parse back to exactly the doubles the library computes.

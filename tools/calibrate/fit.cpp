@@ -7,6 +7,7 @@
 #include "chasles/core/calibration/dataset.hpp"
 #include "chasles/core/calibration/urdf_writer.hpp"
 #include "chasles/core/model/urdf.hpp"
+#include "chasles/tools/error_line.hpp"
 #include "commands.hpp"
 
 namespace chasles::calibrate_cli {
@@ -210,6 +211,7 @@ void run_fit(FitOptions o) {
   urdf_options.tip_link = o.tip;
   const std::string xml = read_text_file(o.urdf, "URDF");
   const RobotModel nominal = load_urdf_string(xml, urdf_options, o.urdf);
+  tools::warn("chasles_calibrate", o.urdf, nominal.warnings());
   const Dataset dataset = read_dataset(o.data, nominal);
   o.calibration.loss = o.loss == "huber" ? LossType::Huber : o.loss == "none" ? LossType::None : LossType::Cauchy;
   o.calibration.use_orientation = !o.position_only;

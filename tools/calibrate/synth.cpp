@@ -10,6 +10,7 @@
 #include "chasles/core/calibration/urdf_writer.hpp"
 #include "chasles/core/lie/se3.hpp"
 #include "chasles/core/model/urdf.hpp"
+#include "chasles/tools/error_line.hpp"
 #include "commands.hpp"
 
 namespace chasles::calibrate_cli {
@@ -156,6 +157,7 @@ void run_synth(const SynthOptions& o) {
   urdf_options.tip_link = o.tip;
   const std::string xml = read_text_file(o.urdf, "URDF");
   const RobotModel nominal = load_urdf_string(xml, urdf_options, o.urdf);
+  tools::warn("chasles_calibrate", o.urdf, nominal.warnings());
   Random random(o.seed);
   const KinematicCorrections truth = o.errors.empty() ? random_errors(nominal, o, random) : parse_errors(o.errors, nominal);
   const RobotModel truth_model = corrected_model(nominal, truth);

@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "chasles/core/model/urdf.hpp"
+#include "chasles/tools/error_line.hpp"
 #include "chasles/tools/number_list.hpp"
 
 namespace chasles::cli {
@@ -17,7 +18,9 @@ void add_model_options(CLI::App& command, ModelOptions& options) {
 RobotModel load_model(const ModelOptions& options) {
   UrdfOptions urdf_options;
   urdf_options.tip_link = options.tip;
-  return load_urdf_file(options.urdf, urdf_options);
+  RobotModel model = load_urdf_file(options.urdf, urdf_options);
+  tools::warn("chasles", options.urdf, model.warnings());
+  return model;
 }
 
 }  // namespace chasles::cli

@@ -29,6 +29,7 @@ Json inspect_json(const RobotModel& model) {
                    {"velocity", std::move(velocity)},
                    {"effort", std::move(effort)}};
   out["home"] = {{"T", transform_json(model.home_tip())}, {"S", columns_json(model.space_axes())}};
+  out["warnings"] = model.warnings();
   return out;
 }
 
@@ -43,7 +44,8 @@ Command register_inspect(CLI::App& app) {
   command->footer(
       "Output: {\"robot\", \"base_link\", \"tip_link\", \"dof\", \"joint_names\", \"joint_types\",\n"
       "         \"limits\": {\"lower\", \"upper\", \"velocity\", \"effort\"}  (null: no limit),\n"
-      "         \"home\": {\"T\": 4x4 rows, \"S\": n screw axes (w, v)}}\n"
+      "         \"home\": {\"T\": 4x4 rows, \"S\": n screw axes (w, v)},\n"
+      "         \"warnings\": [questionable but loadable data, one sentence each; also on stderr]}\n"
       "Example:\n"
       "  chasles inspect --urdf ur5.urdf --tip tool0");
   return {command, [options] { return inspect_json(load_model(*options)); }};

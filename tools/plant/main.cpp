@@ -20,9 +20,11 @@
 #include <string>
 #include <vector>
 
+#include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/model/urdf.hpp"
 #include "chasles/controller/clock.hpp"
 #include "chasles/controller/realtime.hpp"
+#include "chasles/tools/error_line.hpp"
 #include "chasles/tools/number_list.hpp"
 #include "messaging.hpp"
 #include "plant.hpp"
@@ -401,6 +403,10 @@ int main(int argc, char** argv) {
     chasles::UrdfOptions urdf_options;
     urdf_options.tip_link = options.tip;
     const chasles::RobotModel model = chasles::load_urdf_file(options.robot, urdf_options);
+    chasles::tools::warn("chasles_plant", options.robot, model.warnings());
+    if (const std::string defect = chasles::mass_matrix_defect(model); !defect.empty()) {
+      throw chasles::ModelError(options.robot + ": cannot simulate this chain: " + defect);
+    }
     const Eigen::VectorXd q0 = initial_position(model, options.q0);
     const Eigen::VectorXd damping = joint_damping(model, options.damping);
 
