@@ -275,6 +275,18 @@ TEST(daemon, MalformedStatesAndTargetsAreRejectedAndCounted) {
 // is held where it is, the first torque close to gravity's. That the tick faults on the first
 // tick past stale-ms is controller_test's, on a simulated clock; here the bound leaves room for a
 // test machine that stalls the controller for tens of milliseconds, as CI machines have.
+// A chain whose M is singular loads, but the controller refuses to start on it, saying why.
+TEST(daemon, RefusesAChainWithASingularMassMatrix) {
+  ChildProcess controller({CHASLES_CONTROLLER, "--robot", data_path("arm_massless_tip.urdf"), "--tip", "tip",
+                           "--lcm-url", kLcmUrl});
+  EXPECT_EQ(controller.wait(), 1);
+  const std::string err = controller.stderr_text();
+  EXPECT_NE(err.find("chasles_controller: " + data_path("arm_massless_tip.urdf") +
+                     ": cannot control this chain: the mass matrix is singular: joint 'j3' moves no inertia"),
+            std::string::npos)
+      << err;
+}
+
 TEST(daemon, PlantKilledFaultsAndRestartedPlantIsHeldWhereItIs) {
   const RobotModel model = panda();
   Data data(model);

@@ -5,11 +5,13 @@
 #include <Eigen/Eigenvalues>
 #include <fstream>
 #include <functional>
+#include <random>
 #include <regex>
 #include <sstream>
 
 #include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/lie/se3.hpp"
+#include "chasles/core/model/inertia.hpp"
 #include "chasles/core/model/urdf.hpp"
 #include "support/reference.hpp"
 
@@ -278,6 +280,43 @@ bool any_warning_has(const RobotModel& model, const std::vector<std::string>& wo
     if (all) return true;
   }
   return false;
+}
+
+TEST(Inertia, EveryCloudOfPointMassesIsPhysicalAndItsMirrorImagesAreNot) {
+  // Any mass distribution is physical, including degenerate ones (a rod, a plate): clouds of 1–4
+  // point masses cover them. Taking the largest principal moment past the sum of the other two,
+  // or one moment below zero, by 1 % of the largest, is beyond rounding.
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> coordinate(-0.2, 0.2), mass(0.01, 3.0);
+  for (int trial = 0; trial < 400; ++trial) {
+    const int points = 1 + trial % 4;
+    double m = 0.0;
+    Vector3d h = Vector3d::Zero();
+    Matrix3d I_origin = Matrix3d::Zero();
+    for (int k = 0; k < points; ++k) {
+      const double m_k = mass(rng);
+      const Vector3d r(coordinate(rng), coordinate(rng), trial % 7 == 0 ? 0.0 : coordinate(rng));
+      m += m_k;
+      h += m_k * r;
+      I_origin += m_k * (r.squaredNorm() * Matrix3d::Identity() - r * r.transpose());
+    }
+    const InertiaCheck check = check_inertia(m, inertia_about_centre_of_mass(m, h, I_origin));
+    EXPECT_TRUE(check.physical()) << check.problem;
+    EXPECT_EQ(check.point_mass, points == 1);
+    const Vector3d& lambda = check.principal_moments;
+    if (points > 1) {
+      const double beyond = 0.01 * lambda(2);
+      const Vector3d too_long(lambda(0), lambda(1), lambda(0) + lambda(1) + beyond);
+      const Vector3d negative(-beyond, lambda(1), lambda(2));
+      EXPECT_NE(check_inertia(m, too_long.asDiagonal().toDenseMatrix()).problem.find("triangle inequality"),
+                std::string::npos);
+      EXPECT_NE(check_inertia(m, negative.asDiagonal().toDenseMatrix()).problem.find("negative"), std::string::npos);
+    }
+  }
+  EXPECT_NE(check_inertia(-1.0, Matrix3d::Zero()).problem.find("negative"), std::string::npos);
+  EXPECT_NE(check_inertia(std::nan(""), Matrix3d::Zero()).problem.find("not finite"), std::string::npos);
+  EXPECT_NE(check_inertia(0.0, Matrix3d::Identity()).problem.find("mass 0"), std::string::npos);
+  EXPECT_TRUE(check_inertia(0.0, Matrix3d::Zero()).physical());
 }
 
 TEST(Model, ATriangleInequalityMissedByRoundingLoads) {

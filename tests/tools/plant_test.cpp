@@ -375,6 +375,8 @@ TEST(plant, StopsAfterSecondsAndFailsCleanly) {
   expect_failure({"--robot", data_path("panda.urdf"), "--rate", "0"}, 2, "--rate");
   expect_failure({"--robot", data_path("panda.urdf"), "--drop", "1.5"}, 2, "--drop");
   expect_failure({"--robot", data_path("panda.urdf"), "--no-such-option"}, 2, "no-such-option");
+  expect_failure({"--robot", data_path("arm_massless_tip.urdf"), "--tip", "tip"}, 1,
+                 "cannot simulate this chain: the mass matrix is singular: joint 'j3' moves no inertia");
 }
 
 }  // namespace
