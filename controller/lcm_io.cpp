@@ -1,42 +1,11 @@
 #include "chasles/controller/lcm_io.hpp"
 
-#include <cmath>
 #include <utility>
 
 #include "chasles/controller/clock.hpp"
+#include "chasles/lcmtypes/checked.hpp"
 
 namespace chasles::controller {
-namespace {
-
-// Byte offsets of num_joints: after the 8-byte fingerprint and the fields before it in the .lcm
-// contract (robot_state_t: utime, seq; arm_target_t: utime, mode).
-constexpr int kStateCountOffset = 8 + 8 + 8;
-constexpr int kTargetCountOffset = 8 + 8 + 1;
-// joint_torque_command_t: fingerprint, then utime, seq, state_seq (int64 each).
-constexpr int kCommandUtimeOffset = 8, kCommandSeqOffset = 16, kCommandStateSeqOffset = 24;
-
-/// Checks the fingerprint of Message and reads its num_joints field; empty string when both can be read.
-template <typename Message>
-std::string read_header(const void* data, int size, int count_offset, int32_t& count) {
-  int64_t fingerprint = 0;
-  if (__int64_t_decode_array(data, 0, size, &fingerprint, 1) < 0 || fingerprint != Message::getHash()) {
-    return std::string("not a ") + Message::getTypeName() + " (wrong fingerprint)";
-  }
-  // LCM's decode functions take the bytes left after the offset, not the buffer's size.
-  if (size < count_offset || __int32_t_decode_array(data, count_offset, size - count_offset, &count, 1) < 0) {
-    return "truncated: " + std::to_string(size) + " bytes";
-  }
-  return {};
-}
-
-bool all_finite(const std::vector<double>& v) {
-  for (double x : v) {
-    if (!std::isfinite(x)) return false;
-  }
-  return true;
-}
-
-}  // namespace
 
 void Rejections::add(const std::string& reason) {
   {
@@ -70,18 +39,10 @@ void StateReceiver::on_message(const lcm_recv_buf_t* rbuf, const char*, void* se
 }
 
 std::string StateReceiver::receive(const void* data, int size, int64_t arrival_ns) {
-  int32_t count = 0;
-  if (std::string why = read_header<robot_state_t>(data, size, kStateCountOffset, count); !why.empty()) return why;
-  if (count != num_joints_) {
-    return "for " + std::to_string(count) + " joints; the arm has " + std::to_string(num_joints_);
+  if (std::string why = messages::decode_checked(data, size_t(size), message_, num_joints_, messages::Finite::Required);
+      !why.empty()) {
+    return why;
   }
-  message_.num_joints = count;
-  if (size != message_.getEncodedSize()) {
-    return "of " + std::to_string(size) + " bytes; expected " + std::to_string(message_.getEncodedSize());
-  }
-  if (message_.decode(data, 0, size) != size) return "does not decode";
-  if (!all_finite(message_.position) || !all_finite(message_.velocity)) return "with non-finite position or velocity";
-
   JointState& state = mailbox_.back();
   state.seq = message_.seq;
   state.utime = message_.utime;
@@ -110,22 +71,12 @@ void TargetReceiver::on_message(const lcm_recv_buf_t* rbuf, const char*, void* s
 }
 
 std::string TargetReceiver::receive(const void* data, int size) {
-  int32_t count = 0;
-  if (std::string why = read_header<arm_target_t>(data, size, kTargetCountOffset, count); !why.empty()) return why;
   // 0 entries (HOLD, CARTESIAN) or the arm's count; the controller says which the mode needs.
-  if (count < 0 || count > num_joints_) {
-    return "for " + std::to_string(count) + " joints; the arm has " + std::to_string(num_joints_);
-  }
-  message_.num_joints = count;
-  message_.joint_position.resize(size_t(count));
-  if (size != message_.getEncodedSize()) {
-    return "of " + std::to_string(size) + " bytes; expected " + std::to_string(message_.getEncodedSize());
-  }
-  if (message_.decode(data, 0, size) != size) return "does not decode";
+  if (std::string why = messages::decode_checked(data, size_t(size), message_, num_joints_); !why.empty()) return why;
   target_.mode = message_.mode;
-  target_.num_joints = count;
+  target_.num_joints = message_.num_joints;
   target_.q.setZero();
-  for (int i = 0; i < count; ++i) target_.q(i) = message_.joint_position[size_t(i)];
+  for (int i = 0; i < message_.num_joints; ++i) target_.q(i) = message_.joint_position[size_t(i)];
   target_.position = Eigen::Map<const Eigen::Vector3d>(message_.tip_position);
   target_.quaternion = Eigen::Map<const Eigen::Vector4d>(message_.tip_quaternion);
   target_.duration = message_.duration;
@@ -164,17 +115,11 @@ void CommandWatch::on_message(const lcm_recv_buf_t* rbuf, const char*, void* sel
 }
 
 bool CommandWatch::receive(const void* data, int size) {
-  int64_t fingerprint = 0, utime = 0, seq = -1, state_seq = -1;
-  const bool command =
-      __int64_t_decode_array(data, 0, size, &fingerprint, 1) == 8 &&
-      fingerprint == joint_torque_command_t::getHash() && size >= kCommandStateSeqOffset + 8 &&
-      __int64_t_decode_array(data, kCommandUtimeOffset, size - kCommandUtimeOffset, &utime, 1) == 8 &&
-      __int64_t_decode_array(data, kCommandSeqOffset, size - kCommandSeqOffset, &seq, 1) == 8 &&
-      __int64_t_decode_array(data, kCommandStateSeqOffset, size - kCommandStateSeqOffset, &state_seq, 1) == 8;
-  if (command && sent_.take(seq, utime)) return false;
+  const bool command = messages::decode_checked(data, size_t(size), message_).empty();
+  if (command && sent_.take(message_.seq, message_.utime)) return false;
   if (foreign_.load(std::memory_order_relaxed) == 0) {
-    first_seq_.store(command ? seq : -1, std::memory_order_relaxed);
-    first_state_seq_.store(command ? state_seq : -1, std::memory_order_relaxed);
+    first_seq_.store(command ? message_.seq : -1, std::memory_order_relaxed);
+    first_state_seq_.store(command ? message_.state_seq : -1, std::memory_order_relaxed);
   }
   foreign_.fetch_add(1, std::memory_order_release);
   return true;

@@ -2,10 +2,9 @@
 // to the real-time thread through mailboxes; the command publisher runs on the real-time thread
 // and allocates nothing.
 //
-// Every received message is untrusted. lcm-gen's decoder resizes its arrays to the num_joints it
-// reads before checking that the buffer holds that many, so a forged count could make it
-// allocate gigabytes: the fingerprint and the count are read and checked from the raw bytes
-// first, then the exact size, then the decoder runs, then the values are checked for finiteness.
+// Every received message is untrusted: each goes through the one checked decoder of its type
+// (lcmtypes/checked.hpp), which reads the fingerprint and the count from the raw bytes before
+// lcm-gen's decoder may trust them, then the exact size, then the values' finiteness.
 #pragma once
 
 #include <lcm/lcm.h>
@@ -143,6 +142,7 @@ class CommandWatch {
   lcm_t* lcm_;
   lcm_subscription_t* subscription_ = nullptr;
   SentCommands& sent_;
+  joint_torque_command_t message_;  // any arm's: another controller may drive another arm
   std::atomic<int64_t> first_seq_{-1}, first_state_seq_{-1};
   std::atomic<int64_t> foreign_{0};
 };

@@ -530,7 +530,7 @@ TEST(StateReceiver, AcceptsAWellFormedStateAndRefusesEveryMalformedOne) {
   refused(encode(state_message(6)), "for 6 joints; the arm has 7");
   auto forged = good;  // a count of 2^31 − 1 in a short message: refused before any decoding
   forged[24] = 0x7f, forged[25] = forged[26] = forged[27] = 0xff;
-  refused(forged, "for 2147483647 joints");
+  refused(forged, "num_joints 2147483647 in a message of 196 bytes");
   refused(std::vector<uint8_t>(good.begin(), good.end() - 8), "bytes; expected");
   refused(std::vector<uint8_t>(good.begin(), good.begin() + 10), "truncated");
   auto nan = state_message(7);

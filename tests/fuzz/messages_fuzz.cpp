@@ -57,7 +57,7 @@ int64_t big_endian(const uint8_t* p) {
 
 // Two commands of ours per input, stamped utime = 1000·seq: the odd one comes back at once (ours)
 // and again (a replay: foreign); the even one stays unheard, for the input to name. The input is
-// ours exactly when it carries joint_torque_command_t's fingerprint and names an unheard command
+// ours exactly when it is a valid joint_torque_command_t (any arm's) and names an unheard command
 // of ours, with its utime, still within the window the watch remembers.
 void judge_the_command_watch(Readers& r, const uint8_t* message, int bytes) {
   for (int k = 0; k < 2; ++k) {
@@ -73,8 +73,9 @@ void judge_the_command_watch(Readers& r, const uint8_t* message, int bytes) {
     }
   }
   const int64_t seq = bytes >= 32 ? big_endian(message + 16) : -1;
+  joint_torque_command_t command;
   const bool names_unheard_own =
-      bytes >= 32 && static_cast<uint64_t>(big_endian(message)) == uint64_t(joint_torque_command_t::getHash()) &&
+      bytes >= 32 && messages::decode_checked(message, size_t(bytes), command).empty() &&
       seq > std::max<int64_t>(0, r.sent_seq - SentCommands::kWindow) && seq <= r.sent_seq &&
       big_endian(message + 8) == 1000 * seq && !r.heard[size_t(seq)];
   const int64_t before = r.watch.foreign();

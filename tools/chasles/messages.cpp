@@ -2,76 +2,9 @@
 
 #include <charconv>
 #include <cmath>
-#include <lcm/lcm_coretypes.h>
 
 namespace chasles::cli {
 namespace {
-
-// Byte offsets in the encoded messages, after the 8-byte fingerprint and the fields the .lcm
-// contract puts first: robot_state_t utime, seq | joint_torque_command_t utime, seq, state_seq |
-// arm_target_t utime, mode | controller_status_t utime, state, then the message string's length.
-constexpr int kStateCount = 8 + 8 + 8;
-constexpr int kCommandCount = 8 + 8 + 8 + 8;
-constexpr int kTargetCount = 8 + 8 + 1;
-constexpr int kStatusStringLength = 8 + 8 + 1;
-
-bool read_int32(const void* data, size_t size, size_t offset, int32_t& value) {
-  if (offset + 4 > size) return false;
-  return __int32_t_decode_array(data, static_cast<int>(offset), static_cast<int>(size - offset), &value, 1) == 4;
-}
-
-bool fingerprint_is(const void* data, size_t size, int64_t hash) {
-  int64_t fingerprint = 0;
-  return size >= 8 && __int64_t_decode_array(data, 0, static_cast<int>(size), &fingerprint, 1) == 8 &&
-         fingerprint == hash;
-}
-
-// A count that cannot be right for a message of `size` bytes, whatever its other fields: each
-// entry is at least one 8-byte double.
-std::string check_count(int32_t count, size_t size) {
-  if (count < 0 || uint64_t(count) * 8 > size) {
-    return "num_joints " + std::to_string(count) + " in a message of " + std::to_string(size) + " bytes";
-  }
-  return {};
-}
-
-// Sizes every joint array of `message` for `count` joints (so getEncodedSize() is what the bytes
-// should be) and reads the message's string length where there is one.
-std::string prepare(const void* data, size_t size, robot_state_t& m) {
-  if (!read_int32(data, size, kStateCount, m.num_joints)) return "truncated: " + std::to_string(size) + " bytes";
-  if (std::string why = check_count(m.num_joints, size); !why.empty()) return why;
-  for (auto* v : {&m.position, &m.velocity, &m.effort}) v->assign(size_t(m.num_joints), 0.0);
-  return {};
-}
-
-std::string prepare(const void* data, size_t size, joint_torque_command_t& m) {
-  if (!read_int32(data, size, kCommandCount, m.num_joints)) return "truncated: " + std::to_string(size) + " bytes";
-  if (std::string why = check_count(m.num_joints, size); !why.empty()) return why;
-  m.torque.assign(size_t(m.num_joints), 0.0);
-  return {};
-}
-
-std::string prepare(const void* data, size_t size, arm_target_t& m) {
-  if (!read_int32(data, size, kTargetCount, m.num_joints)) return "truncated: " + std::to_string(size) + " bytes";
-  if (std::string why = check_count(m.num_joints, size); !why.empty()) return why;
-  m.joint_position.assign(size_t(m.num_joints), 0.0);
-  return {};
-}
-
-std::string prepare(const void* data, size_t size, controller_status_t& m) {
-  int32_t length = 0;  // of the message string, with its terminating NUL
-  if (!read_int32(data, size, kStatusStringLength, length)) return "truncated: " + std::to_string(size) + " bytes";
-  if (length < 1 || uint64_t(length) > size) {
-    return "message string of " + std::to_string(length) + " bytes in a message of " + std::to_string(size) + " bytes";
-  }
-  m.message.assign(size_t(length - 1), ' ');
-  if (!read_int32(data, size, size_t(kStatusStringLength) + 4 + size_t(length), m.num_joints)) {
-    return "truncated: " + std::to_string(size) + " bytes";
-  }
-  if (std::string why = check_count(m.num_joints, size); !why.empty()) return why;
-  for (auto* v : {&m.q, &m.q_desired, &m.tracking_error, &m.torque}) v->assign(size_t(m.num_joints), 0.0);
-  return {};
-}
 
 // Appends cells; the joint arrays take `width` columns, empty where a message has fewer entries
 // (a HOLD target has none).
@@ -165,13 +98,13 @@ void lay_out(const controller_status_t& m, Row& row) {
 template <typename Message>
 int count_of(const void* data, size_t size) {
   Message message;
-  return decode_checked(data, size, message).empty() ? message.num_joints : -1;
+  return messages::decode_checked(data, size, message).empty() ? message.num_joints : -1;
 }
 
 template <typename Message>
 std::string cells_of(const void* data, size_t size, const std::vector<std::string>& joints, Cells& cells) {
   Message message;
-  if (std::string why = decode_checked(data, size, message); !why.empty()) return why;
+  if (std::string why = messages::decode_checked(data, size, message); !why.empty()) return why;
   if (size_t(message.num_joints) > joints.size()) {
     return "num_joints " + std::to_string(message.num_joints) + ", more than the " + std::to_string(joints.size()) +
            " joint columns";
@@ -183,33 +116,11 @@ std::string cells_of(const void* data, size_t size, const std::vector<std::strin
 
 }  // namespace
 
-template <typename Message>
-std::string decode_checked(const void* data, size_t size, Message& message) {
-  if (!fingerprint_is(data, size, Message::getHash())) {
-    return std::string("not a ") + Message::getTypeName() + " (wrong fingerprint)";
-  }
-  if (size > size_t(INT32_MAX)) return "of " + std::to_string(size) + " bytes, too large";
-  message = Message{};  // lcm-gen leaves the arrays of a reused message alone when num_joints is 0
-  if (std::string why = prepare(data, size, message); !why.empty()) return why;
-  const int expected = message.getEncodedSize();
-  if (size_t(expected) != size) {
-    return "of " + std::to_string(size) + " bytes; " + std::to_string(message.num_joints) + " joints need " +
-           std::to_string(expected);
-  }
-  if (message.decode(data, 0, static_cast<int>(size)) != expected) return "does not decode";
-  return {};
-}
-
-template std::string decode_checked(const void*, size_t, robot_state_t&);
-template std::string decode_checked(const void*, size_t, joint_torque_command_t&);
-template std::string decode_checked(const void*, size_t, arm_target_t&);
-template std::string decode_checked(const void*, size_t, controller_status_t&);
-
 MessageType message_type(const void* data, size_t size) {
-  if (fingerprint_is(data, size, robot_state_t::getHash())) return MessageType::State;
-  if (fingerprint_is(data, size, joint_torque_command_t::getHash())) return MessageType::Command;
-  if (fingerprint_is(data, size, arm_target_t::getHash())) return MessageType::Target;
-  if (fingerprint_is(data, size, controller_status_t::getHash())) return MessageType::Status;
+  if (messages::starts_as<robot_state_t>(data, size)) return MessageType::State;
+  if (messages::starts_as<joint_torque_command_t>(data, size)) return MessageType::Command;
+  if (messages::starts_as<arm_target_t>(data, size)) return MessageType::Target;
+  if (messages::starts_as<controller_status_t>(data, size)) return MessageType::Status;
   return MessageType::Unknown;
 }
 

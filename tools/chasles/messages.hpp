@@ -1,23 +1,19 @@
 // The chasles message types read from untrusted bytes (a log file, the network), and laid out as
 // table rows for export.
 //
-// lcm-gen's decoders trust the counts they read: a negative or huge num_joints makes them resize
-// to gigabytes, a zero-length string makes them throw, and num_joints = 0 leaves the arrays of a
-// reused message as they were. So, as the controller does (controller/lcm_io.cpp), the fingerprint,
-// the string length and num_joints are read from the raw bytes and checked, the exact encoded size
-// is compared with the bytes there are, and only then does the generated decoder run, into a
-// fresh message.
+// Bytes are decoded by the one checked decoder of each type (lcmtypes/checked.hpp), as the
+// controller and the plant decode them; non-finite numbers are kept, since a log should show
+// what was sent.
 #pragma once
 
-#include <chasles/arm_target_t.hpp>
-#include <chasles/controller_status_t.hpp>
-#include <chasles/joint_torque_command_t.hpp>
-#include <chasles/robot_state_t.hpp>
+#include "chasles/lcmtypes/checked.hpp"
 #include <cstdint>
 #include <string>
 #include <vector>
 
 namespace chasles::cli {
+
+using messages::decode_checked;
 
 enum class MessageType { Unknown, State, Command, Target, Status };
 
@@ -26,17 +22,6 @@ MessageType message_type(const void* data, size_t size);
 
 /// "chasles.robot_state_t", ... ; "unknown" for Unknown.
 std::string type_name(MessageType type);
-
-/// Decodes `data` into `message`; an empty string, or why the bytes are not a valid Message
-/// ("truncated: 12 bytes", "num_joints -3", "of 200 bytes; expected 196"). Non-finite numbers are
-/// not refused here: a log should show what was sent.
-template <typename Message>
-std::string decode_checked(const void* data, size_t size, Message& message);
-
-extern template std::string decode_checked(const void*, size_t, robot_state_t&);
-extern template std::string decode_checked(const void*, size_t, joint_torque_command_t&);
-extern template std::string decode_checked(const void*, size_t, arm_target_t&);
-extern template std::string decode_checked(const void*, size_t, controller_status_t&);
 
 /// The num_joints of a valid message of `type`, or -1 when the bytes do not decode as one.
 int joint_count(MessageType type, const void* data, size_t size);

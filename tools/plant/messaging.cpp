@@ -6,20 +6,12 @@
 #include <limits>
 
 #include "chasles/controller/clock.hpp"
+#include "chasles/lcmtypes/checked.hpp"
 
 namespace chasles::plant {
 
 using controller::monotonic_ns;
 using controller::realtime_us;
-
-namespace {
-
-// lcm-gen's decoder resizes the torque vector to the received num_joints before it checks that
-// the buffer holds that many, so an untrusted count must be read and checked first. It follows
-// the 8-byte fingerprint and the int64 fields utime, seq and state_seq (joint_torque_command_t.lcm).
-constexpr int kNumJointsOffset = 8 + 3 * 8;
-
-}  // namespace
 
 CommandInbox::CommandInbox(lcm::LCM& lcm, const std::string& channel, int num_joints)
     : lcm_(lcm), channel_(channel), num_joints_(num_joints) {
@@ -29,7 +21,6 @@ CommandInbox::CommandInbox(lcm::LCM& lcm, const std::string& channel, int num_jo
     message->num_joints = num_joints;
     message->torque.assign(static_cast<size_t>(num_joints), 0.0);
   }
-  expected_size_ = latest_.getEncodedSize();
   // The C interface hands the channel over as a char*; the C++ one builds a std::string for every
   // message, which may allocate.
   subscription_ = lcm_subscribe(lcm_.getUnderlyingLCM(), channel_.c_str(), &CommandInbox::on_message, this);
@@ -44,25 +35,9 @@ void CommandInbox::on_message(const lcm_recv_buf_t* rbuf, const char*, void* sel
 }
 
 void CommandInbox::receive(const void* data, int size) {
-  int64_t fingerprint = 0;
-  int32_t count = 0;
-  if (__int64_t_decode_array(data, 0, size, &fingerprint, 1) < 0 || fingerprint != joint_torque_command_t::getHash()) {
-    return reject("a message that is not a joint_torque_command_t (wrong fingerprint)");
-  }
-  // LCM's decode functions take the bytes left after the offset, not the buffer's size.
-  if (size < kNumJointsOffset ||
-      __int32_t_decode_array(data, kNumJointsOffset, size - kNumJointsOffset, &count, 1) < 0) {
-    return reject("a truncated command of %lld bytes", size);
-  }
-  if (count != num_joints_) return reject("a command for %lld joints; the arm has %lld", count, num_joints_);
-  if (size != expected_size_) {
-    return reject("a command of %lld bytes; a command for this arm has %lld", size, expected_size_);
-  }
-  if (incoming_.decode(data, 0, size) != size) return reject("a command that does not decode");
-  for (int i = 0; i < num_joints_; ++i) {
-    if (!std::isfinite(incoming_.torque[static_cast<size_t>(i)])) {
-      return reject("a command with a non-finite torque for joint %lld of %lld", i + 1, num_joints_);
-    }
+  if (std::string why = messages::decode_checked(data, size_t(size), incoming_, num_joints_, messages::Finite::Required);
+      !why.empty()) {
+    return reject(why);
   }
   if (latest_seq_ != nullptr &&
       (incoming_.state_seq > *latest_seq_ || incoming_.state_seq < *latest_seq_ - max_lag_)) {
@@ -79,10 +54,10 @@ void CommandInbox::receive(const void* data, int size) {
   ++received_;
 }
 
-void CommandInbox::reject(const char* format, long long a, long long b) {
+void CommandInbox::reject(const std::string& why) {
   ++rejected_;
   ++unreported_;
-  std::snprintf(reason_, sizeof(reason_), format, a, b);
+  std::snprintf(reason_, sizeof(reason_), "a command %s", why.c_str());
 }
 
 void CommandInbox::report_rejections(int64_t now_ns) {

@@ -1,6 +1,6 @@
 // The plant's side of the wire: commands in, states out, through the injected faults. Both
-// classes preallocate every buffer on construction; receiving, encoding and publishing allocate
-// nothing afterwards.
+// classes preallocate every buffer on construction; receiving a valid command, encoding and
+// publishing allocate nothing afterwards (a refusal builds its reason).
 #pragma once
 
 #include <Eigen/Core>
@@ -15,8 +15,9 @@
 namespace chasles::plant {
 
 /// Keeps the latest valid joint_torque_command_t for an n-joint arm. Every message passes the
-/// same checks, in order — fingerprint, joint count, exact size, encoding, finite torques — and
-/// one that fails is counted and reported on stderr (at most once a second), never kept.
+/// checked decoder (lcmtypes/checked.hpp: fingerprint, joint count, exact size, encoding, finite
+/// torques), and one that fails is counted and reported on stderr (at most once a second), never
+/// kept.
 class CommandInbox {
  public:
   CommandInbox(lcm::LCM& lcm, const std::string& channel, int num_joints);
@@ -55,13 +56,12 @@ class CommandInbox {
 
  private:
   static void on_message(const lcm_recv_buf_t* rbuf, const char* channel, void* self);
-  void reject(const char* format, long long a = 0, long long b = 0);
+  void reject(const std::string& why);
 
   lcm::LCM& lcm_;
   lcm_subscription_t* subscription_ = nullptr;
   std::string channel_;
   int num_joints_;
-  int expected_size_;
   joint_torque_command_t latest_, incoming_;
   bool fresh_ = false;
   int64_t arrival_ns_ = 0;

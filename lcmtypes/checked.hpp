@@ -1,0 +1,176 @@
+// One checked decoder for every chasles message type, beside the contracts it reads, used by every
+// reader (the controller, the plant, the CLI, the fuzzers).
+//
+// lcm-gen's decoders trust the counts they read: a negative or huge num_joints makes them resize to
+// gigabytes, a zero-length string makes them throw, and they check the buffer's size only field by
+// field. So the fingerprint, the string length and num_joints are read from the raw bytes and
+// checked first, the exact encoded size is compared with the bytes there are, and only then does
+// the generated decoder run. The message's arrays are sized for the count the bytes give, so a
+// message reused for messages of one arm is decoded without allocating.
+#pragma once
+
+#include <lcm/lcm_coretypes.h>
+
+#include <chasles/arm_target_t.hpp>
+#include <chasles/controller_status_t.hpp>
+#include <chasles/joint_torque_command_t.hpp>
+#include <chasles/robot_state_t.hpp>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+namespace chasles::messages {
+
+/// The reader knows no arm (a log, a monitor): any joint count the bytes can hold.
+inline constexpr int kAnyArm = -1;
+
+/// Whether non-finite numbers refuse a message: a controller or a plant acts on them; a log
+/// reader should show what was sent.
+enum class Finite { Required, NotRequired };
+
+namespace detail {
+
+inline bool read_int32(const void* data, size_t size, size_t offset, int32_t& value) {
+  // LCM's decode functions take the bytes left after the offset, not the buffer's size.
+  return offset + 4 <= size &&
+         __int32_t_decode_array(data, static_cast<int>(offset), static_cast<int>(size - offset), &value, 1) == 4;
+}
+
+inline bool fingerprint_is(const void* data, size_t size, int64_t hash) {
+  int64_t fingerprint = 0;
+  return size >= 8 && __int64_t_decode_array(data, 0, static_cast<int>(size), &fingerprint, 1) == 8 &&
+         fingerprint == hash;
+}
+
+// Where num_joints sits: after the 8-byte fingerprint and the fields the .lcm contract puts first.
+// controller_status_t has a string before it, whose length is read first.
+inline constexpr size_t kStateCount = 8 + 8 + 8;             // utime, seq
+inline constexpr size_t kCommandCount = 8 + 8 + 8 + 8;       // utime, seq, state_seq
+inline constexpr size_t kTargetCount = 8 + 8 + 1;            // utime, mode
+inline constexpr size_t kStatusStringLength = 8 + 8 + 1;     // utime, state
+
+inline std::string truncated(size_t size) { return "truncated: " + std::to_string(size) + " bytes"; }
+
+// A count that cannot be right for a message of `size` bytes, whatever its other fields: each
+// entry is at least one 8-byte double.
+inline std::string impossible_count(int32_t count, size_t size) {
+  if (count < 0 || uint64_t(count) * 8 > size) {
+    return "num_joints " + std::to_string(count) + " in a message of " + std::to_string(size) + " bytes";
+  }
+  return {};
+}
+
+// Reads num_joints (and the status string's length), and sizes every array for it, so that
+// getEncodedSize() is what the bytes must be.
+inline std::string prepare(const void* data, size_t size, robot_state_t& m) {
+  if (!read_int32(data, size, kStateCount, m.num_joints)) return truncated(size);
+  if (std::string why = impossible_count(m.num_joints, size); !why.empty()) return why;
+  for (auto* v : {&m.position, &m.velocity, &m.effort}) v->assign(size_t(m.num_joints), 0.0);
+  return {};
+}
+
+inline std::string prepare(const void* data, size_t size, joint_torque_command_t& m) {
+  if (!read_int32(data, size, kCommandCount, m.num_joints)) return truncated(size);
+  if (std::string why = impossible_count(m.num_joints, size); !why.empty()) return why;
+  m.torque.assign(size_t(m.num_joints), 0.0);
+  return {};
+}
+
+inline std::string prepare(const void* data, size_t size, arm_target_t& m) {
+  if (!read_int32(data, size, kTargetCount, m.num_joints)) return truncated(size);
+  if (std::string why = impossible_count(m.num_joints, size); !why.empty()) return why;
+  m.joint_position.assign(size_t(m.num_joints), 0.0);
+  return {};
+}
+
+inline std::string prepare(const void* data, size_t size, controller_status_t& m) {
+  int32_t length = 0;  // of the message string, with its terminating NUL
+  if (!read_int32(data, size, kStatusStringLength, length)) return truncated(size);
+  if (length < 1 || uint64_t(length) > size) {
+    return "message string of " + std::to_string(length) + " bytes in a message of " + std::to_string(size) + " bytes";
+  }
+  m.message.assign(size_t(length - 1), ' ');
+  if (!read_int32(data, size, kStatusStringLength + 4 + size_t(length), m.num_joints)) return truncated(size);
+  if (std::string why = impossible_count(m.num_joints, size); !why.empty()) return why;
+  for (auto* v : {&m.q, &m.q_desired, &m.tracking_error, &m.torque}) v->assign(size_t(m.num_joints), 0.0);
+  return {};
+}
+
+inline bool finite(const std::vector<double>& values) {
+  for (double x : values) {
+    if (!std::isfinite(x)) return false;
+  }
+  return true;
+}
+inline bool finite(const double* values, size_t n) {
+  for (size_t i = 0; i < n; ++i) {
+    if (!std::isfinite(values[i])) return false;
+  }
+  return true;
+}
+
+// The first field holding a non-finite number, or nullptr.
+inline const char* non_finite(const robot_state_t& m) {
+  return !finite(m.position) ? "position" : !finite(m.velocity) ? "velocity" : !finite(m.effort) ? "effort" : nullptr;
+}
+inline const char* non_finite(const joint_torque_command_t& m) { return finite(m.torque) ? nullptr : "torque"; }
+inline const char* non_finite(const arm_target_t& m) {
+  return !finite(m.joint_position)      ? "joint_position"
+         : !finite(m.tip_position, 3)   ? "tip_position"
+         : !finite(m.tip_quaternion, 4) ? "tip_quaternion"
+         : !std::isfinite(m.duration)   ? "duration"
+                                        : nullptr;
+}
+
+// Whether a message for `count` joints fits an arm of `arm_joints`: states and commands carry every
+// joint; a target carries all of them (JOINT) or none (HOLD, CARTESIAN), and the controller says
+// which its mode needs.
+template <typename Message>
+bool fits_arm(int32_t count, int arm_joints) {
+  if constexpr (std::is_same_v<Message, arm_target_t>) return count <= arm_joints;
+  return count == arm_joints;
+}
+
+}  // namespace detail
+
+/// Whether `data` starts with Message's fingerprint (what type it claims to be, not that it is valid).
+template <typename Message>
+bool starts_as(const void* data, size_t size) {
+  return detail::fingerprint_is(data, size, Message::getHash());
+}
+
+/// Decodes `data` into `message`: an empty string, or why the bytes are not a valid Message for
+/// this reader — "not a robot_state_t (wrong fingerprint)", "truncated: 12 bytes",
+/// "for 6 joints; the arm has 7", "of 200 bytes; expected 196 for 7 joints", "with non-finite
+/// velocity". `arm_joints` is the reader's arm (kAnyArm: any count); Finite::Required refuses
+/// NaN and ±inf (controller_status_t, which only monitors read, has no such check). After a
+/// refusal `message` holds nothing valid: decode into a scratch message and keep the last good one.
+template <typename Message>
+std::string decode_checked(const void* data, size_t size, Message& message, int arm_joints = kAnyArm,
+                           Finite finite = Finite::NotRequired) {
+  if (!detail::fingerprint_is(data, size, Message::getHash())) {
+    return std::string("not a ") + Message::getTypeName() + " (wrong fingerprint)";
+  }
+  if (size > size_t(INT32_MAX)) return "of " + std::to_string(size) + " bytes, too large";
+  if (std::string why = detail::prepare(data, size, message); !why.empty()) return why;
+  if (arm_joints != kAnyArm && !detail::fits_arm<Message>(message.num_joints, arm_joints)) {
+    return "for " + std::to_string(message.num_joints) + " joints; the arm has " + std::to_string(arm_joints);
+  }
+  const int expected = message.getEncodedSize();
+  if (size_t(expected) != size) {
+    return "of " + std::to_string(size) + " bytes; expected " + std::to_string(expected) + " for " +
+           std::to_string(message.num_joints) + " joints";
+  }
+  if (message.decode(data, 0, static_cast<int>(size)) != expected) return "does not decode";
+  if constexpr (!std::is_same_v<Message, controller_status_t>) {
+    if (finite == Finite::Required) {
+      if (const char* field = detail::non_finite(message)) return std::string("with non-finite ") + field;
+    }
+  }
+  return {};
+}
+
+}  // namespace chasles::messages
