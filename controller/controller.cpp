@@ -52,18 +52,18 @@ Config Config::critically_damped(int dof, double omega) {
 void Config::validate(int dof) const {
   auto check_gains = [dof](const Eigen::VectorXd& k, const char* name) {
     if (k.size() != dof) {
-      throw std::invalid_argument(std::string(name) + " has " + std::to_string(k.size()) + " entries, the arm has " +
+      throw ArgumentError(std::string(name) + " has " + std::to_string(k.size()) + " entries, the arm has " +
                                   std::to_string(dof) + " joints");
     }
     if (!k.allFinite() || (k.array() < 0.0).any()) {
-      throw std::invalid_argument(std::string(name) + " must be finite and non-negative");
+      throw ArgumentError(std::string(name) + " must be finite and non-negative");
     }
   };
   check_gains(kp, "kp");
   check_gains(kd, "kd");
-  if (!(period > 0.0) || !std::isfinite(period)) throw std::invalid_argument("the period must be positive");
-  if (stale_ns <= 0) throw std::invalid_argument("the stale-state timeout must be positive");
-  if (!(torque_ramp > 0.0)) throw std::invalid_argument("the torque ramp time must be positive");
+  if (!(period > 0.0) || !std::isfinite(period)) throw ArgumentError("the period must be positive");
+  if (stale_ns <= 0) throw ArgumentError("the stale-state timeout must be positive");
+  if (!(torque_ramp > 0.0)) throw ArgumentError("the torque ramp time must be positive");
   if (damping.size() != 0) check_gains(damping, "damping");
 }
 

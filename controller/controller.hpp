@@ -29,7 +29,7 @@ struct Config {
 
   /// K_p = ω², K_d = 2ω (critically damped error dynamics at the natural frequency ω, rad/s).
   static Config critically_damped(int dof, double omega);
-  /// Throws std::invalid_argument naming what is wrong (sizes, signs, non-finite values).
+  /// Throws ArgumentError naming what is wrong (sizes, signs, non-finite values).
   void validate(int dof) const;
 };
 
@@ -59,7 +59,7 @@ const char* to_string(Mode mode);
 
 class Controller {
  public:
-  /// Keeps a reference to `model`. Throws std::invalid_argument for a bad config.
+  /// Keeps a reference to `model`. Throws ArgumentError for a bad config.
   Controller(const RobotModel& model, const Config& config);
 
   /// Takes a new goal, or refuses it (returns false, counts it, says why in last_rejection()) and

@@ -59,7 +59,7 @@ class Lcm {
  public:
   explicit Lcm(const std::string& url) : lcm_(lcm_create(url.empty() ? nullptr : url.c_str())) {
     if (lcm_ == nullptr) {
-      throw std::runtime_error("LCM could not start on " + (url.empty() ? std::string("its default URL") : url) +
+      throw Error("LCM could not start on " + (url.empty() ? std::string("its default URL") : url) +
                                " (no multicast route? inside a network namespace run tools/netns.sh)");
     }
   }
@@ -399,7 +399,7 @@ Summary Daemon::run(const std::atomic<bool>& stop) {
   if (const std::string why = d.bus_in_use(); !why.empty()) {
     d.done = true;
     receiver.join();
-    throw std::runtime_error(why);
+    throw Error(why);
   }
   std::thread status([&d] { d.status_loop(); });
   std::thread ik([&d] { d.ik_loop(); });

@@ -60,14 +60,14 @@ struct Summary {
 
 class Daemon {
  public:
-  /// Keeps a reference to `model`. Throws std::runtime_error if LCM cannot start on the URL.
+  /// Keeps a reference to `model`. Throws chasles::Error if LCM cannot start on the URL.
   Daemon(const RobotModel& model, const DaemonOptions& options);
   ~Daemon();
   Daemon(const Daemon&) = delete;
   Daemon& operator=(const Daemon&) = delete;
 
   /// Listens on the command channel first (at least 50 ms): if another sender is heard there,
-  /// throws std::runtime_error ("another controller is already commanding ...; refusing to
+  /// throws chasles::Error ("another controller is already commanding ...; refusing to
   /// start"). Then runs until `stop` becomes true or options.seconds have passed; returns the
   /// summary. A foreign command heard while running is a FAULT for good: no more commands.
   Summary run(const std::atomic<bool>& stop);

@@ -101,7 +101,7 @@ KinematicCorrections KinematicCorrections::zero(const RobotModel& model) {
 RobotModel corrected_model(const RobotModel& nominal, const KinematicCorrections& corrections) {
   const int n = nominal.dof();
   if (static_cast<int>(corrections.origin.size()) != n || corrections.offset.size() != n) {
-    throw std::invalid_argument("corrected_model: one origin twist and one offset per joint are required");
+    throw ArgumentError("corrected_model: one origin twist and one offset per joint are required");
   }
   ChainDescription d = nominal.description();
   for (int i = 0; i < n; ++i) {
@@ -221,7 +221,7 @@ Transform MeasurementModel::predict(const Eigen::Ref<const Eigen::VectorXd>& x, 
 }
 
 KinematicCorrections MeasurementModel::corrections(const Eigen::Ref<const Eigen::VectorXd>& x) const {
-  if (x.size() != layout_.size()) throw std::invalid_argument("parameter vector of the wrong size");
+  if (x.size() != layout_.size()) throw ArgumentError("parameter vector of the wrong size");
   KinematicCorrections c = KinematicCorrections::zero(nominal_);
   for (int i = 0; i < layout_.n; ++i) {
     c.origin[static_cast<size_t>(i)] = x.segment<6>(layout_.origin(i, 0));

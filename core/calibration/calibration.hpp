@@ -33,9 +33,9 @@
 namespace chasles {
 
 /// Bad calibration input (too few rows, a degenerate dataset, bad options). what() says where.
-class CalibrationError : public std::runtime_error {
+class CalibrationError : public Error {
  public:
-  using std::runtime_error::runtime_error;
+  using Error::Error;
 };
 
 /// One measurement: the joint positions the encoders read and where the tracker saw the marker.

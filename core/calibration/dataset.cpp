@@ -174,7 +174,7 @@ std::string format_dataset(const RobotModel& model, const std::vector<Measuremen
     out += shortest_number(m.p_tracker_marker.x()) + "," + shortest_number(m.p_tracker_marker.y()) + "," +
            shortest_number(m.p_tracker_marker.z());
     if (with_orientation) {
-      if (!m.has_orientation) throw std::invalid_argument("format_dataset: a row has no orientation");
+      if (!m.has_orientation) throw ArgumentError("format_dataset: a row has no orientation");
       Eigen::Quaterniond q(m.R_tracker_marker);
       if (q.w() < 0.0) q.coeffs() = -q.coeffs();  // one of the two signs, w ≥ 0
       out += "," + shortest_number(q.w()) + "," + shortest_number(q.x()) + "," + shortest_number(q.y()) + "," +

@@ -160,7 +160,7 @@ const Eigen::VectorXd& forward_dynamics(const RobotModel& model, Data& data, con
   if (data.M_llt.info() != Eigen::Success ||
       !(data.M_llt.matrixLLT().diagonal().minCoeff() > std::sqrt(singular_pivot(data.M)))) {
     const std::string defect = mass_matrix_defect(model, data, q);
-    throw std::domain_error(defect.empty() ? "the mass matrix is not positive definite" : defect);
+    throw DynamicsError(defect.empty() ? "the mass matrix is not positive definite" : defect);
   }
   data.M_llt.solveInPlace(data.qdd);
   return data.qdd;

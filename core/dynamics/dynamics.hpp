@@ -28,7 +28,8 @@ const Eigen::VectorXd& velocity_product(const RobotModel& model, Data& data, con
 const Eigen::MatrixXd& mass_matrix(const RobotModel& model, Data& data, const JointVector& q);
 
 /// q̈ = FD(q, q̇, τ, F_tip) = M⁻¹(τ − c − g − J_bᵀ F_tip), by a Cholesky factorisation of M kept in
-/// data.M_llt (so a second solve at the same q is cheap).
+/// data.M_llt (so a second solve at the same q is cheap). Throws DynamicsError, naming the joint
+/// (see mass_matrix_defect), when M(q) is singular.
 const Eigen::VectorXd& forward_dynamics(const RobotModel& model, Data& data, const JointVector& q,
                                         const JointVector& qd, const JointVector& tau,
                                         const Vector6d& F_tip = Vector6d::Zero());

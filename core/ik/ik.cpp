@@ -147,26 +147,26 @@ void check_rigid_transform(const Matrix4d& T, const char* name) {
   for (int i = 0; i < 4; ++i) {
     for (int j = 0; j < 4; ++j) {
       if (!std::isfinite(T(i, j))) {
-        throw std::invalid_argument(what + ": entry (" + std::to_string(i) + ", " + std::to_string(j) +
+        throw ArgumentError(what + ": entry (" + std::to_string(i) + ", " + std::to_string(j) +
                                     ") is not finite");
       }
     }
   }
   constexpr double kTolerance = 1e-6;
   if ((T.row(3) - Eigen::RowVector4d(0.0, 0.0, 0.0, 1.0)).cwiseAbs().maxCoeff() > 1e-12) {
-    throw std::invalid_argument(what + ": the bottom row is (" + std::to_string(T(3, 0)) + ", " +
+    throw ArgumentError(what + ": the bottom row is (" + std::to_string(T(3, 0)) + ", " +
                                 std::to_string(T(3, 1)) + ", " + std::to_string(T(3, 2)) + ", " +
                                 std::to_string(T(3, 3)) + "), expected (0, 0, 0, 1)");
   }
   const Matrix3d R = T.topLeftCorner<3, 3>();
   const double orthonormality = (R.transpose() * R - Matrix3d::Identity()).cwiseAbs().maxCoeff();
   if (orthonormality > kTolerance) {
-    throw std::invalid_argument(what + ": the rotation is not orthonormal (largest entry of |R^T R - I| is " +
+    throw ArgumentError(what + ": the rotation is not orthonormal (largest entry of |R^T R - I| is " +
                                 std::to_string(orthonormality) + ", allowed 1e-6)");
   }
   const double det = R.determinant();
   if (std::abs(det - 1.0) > kTolerance) {
-    throw std::invalid_argument(what + ": det R = " + std::to_string(det) +
+    throw ArgumentError(what + ": det R = " + std::to_string(det) +
                                 ", expected 1 (a reflection is not a rotation)");
   }
 }
@@ -339,15 +339,15 @@ IkSolver::~IkSolver() = default;
 void IkSolver::set_options(const IkOptions& options) {
   for (int k = 0; k < 6; ++k) {
     if (!(options.weights[k] > 0.0) || !std::isfinite(options.weights[k]))
-      throw std::invalid_argument("IK weights must be positive and finite");
+      throw ArgumentError("IK weights must be positive and finite");
   }
   if (!(options.position_tolerance > 0.0) || !(options.rotation_tolerance > 0.0))
-    throw std::invalid_argument("IK tolerances must be positive");
-  if (options.time_budget.count() <= 0) throw std::invalid_argument("the IK time budget must be positive");
-  if (options.max_restarts < 0) throw std::invalid_argument("the IK restart cap must not be negative");
-  if (options.max_iterations < 1) throw std::invalid_argument("IK needs at least one iteration per attempt");
+    throw ArgumentError("IK tolerances must be positive");
+  if (options.time_budget.count() <= 0) throw ArgumentError("the IK time budget must be positive");
+  if (options.max_restarts < 0) throw ArgumentError("the IK restart cap must not be negative");
+  if (options.max_iterations < 1) throw ArgumentError("IK needs at least one iteration per attempt");
   if (!(options.regularization >= 0.0) || !std::isfinite(options.regularization))
-    throw std::invalid_argument("the IK regularisation must be finite and not negative");
+    throw ArgumentError("the IK regularisation must be finite and not negative");
   options_ = options;
 
   Impl& impl = *impl_;
@@ -401,7 +401,7 @@ IkResult IkSolver::solve(const Matrix4d& T_sd, const JointVector& q_seed) {
   const Clock::time_point start = Clock::now();
   set_target(T_sd);
   check_joint_vector(model_, q_seed, "q_seed");
-  if (!q_seed.allFinite()) throw std::invalid_argument("q_seed is not finite");
+  if (!q_seed.allFinite()) throw ArgumentError("q_seed is not finite");
   Impl& impl = *impl_;
   const int n = model_.dof();
   for (int i = 0; i < n; ++i) {

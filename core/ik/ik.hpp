@@ -66,7 +66,7 @@ struct IkResult {
   double time_us = 0.0;     ///< wall-clock time of the solve
 };
 
-/// Throws std::invalid_argument unless T is a finite rigid transform: bottom row (0, 0, 0, 1),
+/// Throws ArgumentError unless T is a finite rigid transform: bottom row (0, 0, 0, 1),
 /// R orthonormal within 1e-6 (|RᵀR − I| entries) and det R = 1 within 1e-6.
 void check_rigid_transform(const Matrix4d& T, const char* name = "target");
 
@@ -82,12 +82,12 @@ class IkSolver {
 
   const RobotModel& model() const { return model_; }
   const IkOptions& options() const { return options_; }
-  /// Checks and sets the options (std::invalid_argument on a non-positive weight, tolerance or
+  /// Checks and sets the options (ArgumentError on a non-positive weight, tolerance or
   /// budget, or a negative cap or λ).
   void set_options(const IkOptions& options);
 
   /// Solves for the target T_sd from q_seed (one entry per joint; clamped into the limits).
-  /// Throws std::invalid_argument for a target that is not a finite rigid transform (see
+  /// Throws ArgumentError for a target that is not a finite rigid transform (see
   /// check_rigid_transform) or a seed of the wrong size or not finite. R_sd is projected onto
   /// SO(3) (it may be off by up to 1e-6).
   IkResult solve(const Matrix4d& T_sd, const JointVector& q_seed);

@@ -8,7 +8,7 @@
 namespace chasles {
 void check_joint_vector(const RobotModel& model, const JointVector& v, const char* name) {
   if (v.size() != model.dof()) {
-    throw std::invalid_argument(std::string(name) + " has " + std::to_string(v.size()) + " entries, the model has " +
+    throw ArgumentError(std::string(name) + " has " + std::to_string(v.size()) + " entries, the model has " +
                                 std::to_string(model.dof()) + " joints");
   }
 }

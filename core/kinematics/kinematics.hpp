@@ -8,7 +8,7 @@ namespace chasles {
 
 using JointVector = Eigen::Ref<const Eigen::VectorXd>;
 
-/// Throws std::invalid_argument unless v has one entry per joint; `name` names it ("q", "qd").
+/// Throws ArgumentError unless v has one entry per joint; `name` names it ("q", "qd").
 void check_joint_vector(const RobotModel& model, const JointVector& v, const char* name);
 
 /// The joint transforms T_{i−1,i}(q_i) = M_{i−1,i} · exp([A_i] q_i) into data.T_local; the

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "chasles/core/error.hpp"
 #include "chasles/core/lie/types.hpp"
 
 namespace chasles {
@@ -15,9 +16,9 @@ namespace chasles {
 using Matrix6Xd = Eigen::Matrix<double, 6, Eigen::Dynamic>;
 
 /// An invalid robot description. what() names the file and the joint or link.
-class ModelError : public std::runtime_error {
+class ModelError : public Error {
  public:
-  using std::runtime_error::runtime_error;
+  using Error::Error;
 };
 
 enum class JointType { Revolute, Continuous, Prismatic };

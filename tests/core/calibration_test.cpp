@@ -23,6 +23,8 @@
 namespace chasles {
 namespace {
 
+static_assert(std::is_base_of_v<Error, CalibrationError>);
+
 RobotModel load(const std::string& robot) {
   UrdfOptions options;
   options.tip_link = robot == "ur5" ? "tool0" : robot == "panda" ? "panda_hand" : "tip";

@@ -203,10 +203,10 @@ TEST_P(Dynamics, AllocatesNothing) {
 TEST_P(Dynamics, WrongSizesAreRejected) {
   const int n = model_->dof();
   const Eigen::VectorXd ok = Eigen::VectorXd::Zero(n), bad = Eigen::VectorXd::Zero(n + 1);
-  EXPECT_THROW(inverse_dynamics(*model_, *data_, ok, bad, ok), std::invalid_argument);
-  EXPECT_THROW(inverse_dynamics(*model_, *data_, ok, ok, bad), std::invalid_argument);
-  EXPECT_THROW(forward_dynamics(*model_, *data_, ok, ok, bad), std::invalid_argument);
-  EXPECT_THROW(mass_matrix(*model_, *data_, bad), std::invalid_argument);
+  EXPECT_THROW(inverse_dynamics(*model_, *data_, ok, bad, ok), ArgumentError);
+  EXPECT_THROW(inverse_dynamics(*model_, *data_, ok, ok, bad), ArgumentError);
+  EXPECT_THROW(forward_dynamics(*model_, *data_, ok, ok, bad), ArgumentError);
+  EXPECT_THROW(mass_matrix(*model_, *data_, bad), ArgumentError);
 }
 
 INSTANTIATE_TEST_SUITE_P(Robots, ReferenceDynamics,

@@ -387,7 +387,7 @@ TEST_F(IkTargets, RejectsANonRigidOrNonFiniteTarget) {
     try {
       solver.solve(T, seed);
       ADD_FAILURE() << "accepted a bad target; expected a message with '" << fragment << "'";
-    } catch (const std::invalid_argument& e) {
+    } catch (const ArgumentError& e) {
       EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
     }
   };
@@ -412,8 +412,8 @@ TEST_F(IkTargets, RejectsANonRigidOrNonFiniteTarget) {
   T(0, 0) += 5e-7;
   EXPECT_TRUE(solver.solve(T, seed).converged);
   // The seed is checked too.
-  EXPECT_THROW(solver.solve(good, Eigen::VectorXd::Zero(5)), std::invalid_argument);
-  EXPECT_THROW(solver.solve(good, Eigen::VectorXd::Constant(6, std::nan(""))), std::invalid_argument);
+  EXPECT_THROW(solver.solve(good, Eigen::VectorXd::Zero(5)), ArgumentError);
+  EXPECT_THROW(solver.solve(good, Eigen::VectorXd::Constant(6, std::nan(""))), ArgumentError);
 }
 
 // Continuous joints come back wrapped to (−π, π]; a seed outside the limits is clamped into them.

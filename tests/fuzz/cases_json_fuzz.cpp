@@ -31,7 +31,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   try {
     for (const cli::IkTarget& t : cli::parse_ik_targets(document, model, "fuzz.json")) {
-      check_rigid_transform(t.T_sd);  // throws std::invalid_argument: not caught, a crash
+      check_rigid_transform(t.T_sd);  // throws ArgumentError: not caught, a crash
       FUZZ_CHECK(t.q_seed.size() == model.dof() && t.q_seed.allFinite());
     }
   } catch (const cli::InputError&) {

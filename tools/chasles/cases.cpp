@@ -25,7 +25,7 @@ Matrix4d parse_transform(const Json& value, const std::string& where) {
   }
   try {
     check_rigid_transform(T, where.c_str());
-  } catch (const std::invalid_argument& e) {
+  } catch (const ArgumentError& e) {
     throw InputError(e.what());
   }
   return T;

@@ -72,7 +72,7 @@ Command register_fd(CLI::App& app) {
             Json out;
             try {
               out["qdd"] = vector_json(forward_dynamics(model, data, q, qd, tau, tip_wrench(options->f_tip)));
-            } catch (const std::domain_error& e) {
+            } catch (const DynamicsError& e) {
               throw InputError(options->model.urdf + ": " + e.what());
             }
             return out;
