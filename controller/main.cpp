@@ -235,6 +235,9 @@ int main(int argc, char** argv) {
                  summary.jitter_us.p99, summary.compute_us.p99, summary.latency_us.p99,
                  static_cast<long long>(summary.faults));
     if (!flags.summary.empty()) write_summary(flags.summary, summary);
+  } catch (const chasles::TipNotChosenError& e) {
+    std::fprintf(stderr, "chasles_controller: %s with --tip\n", e.what());
+    return 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "chasles_controller: %s\n", e.what());
     return 1;

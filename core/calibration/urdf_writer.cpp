@@ -67,8 +67,8 @@ std::string corrected_urdf(const std::string& original_xml, const RobotModel& no
   }
   if (links.count(options.marker_link)) {
     throw CalibrationError(source + ": a link named '" + options.marker_link +
-                           "' exists already (calibrating a corrected URDF? choose the flange with --tip, or "
-                           "another marker link name)");
+                           "' exists already (calibrating a corrected URDF? make the flange the chain's tip, or "
+                           "name the marker link otherwise)");
   }
   if (joints.count(options.marker_joint)) {
     throw CalibrationError(source + ": a joint named '" + options.marker_joint + "' exists already");

@@ -178,8 +178,8 @@ RobotModel load_urdf_string(const std::string& xml, const UrdfOptions& options, 
       if (link->child_joints.empty()) leaves.push_back(name);
     }
     if (leaves.size() != 1) {
-      fail(source, "the tree has " + std::to_string(leaves.size()) + " leaves (" + quoted_list(leaves) +
-                       "): choose the tip link with --tip");
+      throw TipNotChosenError(source + ": the tree has " + std::to_string(leaves.size()) + " leaves (" +
+                              quoted_list(leaves) + "): name the tip link");
     }
     tip = leaves.front();
   }

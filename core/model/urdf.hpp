@@ -7,6 +7,12 @@
 
 namespace chasles {
 
+/// The tree has several leaves and no tip link was named; what() lists the leaves.
+class TipNotChosenError : public ModelError {
+ public:
+  using ModelError::ModelError;
+};
+
 struct UrdfOptions {
   /// The link that ends the chain. Empty: the tree's single leaf (an error lists the leaves
   /// when there are several).

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "chasles/core/calibration/calibration.hpp"
+#include "chasles/core/model/urdf.hpp"
 #include "chasles/tools/error_line.hpp"
 #include "commands.hpp"
 
@@ -52,6 +53,8 @@ int main(int argc, char** argv) {
       return 0;
     }
     return fail("no command given (see 'chasles_calibrate --help')", 2);
+  } catch (const chasles::TipNotChosenError& e) {
+    return fail(std::string(e.what()) + " with --tip", 1);
   } catch (const chasles::ModelError& e) {
     return fail(e.what(), 1);
   } catch (const chasles::CalibrationError& e) {

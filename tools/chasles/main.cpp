@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "chasles/core/model/urdf.hpp"
 #include "chasles/tools/error_line.hpp"
 #include "command.hpp"
 
@@ -81,6 +82,8 @@ int main(int argc, char** argv) {
       return 0;
     }
     return fail("no command given (see 'chasles --help')", 2);
+  } catch (const chasles::TipNotChosenError& e) {
+    return fail(std::string(e.what()) + " with --tip", 1);
   } catch (const chasles::ModelError& e) {
     return fail(e.what(), 1);
   } catch (const InputError& e) {

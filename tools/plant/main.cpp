@@ -447,6 +447,8 @@ int main(int argc, char** argv) {
     simulation.run();
     simulation.print_summary();
     return 0;
+  } catch (const chasles::TipNotChosenError& e) {
+    return fail(std::string(e.what()) + " with --tip", 1);
   } catch (const chasles::ModelError& e) {
     return fail(e.what(), 1);
   } catch (const InputError& e) {
