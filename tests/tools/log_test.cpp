@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "support/process.hpp"
+#include "support/status_listener.hpp"
 #include "support/reference.hpp"
 
 namespace chasles::testing {
@@ -498,9 +499,10 @@ TEST(log, PlotsOfARecordedRun) {
   Recording recording("run.lcmlog");
   const std::string urdf = data_path("panda.urdf");
   const std::vector<std::string> model{"--robot", urdf, "--tip", kTip, "--lcm-url", kLcmUrl};
+  StatusListener status(kLcmUrl);
   ChildProcess plant(concat({CHASLES_PLANT, "--q0", "0,0,0,-1.5,0,1.5,0", "--damping", "0.5"}, model));
   ChildProcess controller(concat({CHASLES_CONTROLLER, "--damping", "0.5"}, model));
-  std::this_thread::sleep_for(std::chrono::milliseconds(400));
+  ASSERT_TRUE(status.wait_for(controller_status_t::HOLDING, 5.0)) << controller.stderr_text();
   arm_target_t target{};
   target.mode = arm_target_t::JOINT;
   target.num_joints = 7;
@@ -508,7 +510,11 @@ TEST(log, PlotsOfARecordedRun) {
   target.tip_quaternion[0] = 1.0;
   target.duration = 0.8;
   recording.send("CHASLES_TARGET", target);
-  std::this_thread::sleep_for(std::chrono::milliseconds(1300));
+  ASSERT_TRUE(status.wait_for(controller_status_t::RUNNING, 5.0)) << controller.stderr_text();
+  // The move done, and 1.5 s of ticks in all, as the plots below need.
+  ASSERT_TRUE(status.wait_until([](const controller_status_t& s) {
+    return s.state == controller_status_t::HOLDING && s.ticks >= 1500;
+  }, 10.0)) << controller.stderr_text();
   EXPECT_EQ(controller.stop(SIGTERM), 0) << controller.stderr_text();
   EXPECT_EQ(plant.stop(SIGTERM), 0) << plant.stderr_text();
   const std::string log = recording.finish();

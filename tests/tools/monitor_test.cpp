@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "support/process.hpp"
+#include "support/status_listener.hpp"
 #include "support/reference.hpp"
 
 namespace chasles::testing {
@@ -38,35 +39,6 @@ std::vector<std::string> concat(std::vector<std::string> a, const std::vector<st
 std::vector<std::string> model() { return {"--robot", data_path("panda.urdf"), "--tip", kTip, "--lcm-url", kLcmUrl}; }
 
 // The latest controller_status_t, heard by the test itself.
-class StatusListener {
- public:
-  StatusListener() : lcm_(lcm_create(kLcmUrl)) {
-    if (lcm_ == nullptr) throw std::runtime_error("LCM did not start: run the test under tools/netns.sh");
-    lcm_subscribe(lcm_, "CHASLES_STATUS", &StatusListener::on_status, this);
-  }
-  ~StatusListener() { lcm_destroy(lcm_); }
-
-  /// Handles messages until a status in `state` arrives, or `seconds` pass.
-  bool wait_for(int8_t state, double seconds) {
-    const auto deadline = Clock::now() + std::chrono::duration<double>(seconds);
-    while (!(latest && latest->state == state) && Clock::now() < deadline) lcm_handle_timeout(lcm_, 50);
-    return latest && latest->state == state;
-  }
-  void publish(const std::string& channel, const std::vector<uint8_t>& bytes) {
-    lcm_publish(lcm_, channel.c_str(), bytes.data(), static_cast<unsigned>(bytes.size()));
-  }
-
-  std::optional<controller_status_t> latest;
-
- private:
-  static void on_status(const lcm_recv_buf_t* rbuf, const char*, void* self) {
-    controller_status_t status;
-    if (status.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) > 0) {
-      static_cast<StatusListener*>(self)->latest = status;
-    }
-  }
-  lcm_t* lcm_;
-};
 
 RunResult monitor(const std::vector<std::string>& args) {
   return run_to_completion(concat({CHASLES_CLI, "monitor", "--lcm-url", kLcmUrl}, args));
@@ -83,7 +55,7 @@ double field(const std::string& frame, const std::string& pattern) {
 }
 
 TEST(monitor, OnceShowsTheLiveControllersValues) {
-  StatusListener bus;
+  StatusListener bus(kLcmUrl);
   ChildProcess plant(concat({CHASLES_PLANT, "--q0", kBentPose, "--damping", "0.5"}, model()));
   ChildProcess controller(concat({CHASLES_CONTROLLER, "--damping", "0.5", "--stale-ms", "100"}, model()));
   ASSERT_TRUE(bus.wait_for(controller_status_t::HOLDING, 5.0)) << controller.stderr_text();
@@ -140,7 +112,7 @@ TEST(monitor, NoControllerIsSaidNotShownAsNumbers) {
 // Live, to a pipe: a frame a second. The controller stops after the first frames: the later ones
 // say for how long there has been no status and what it last was, with no joint table.
 TEST(monitor, AControllerThatStopsIsReportedGone) {
-  StatusListener bus;
+  StatusListener bus(kLcmUrl);
   ChildProcess plant(concat({CHASLES_PLANT, "--q0", kBentPose}, model()));
   auto controller = std::make_unique<ChildProcess>(concat({CHASLES_CONTROLLER}, model()));
   ASSERT_TRUE(bus.wait_for(controller_status_t::HOLDING, 5.0)) << controller->stderr_text();
@@ -165,7 +137,7 @@ TEST(monitor, AControllerThatStopsIsReportedGone) {
 
 // Malformed status messages are counted and the last reason shown, never decoded into numbers.
 TEST(monitor, JunkIsCountedNotShown) {
-  StatusListener bus;
+  StatusListener bus(kLcmUrl);
   std::thread sender([&] {
     std::this_thread::sleep_for(std::chrono::milliseconds(400));
     bus.publish("CHASLES_STATUS", {1, 2, 3});
