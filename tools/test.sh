@@ -4,7 +4,11 @@
 #   tools/test.sh                 Release build in build/, warnings are errors; then the fuzz stage:
 #                                 every libFuzzer target (tests/fuzz) for 10 s, built with clang,
 #                                 ASan and UBSan in build-fuzz/ (tools/fuzz.sh --ctest)
-#   tools/test.sh --sanitize      ASan + UBSan build of the whole suite in build-sanitize/
+#   tools/test.sh --sanitize      ASan + UBSan build of the in-process suites in build-sanitize/: the
+#                                 libraries, the controller's logic, the messages, the fuzz replays,
+#                                 the installed package; the tools and the tests that run them as
+#                                 processes are the Release stage's (the fuzz stage sanitizes their
+#                                 readers of untrusted input)
 #   tools/test.sh -R lie          extra arguments go to ctest; the fuzz stage is skipped
 #
 # Every build also replays the fuzz seed corpus and the crashers kept in it (fuzz_replay.*).
@@ -22,7 +26,7 @@ if [ "${1:-}" = "--sanitize" ]; then
   fuzz=0
   # Warnings are enforced by the normal build; GCC 12 reports false maybe-uninitialized warnings
   # inside libstdc++ (std::regex) under -fsanitize, so they are not errors here.
-  options=(-DCHASLES_WERROR=OFF -DCHASLES_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo)
+  options=(-DCHASLES_WERROR=OFF -DCHASLES_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCHASLES_BUILD_TOOLS=OFF)
 fi
 [ $# -eq 0 ] || fuzz=0
 
