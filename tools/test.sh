@@ -15,7 +15,9 @@
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 source "$root/tools/deps.sh"
+start=$SECONDS
 chasles_install_missing "${chasles_packages_build[@]}" "${chasles_packages_monitor[@]}"
+echo "test.sh: packages took $((SECONDS - start)) s" >&2
 
 build="$root/build"
 options=(-DCHASLES_WERROR=ON)
@@ -30,9 +32,16 @@ if [ "${1:-}" = "--sanitize" ]; then
 fi
 [ $# -eq 0 ] || fuzz=0
 
-cmake -S "$root" -B "$build" -G Ninja "${options[@]}" >/dev/null
-cmake --build "$build" -j 2
-ctest --test-dir "$build" --output-on-failure -j 2 "$@"
+# Each stage says how long it took, so CI's time can be read stage by stage.
+stage() {
+  local name=$1 start=$SECONDS
+  shift
+  "$@"
+  echo "test.sh: $name took $((SECONDS - start)) s" >&2
+}
+stage "configure ($build)" cmake -S "$root" -B "$build" -G Ninja "${options[@]}" >/dev/null
+stage "build ($build)" cmake --build "$build" -j 2
+stage "ctest ($build)" ctest --test-dir "$build" --output-on-failure -j 2 "$@"
 if [ $fuzz -eq 1 ]; then
-  "$root/tools/fuzz.sh" --ctest 10
+  stage "fuzz stage" "$root/tools/fuzz.sh" --ctest 10
 fi
