@@ -6,9 +6,12 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
+#include <string>
+#include <thread>
 
 namespace chasles::testing {
 namespace {
@@ -74,7 +77,8 @@ RunResult run_to_completion(const std::vector<std::string>& argv_strings, const 
 
 ChildProcess::ChildProcess(std::vector<std::string> argv_strings)
     : stderr_path_(::testing::TempDir() + "child_" + std::to_string(::getpid()) + "_" + std::to_string(++count_) +
-                   "_stderr") {
+                   "_stderr"),
+      stdout_path_(stderr_path_.substr(0, stderr_path_.size() - 6) + "stdout") {
   std::vector<char*> argv;
   for (auto& s : argv_strings) argv.push_back(s.data());
   argv.push_back(nullptr);
@@ -82,10 +86,11 @@ ChildProcess::ChildProcess(std::vector<std::string> argv_strings)
   pid_ = ::fork();
   if (pid_ == 0) {
     const int null = ::open("/dev/null", O_RDWR);
+    const int out = ::open(stdout_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
     const int err = ::open(stderr_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-    if (null < 0 || err < 0) ::_exit(126);
+    if (null < 0 || out < 0 || err < 0) ::_exit(126);
     ::dup2(null, 0);
-    ::dup2(null, 1);
+    ::dup2(out, 1);
     ::dup2(err, 2);
     // A ChildProcess is a loop under test (plant, controller, logger). Nice −10 gives it the edge
     // over whatever CPU hogs share the test machine, as SCHED_FIFO does in a deployment, without
@@ -100,6 +105,7 @@ ChildProcess::ChildProcess(std::vector<std::string> argv_strings)
 ChildProcess::~ChildProcess() {
   if (pid_ > 0 && exit_code_ < 0) stop();
   std::remove(stderr_path_.c_str());
+  std::remove(stdout_path_.c_str());
 }
 
 bool ChildProcess::running() {
@@ -127,5 +133,22 @@ int ChildProcess::wait() {
 }
 
 std::string ChildProcess::stderr_text() const { return read_file(stderr_path_); }
+std::string ChildProcess::stdout_text() const { return read_file(stdout_path_); }
+
+bool ChildProcess::catches(int signal, double seconds) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  const std::string status_path = "/proc/" + std::to_string(pid_) + "/status";
+  do {
+    std::ifstream status(status_path);
+    for (std::string line; std::getline(status, line);) {
+      if (line.rfind("SigCgt:", 0) != 0) continue;
+      const unsigned long long caught = std::stoull(line.substr(7), nullptr, 16);
+      if ((caught >> (signal - 1)) & 1ULL) return true;
+    }
+    if (!running()) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  } while (std::chrono::steady_clock::now() < deadline);
+  return false;
+}
 
 }  // namespace chasles::testing

@@ -49,11 +49,15 @@ class ChildProcess {
   /// Waits for the process to end by itself.
   int wait();
   std::string stderr_text() const;
+  std::string stdout_text() const;
+  /// Waits up to `seconds` for the process to have a handler for `signal` (SigCgt in
+  /// /proc/PID/status): the readiness of a program that installs its handlers once it is set up.
+  bool catches(int signal, double seconds);
   pid_t pid() const { return pid_; }
 
  private:
   static inline int count_ = 0;
-  std::string stderr_path_;
+  std::string stderr_path_, stdout_path_;
   pid_t pid_ = -1;
   int exit_code_ = -1;
 };

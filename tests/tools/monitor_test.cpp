@@ -116,12 +116,18 @@ TEST(monitor, AControllerThatStopsIsReportedGone) {
   ChildProcess plant(concat({CHASLES_PLANT, "--q0", kBentPose}, model()));
   auto controller = std::make_unique<ChildProcess>(concat({CHASLES_CONTROLLER}, model()));
   ASSERT_TRUE(bus.wait_for(controller_status_t::HOLDING, 5.0)) << controller->stderr_text();
-  std::thread stopper([&] {
-    std::this_thread::sleep_for(std::chrono::milliseconds(1300));
-    controller->stop(SIGTERM);
-  });
-  const RunResult r = monitor({"--seconds", "3.2"});
-  stopper.join();
+  // The controller stops once the monitor has printed a frame of it.
+  ChildProcess watcher({CHASLES_CLI, "monitor", "--lcm-url", kLcmUrl, "--seconds", "3.2"});
+  const auto deadline = Clock::now() + std::chrono::seconds(10);
+  while (watcher.stdout_text().find("controller  HOLDING") == std::string::npos && watcher.running() &&
+         Clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  controller->stop(SIGTERM);
+  RunResult r;
+  r.exit_code = watcher.wait();
+  r.out = watcher.stdout_text();
+  r.err = watcher.stderr_text();
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(r.out.find('\x1b'), std::string::npos) << "no escape codes to a pipe";
   const size_t first_gone = r.out.find("no controller on CHASLES_STATUS for ");
@@ -136,32 +142,31 @@ TEST(monitor, AControllerThatStopsIsReportedGone) {
 }
 
 // Malformed status messages are counted and the last reason shown, never decoded into numbers.
+// The junk goes out once the monitor is listening: it subscribes before it installs its SIGINT
+// handler, which /proc shows.
 TEST(monitor, JunkIsCountedNotShown) {
   StatusListener bus(kLcmUrl);
-  std::thread sender([&] {
-    std::this_thread::sleep_for(std::chrono::milliseconds(400));
-    bus.publish("CHASLES_STATUS", {1, 2, 3});
-    controller_status_t status{};
-    status.num_joints = 0;
-    std::vector<uint8_t> bytes(size_t(status.getEncodedSize()));
-    status.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
-    bytes[8 + 8 + 1 + 3] = 0;  // the string's length with its NUL, 1 -> 0: lcm-gen's decoder would throw
-    bus.publish("CHASLES_STATUS", bytes);
-  });
-  const RunResult r = monitor({"--seconds", "1.5"});
-  sender.join();
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_NE(r.out.find("ignored 2 malformed status messages (last: CHASLES_STATUS: message string of 0 bytes"),
+  ChildProcess monitor({CHASLES_CLI, "monitor", "--lcm-url", kLcmUrl, "--seconds", "1.5"});
+  ASSERT_TRUE(monitor.catches(SIGINT, 10.0)) << monitor.stderr_text();
+  bus.publish("CHASLES_STATUS", {1, 2, 3});
+  controller_status_t status{};
+  status.num_joints = 0;
+  std::vector<uint8_t> bytes(size_t(status.getEncodedSize()));
+  status.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+  bytes[8 + 8 + 1 + 3] = 0;  // the string's length with its NUL, 1 -> 0: lcm-gen's decoder would throw
+  bus.publish("CHASLES_STATUS", bytes);
+  ASSERT_EQ(monitor.wait(), 0) << monitor.stderr_text();
+  const std::string out = monitor.stdout_text();
+  EXPECT_NE(out.find("ignored 2 malformed status messages (last: CHASLES_STATUS: message string of 0 bytes"),
             std::string::npos)
-      << r.out;
-  EXPECT_EQ(r.out.find("controller  "), std::string::npos) << r.out;
+      << out;
+  EXPECT_EQ(out.find("controller  "), std::string::npos) << out;
 }
 
-// SIGINT (Ctrl-C) ends a live monitor with exit status 0.
+// SIGINT (Ctrl-C) ends a live monitor with exit status 0, once it has its handler.
 TEST(monitor, SigintEndsItCleanly) {
   ChildProcess process({CHASLES_CLI, "monitor", "--lcm-url", kLcmUrl});
-  std::this_thread::sleep_for(std::chrono::milliseconds(500));
-  ASSERT_TRUE(process.running()) << process.stderr_text();
+  ASSERT_TRUE(process.catches(SIGINT, 10.0)) << process.stderr_text();
   EXPECT_EQ(process.stop(SIGINT), 0) << process.stderr_text();
 }
 
