@@ -28,7 +28,9 @@ if [ "${1:-}" = "--sanitize" ]; then
   fuzz=0
   # Warnings are enforced by the normal build; GCC 12 reports false maybe-uninitialized warnings
   # inside libstdc++ (std::regex) under -fsanitize, so they are not errors here.
-  options=(-DCHASLES_WERROR=OFF -DCHASLES_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCHASLES_BUILD_TOOLS=OFF)
+  # -O1 -g1 (line tables, enough for ASan's reports) compiles in 40 % of the time -O2 -g takes.
+  options=(-DCHASLES_WERROR=OFF -DCHASLES_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo
+           "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" -DCHASLES_BUILD_TOOLS=OFF)
 fi
 [ $# -eq 0 ] || fuzz=0
 
