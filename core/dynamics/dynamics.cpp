@@ -173,9 +173,10 @@ std::string mass_matrix_defect(const RobotModel& model, Data& data, const JointV
   const int n = model.dof();
   Eigen::MatrixXd L = Eigen::MatrixXd::Zero(n, n);
   const double scale = data.M.diagonal().cwiseAbs().maxCoeff();
+  const double threshold = singular_pivot(data.M);
   for (int k = 0; k < n; ++k) {
     const double pivot = data.M(k, k) - L.row(k).head(k).squaredNorm();
-    if (!(pivot > singular_pivot(data.M))) {
+    if (!(pivot > threshold)) {
       return "the mass matrix is singular: joint '" + model.joint(k).name +
              "' moves no inertia beyond what the joints before it move (Cholesky pivot " + std::to_string(pivot) +
              " against a largest diagonal of " + std::to_string(scale) +

@@ -293,18 +293,7 @@ class Simulation {
   bool braking_ = true;  // real time: held until the first command
 };
 
-// Messages come from several libraries; keep each on one line.
-std::string one_line(std::string text) {
-  while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();
-  std::replace(text.begin(), text.end(), '\n', ' ');
-  std::replace(text.begin(), text.end(), '\r', ' ');
-  return text;
-}
-
-int fail(const std::string& message, int code) {
-  std::cerr << "chasles_plant: " << one_line(message) << std::endl;
-  return code;
-}
+int fail(const std::string& message, int code) { return chasles::tools::fail("chasles_plant", message, code); }
 
 void add_options(CLI::App& app, Options& o) {
   app.add_option("--robot", o.robot, "Robot description (URDF file)")->required()->type_name("FILE");
