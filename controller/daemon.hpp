@@ -1,4 +1,4 @@
-// The running controller: four threads around one Controller.
+// The running controller: four threads around one Controller, on the system clock and LCM.
 //
 //   LCM thread      receives states and targets, validates them, posts them to mailboxes
 //   real-time loop  every period (absolute-time sleep): latest state → Controller::tick →
@@ -8,7 +8,8 @@
 //                   at status_hz (at once on a change of mode) and reports changes on stderr
 //
 // Only the status thread and the caller allocate or print; the loop and the receivers hand over
-// through lock-free mailboxes and a ring.
+// through lock-free mailboxes and a ring. Each thread runs one step of a controller::Node
+// (node.hpp) per turn, which the in-process tests run in simulated time.
 #pragma once
 
 #include <atomic>

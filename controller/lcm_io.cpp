@@ -1,8 +1,5 @@
 #include "chasles/controller/lcm_io.hpp"
 
-#include <utility>
-
-#include "chasles/controller/clock.hpp"
 #include "chasles/lcmtypes/checked.hpp"
 
 namespace chasles::controller {
@@ -20,26 +17,14 @@ std::string Rejections::last() const {
   return last_;
 }
 
-StateReceiver::StateReceiver(lcm_t* lcm, const std::string& channel, int num_joints, Mailbox<JointState>& mailbox,
-                             Rejections& rejections)
-    : lcm_(lcm), num_joints_(num_joints), mailbox_(mailbox), rejections_(rejections) {
+StateReceiver::StateReceiver(int num_joints, Mailbox<JointState>& mailbox)
+    : num_joints_(num_joints), mailbox_(mailbox) {
   message_.num_joints = num_joints;
   for (auto* v : {&message_.position, &message_.velocity, &message_.effort}) v->assign(size_t(num_joints), 0.0);
-  if (lcm_ != nullptr) subscription_ = lcm_subscribe(lcm_, channel.c_str(), &StateReceiver::on_message, this);
 }
 
-StateReceiver::~StateReceiver() {
-  if (subscription_ != nullptr) lcm_unsubscribe(lcm_, subscription_);
-}
-
-void StateReceiver::on_message(const lcm_recv_buf_t* rbuf, const char*, void* self) {
-  auto* receiver = static_cast<StateReceiver*>(self);
-  const std::string why = receiver->receive(rbuf->data, static_cast<int>(rbuf->data_size), monotonic_ns());
-  if (!why.empty()) receiver->rejections_.add("robot state " + why);
-}
-
-std::string StateReceiver::receive(const void* data, int size, int64_t arrival_ns) {
-  if (std::string why = messages::decode_checked(data, size_t(size), message_, num_joints_, messages::Finite::Required);
+std::string StateReceiver::receive(const void* data, size_t size, int64_t arrival_ns) {
+  if (std::string why = messages::decode_checked(data, size, message_, num_joints_, messages::Finite::Required);
       !why.empty()) {
     return why;
   }
@@ -53,26 +38,14 @@ std::string StateReceiver::receive(const void* data, int size, int64_t arrival_n
   return {};
 }
 
-TargetReceiver::TargetReceiver(lcm_t* lcm, const std::string& channel, int num_joints, SpscRing<Target>& queue,
-                               Rejections& rejections)
-    : lcm_(lcm), num_joints_(num_joints), target_(num_joints), queue_(queue), rejections_(rejections) {
+TargetReceiver::TargetReceiver(int num_joints, SpscRing<Target>& queue)
+    : num_joints_(num_joints), target_(num_joints), queue_(queue) {
   message_.joint_position.reserve(size_t(num_joints));
-  if (lcm_ != nullptr) subscription_ = lcm_subscribe(lcm_, channel.c_str(), &TargetReceiver::on_message, this);
 }
 
-TargetReceiver::~TargetReceiver() {
-  if (subscription_ != nullptr) lcm_unsubscribe(lcm_, subscription_);
-}
-
-void TargetReceiver::on_message(const lcm_recv_buf_t* rbuf, const char*, void* self) {
-  auto* receiver = static_cast<TargetReceiver*>(self);
-  const std::string why = receiver->receive(rbuf->data, static_cast<int>(rbuf->data_size));
-  if (!why.empty()) receiver->rejections_.add("target " + why);
-}
-
-std::string TargetReceiver::receive(const void* data, int size) {
+std::string TargetReceiver::receive(const void* data, size_t size) {
   // 0 entries (HOLD, CARTESIAN) or the arm's count; the controller says which the mode needs.
-  if (std::string why = messages::decode_checked(data, size_t(size), message_, num_joints_); !why.empty()) return why;
+  if (std::string why = messages::decode_checked(data, size, message_, num_joints_); !why.empty()) return why;
   target_.mode = message_.mode;
   target_.num_joints = message_.num_joints;
   target_.q.setZero();
@@ -101,21 +74,10 @@ bool SentCommands::take(int64_t seq, int64_t utime) {
                                                                             std::memory_order_acq_rel);
 }
 
-CommandWatch::CommandWatch(lcm_t* lcm, const std::string& channel, SentCommands& sent)
-    : lcm_(lcm), sent_(sent) {
-  if (lcm_ != nullptr) subscription_ = lcm_subscribe(lcm_, channel.c_str(), &CommandWatch::on_message, this);
-}
+CommandWatch::CommandWatch(SentCommands& sent) : sent_(sent) {}
 
-CommandWatch::~CommandWatch() {
-  if (subscription_ != nullptr) lcm_unsubscribe(lcm_, subscription_);
-}
-
-void CommandWatch::on_message(const lcm_recv_buf_t* rbuf, const char*, void* self) {
-  static_cast<CommandWatch*>(self)->receive(rbuf->data, static_cast<int>(rbuf->data_size));
-}
-
-bool CommandWatch::receive(const void* data, int size) {
-  const bool command = messages::decode_checked(data, size_t(size), message_).empty();
+bool CommandWatch::receive(const void* data, size_t size) {
+  const bool command = messages::decode_checked(data, size, message_).empty();
   if (command && sent_.take(message_.seq, message_.utime)) return false;
   if (foreign_.load(std::memory_order_relaxed) == 0) {
     first_seq_.store(command ? message_.seq : -1, std::memory_order_relaxed);
@@ -125,8 +87,7 @@ bool CommandWatch::receive(const void* data, int size) {
   return true;
 }
 
-CommandPublisher::CommandPublisher(lcm_t* lcm, std::string channel, int num_joints)
-    : lcm_(lcm), channel_(std::move(channel)) {
+CommandEncoder::CommandEncoder(int num_joints) {
   message_.utime = message_.seq = 0;
   message_.state_seq = -1;
   message_.num_joints = num_joints;
@@ -134,16 +95,12 @@ CommandPublisher::CommandPublisher(lcm_t* lcm, std::string channel, int num_join
   bytes_.resize(size_t(message_.getEncodedSize()));
 }
 
-void CommandPublisher::encode(int64_t utime, int64_t seq, int64_t state_seq, const Eigen::VectorXd& torque) {
+void CommandEncoder::encode(int64_t utime, int64_t seq, int64_t state_seq, const Eigen::VectorXd& torque) {
   message_.utime = utime;
   message_.seq = seq;
   message_.state_seq = state_seq;
   Eigen::Map<Eigen::VectorXd>(message_.torque.data(), message_.num_joints) = torque;
   message_.encode(bytes_.data(), 0, static_cast<int>(bytes_.size()));  // the buffer fits by construction
-}
-
-bool CommandPublisher::send() {
-  return lcm_ != nullptr && lcm_publish(lcm_, channel_.c_str(), bytes_.data(), static_cast<unsigned>(bytes_.size())) == 0;
 }
 
 }  // namespace chasles::controller

@@ -473,7 +473,7 @@ TEST_F(ControllerTest, StandingDownIsLatchedAgainstFreshStatesAndTargets) {
 
 TEST_F(ControllerTest, TheTickAllocatesNothing) {
   Controller controller(model_, config_);
-  CommandPublisher publisher(nullptr, "UNUSED", 7);  // encoding only: sending is tested in a netns
+  CommandEncoder publisher(7);
   ASSERT_TRUE(controller.tick(0, fresh(0)));
   VectorXd goal = bent_pose();
   goal(1) += 0.4;
@@ -510,12 +510,11 @@ robot_state_t state_message(int n) {
 
 TEST(StateReceiver, AcceptsAWellFormedStateAndRefusesEveryMalformedOne) {
   Mailbox<JointState> mailbox{JointState(7)};
-  Rejections rejections;
-  StateReceiver receiver(nullptr, "", 7, mailbox, rejections);
+  StateReceiver receiver(7, mailbox);
   JointState out(7);
 
   const auto good = encode(state_message(7));
-  EXPECT_EQ(receiver.receive(good.data(), int(good.size()), 123), "");
+  EXPECT_EQ(receiver.receive(good.data(), good.size(), 123), "");
   ASSERT_TRUE(mailbox.read(out));
   EXPECT_EQ(out.seq, 42);
   EXPECT_EQ(out.arrival_ns, 123);
@@ -523,7 +522,7 @@ TEST(StateReceiver, AcceptsAWellFormedStateAndRefusesEveryMalformedOne) {
   EXPECT_TRUE(matrices_near(out.qd, VectorXd::Constant(7, -0.5), 0.0));
 
   const auto refused = [&](const std::vector<uint8_t>& bytes, const std::string& words) {
-    const std::string why = receiver.receive(bytes.data(), int(bytes.size()), 0);
+    const std::string why = receiver.receive(bytes.data(), bytes.size(), 0);
     EXPECT_NE(why.find(words), std::string::npos) << "got '" << why << "', expected '" << words << "'";
     EXPECT_FALSE(mailbox.read(out)) << words;
   };
@@ -541,13 +540,12 @@ TEST(StateReceiver, AcceptsAWellFormedStateAndRefusesEveryMalformedOne) {
 
 TEST(TargetReceiver, PassesHoldAndJointTargetsAndRefusesAnOversizedCount) {
   SpscRing<Target> queue(4, Target(7));
-  Rejections rejections;
-  TargetReceiver receiver(nullptr, "", 7, queue, rejections);
+  TargetReceiver receiver(7, queue);
   Target out(7);
   arm_target_t hold{};
   hold.mode = arm_target_t::HOLD;
   const auto hold_bytes = encode(hold);
-  EXPECT_EQ(receiver.receive(hold_bytes.data(), int(hold_bytes.size())), "");
+  EXPECT_EQ(receiver.receive(hold_bytes.data(), hold_bytes.size()), "");
   ASSERT_TRUE(queue.pop(out));
   EXPECT_EQ(out.mode, Target::kHold);
 
@@ -557,7 +555,7 @@ TEST(TargetReceiver, PassesHoldAndJointTargetsAndRefusesAnOversizedCount) {
   joint.joint_position.assign(7, 0.1);
   joint.duration = 2.0;
   const auto joint_bytes = encode(joint);
-  EXPECT_EQ(receiver.receive(joint_bytes.data(), int(joint_bytes.size())), "");
+  EXPECT_EQ(receiver.receive(joint_bytes.data(), joint_bytes.size()), "");
   ASSERT_TRUE(queue.pop(out));
   EXPECT_EQ(out.num_joints, 7);
   EXPECT_EQ(out.duration, 2.0);
@@ -566,7 +564,7 @@ TEST(TargetReceiver, PassesHoldAndJointTargetsAndRefusesAnOversizedCount) {
   joint.num_joints = 9;
   joint.joint_position.assign(9, 0.1);
   const auto too_many = encode(joint);
-  EXPECT_NE(receiver.receive(too_many.data(), int(too_many.size())).find("for 9 joints"), std::string::npos);
+  EXPECT_NE(receiver.receive(too_many.data(), too_many.size()).find("for 9 joints"), std::string::npos);
   EXPECT_FALSE(queue.pop(out));
 }
 
@@ -587,23 +585,23 @@ std::vector<uint8_t> command_bytes(int64_t seq, int64_t utime, int64_t state_seq
 // of one of ours heard again (a replay), junk. The first foreign command's numbers are kept for the report.
 TEST(CommandWatch, TellsOurOwnCommandsFromAnotherSendersAndJunk) {
   SentCommands sent;
-  CommandWatch watch(nullptr, "CHASLES_COMMAND", sent);
+  CommandWatch watch(sent);
   for (int64_t seq = 1; seq <= 10; ++seq) sent.record(seq, 1'000'000 + 1000 * seq);
   for (int64_t seq = 1; seq <= 10; ++seq) {
     const auto own = command_bytes(seq, 1'000'000 + 1000 * seq, seq + 100);
-    EXPECT_FALSE(watch.receive(own.data(), static_cast<int>(own.size()))) << seq;
+    EXPECT_FALSE(watch.receive(own.data(), own.size())) << seq;
   }
   EXPECT_EQ(watch.foreign(), 0);
   const auto again = command_bytes(5, 1'000'000 + 5000, 105);  // one of ours, heard a second time
-  EXPECT_TRUE(watch.receive(again.data(), static_cast<int>(again.size()))) << "a replay of our own command";
+  EXPECT_TRUE(watch.receive(again.data(), again.size())) << "a replay of our own command";
   EXPECT_EQ(watch.foreign(), 1);
   EXPECT_EQ(watch.first_seq(), 5);
 
   const auto other = command_bytes(3, 1'000'000 + 3000 + 1, 42);  // same seq, another clock
-  EXPECT_TRUE(watch.receive(other.data(), static_cast<int>(other.size())));
+  EXPECT_TRUE(watch.receive(other.data(), other.size()));
   EXPECT_EQ(watch.foreign(), 2);
   const auto ahead = command_bytes(11, 1'000'000 + 11'000, 0);  // a seq we have not sent yet
-  EXPECT_TRUE(watch.receive(ahead.data(), static_cast<int>(ahead.size())));
+  EXPECT_TRUE(watch.receive(ahead.data(), ahead.size()));
   const uint8_t junk[5] = {1, 2, 3, 4, 5};
   EXPECT_TRUE(watch.receive(junk, sizeof(junk)));
   auto truncated = command_bytes(1, 1'001'000, 0);

@@ -22,6 +22,7 @@
 #include <thread>
 #include <vector>
 
+#include "chasles/controller/bus.hpp"
 #include "chasles/controller/clock.hpp"
 #include "chasles/controller/controller.hpp"
 #include "chasles/controller/lcm_io.hpp"
@@ -75,15 +76,15 @@ std::vector<std::string> controller_args(std::vector<std::string> extra) {
 
 // The test's seat on the bus: hears states, commands and status reports, sends targets and
 // arbitrary bytes. Subscribed through LCM's C interface (see plant_test.cpp for why).
-class Bus {
+class Seat {
  public:
-  Bus() : lcm_(lcm_create(kLcmUrl)) {
+  Seat() : lcm_(lcm_create(kLcmUrl)) {
     if (lcm_ == nullptr) throw std::runtime_error("LCM did not start: run the test under tools/netns.sh");
-    lcm_subscribe(lcm_, "CHASLES_STATE", &Bus::on<robot_state_t, &Bus::keep_state>, this);
-    lcm_subscribe(lcm_, "CHASLES_STATUS", &Bus::on<controller_status_t, &Bus::keep_status>, this);
-    lcm_subscribe(lcm_, "CHASLES_COMMAND", &Bus::on<joint_torque_command_t, &Bus::keep_command>, this);
+    lcm_subscribe(lcm_, "CHASLES_STATE", &Seat::on<robot_state_t, &Seat::keep_state>, this);
+    lcm_subscribe(lcm_, "CHASLES_STATUS", &Seat::on<controller_status_t, &Seat::keep_status>, this);
+    lcm_subscribe(lcm_, "CHASLES_COMMAND", &Seat::on<joint_torque_command_t, &Seat::keep_command>, this);
   }
-  ~Bus() { lcm_destroy(lcm_); }
+  ~Seat() { lcm_destroy(lcm_); }
 
   // Handles messages until `done` holds or `seconds` pass; whether `done` held.
   bool until(const std::function<bool()>& done, double seconds) {
@@ -115,11 +116,11 @@ class Bus {
   std::vector<joint_torque_command_t> commands;
 
  private:
-  template <typename Message, void (Bus::*kKeep)(const Message&)>
+  template <typename Message, void (Seat::*kKeep)(const Message&)>
   static void on(const lcm_recv_buf_t* rbuf, const char*, void* self) {
     Message message;
     if (message.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) return;  // the test's own junk
-    (static_cast<Bus*>(self)->*kKeep)(message);
+    (static_cast<Seat*>(self)->*kKeep)(message);
   }
   void keep_state(const robot_state_t& m) {
     if (m.num_joints != 7 || !std::isfinite(m.velocity[2])) return;  // junk the test sent itself
@@ -148,7 +149,7 @@ std::string temp_path(const std::string& name) {
 // Lockstep (deterministic) plant: a JOINT move of the Panda ends within 1e-3 rad of its goal, at
 // rest; SIGTERM then stops the controller cleanly with its summary written.
 TEST(daemon, LockstepJointMoveReachesTheTargetAndSettles) {
-  Bus bus;
+  Seat bus;
   const std::string summary = temp_path("summary");
   ChildProcess plant(plant_args({"--lockstep", "--q0", list(bent_pose())}));
   ChildProcess controller(controller_args({"--summary", summary}));
@@ -191,7 +192,7 @@ TEST(daemon, LockstepCartesianMoveEndsAtTheGoalPose) {
   q_goal(5) -= 0.2;
   const Transform T_goal = forward_kinematics(model, data, q_goal);
   const Eigen::Quaterniond r(T_goal.linear());
-  Bus bus;
+  Seat bus;
   ChildProcess plant(plant_args({"--lockstep", "--q0", list(bent_pose())}));
   ChildProcess controller(controller_args({}));
   ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
@@ -218,7 +219,7 @@ TEST(daemon, LockstepCartesianMoveEndsAtTheGoalPose) {
 
 // HOLD under gravity: the arm stays where it was found, within 1e-3 rad over 5 s.
 TEST(daemon, HoldUnderGravityDriftsLessThanAMilliradianIn5s) {
-  Bus bus;
+  Seat bus;
   ChildProcess plant(plant_args({"--lockstep", "--q0", list(bent_pose())}));
   ChildProcess controller(controller_args({}));
   ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
@@ -237,7 +238,7 @@ TEST(daemon, HoldUnderGravityDriftsLessThanAMilliradianIn5s) {
 // Malformed states and targets on the bus are refused and counted; nothing crashes and the arm
 // keeps being held.
 TEST(daemon, MalformedStatesAndTargetsAreRejectedAndCounted) {
-  Bus bus;
+  Seat bus;
   ChildProcess plant(plant_args({"--q0", list(bent_pose())}));
   ChildProcess controller(controller_args({}));
   ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
@@ -290,7 +291,7 @@ TEST(daemon, RefusesAChainWithASingularMassMatrix) {
 TEST(daemon, PlantKilledFaultsAndRestartedPlantIsHeldWhereItIs) {
   const RobotModel model = panda();
   Data data(model);
-  Bus bus;
+  Seat bus;
   auto plant = std::make_unique<ChildProcess>(plant_args({"--q0", list(bent_pose())}));
   ChildProcess controller(controller_args({"--stale-ms", "10"}));
   ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
@@ -322,7 +323,7 @@ TEST(daemon, PlantKilledFaultsAndRestartedPlantIsHeldWhereItIs) {
 
 // A lossy link: with 10 % of the states dropped the arm still follows a JOINT move.
 TEST(daemon, TracksWithTenPercentOfStatesDropped) {
-  Bus bus;
+  Seat bus;
   ChildProcess plant(plant_args({"--q0", list(bent_pose()), "--drop", "0.1", "--seed", "3"}));
   ChildProcess controller(controller_args({}));
   ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
@@ -337,30 +338,28 @@ TEST(daemon, TracksWithTenPercentOfStatesDropped) {
   EXPECT_EQ(bus.status->faults, 0) << controller.stderr_text();
 }
 
-// The whole send path of a tick — control law, encoding, lcm_publish — allocates nothing.
+// The whole send path of a tick — control law, encoding, the send on UDP multicast — allocates
+// nothing.
 TEST(daemon, TickAndPublishAllocateNothing) {
   const RobotModel model = panda();
-  lcm_t* lcm = lcm_create(kLcmUrl);
-  ASSERT_NE(lcm, nullptr);
-  {
-    Controller controller(model, Config::critically_damped(7, 20.0));
-    CommandPublisher publisher(lcm, "CHASLES_COMMAND", 7);
-    JointState state(7);
-    state.q = bent_pose();
-    ASSERT_TRUE(controller.tick(0, &state));
-    publisher.encode(0, 0, 0, controller.torque());
-    ASSERT_TRUE(publisher.send());  // the first send may set things up
-    testing::AllocationCounter counter;
-    for (int k = 1; k <= 10'000; ++k) {
-      state.arrival_ns = k * 1000;
-      state.q(0) += 1e-5;
-      ASSERT_TRUE(controller.tick(k * 1000, &state));
-      publisher.encode(k, k, k, controller.torque());
-      ASSERT_TRUE(publisher.send());
-    }
-    EXPECT_EQ(counter.count(), 0);
+  controller::Bus bus(kLcmUrl);
+  const std::string channel = "CHASLES_COMMAND";
+  Controller controller(model, Config::critically_damped(7, 20.0));
+  CommandEncoder encoder(7);
+  JointState state(7);
+  state.q = bent_pose();
+  ASSERT_TRUE(controller.tick(0, &state));
+  encoder.encode(0, 0, 0, controller.torque());
+  ASSERT_TRUE(bus.publish(channel, encoder.bytes()));  // the first send may set things up
+  testing::AllocationCounter counter;
+  for (int k = 1; k <= 10'000; ++k) {
+    state.arrival_ns = k * 1000;
+    state.q(0) += 1e-5;
+    ASSERT_TRUE(controller.tick(k * 1000, &state));
+    encoder.encode(k, k, k, controller.torque());
+    ASSERT_TRUE(bus.publish(channel, encoder.bytes()));
   }
-  lcm_destroy(lcm);
+  EXPECT_EQ(counter.count(), 0);
 }
 
 }  // namespace

@@ -5,10 +5,7 @@
 // senders on its command channel. What a reader accepts must be what the contract promises (the
 // arm's joint count, finite values; for the watch, a command of its own, once), and after every
 // input the controller ticks (1 ms later, with the latest state accepted) and must command finite
-// torques within the effort limits, whatever it was fed. LCM is the in-process memq provider: no
-// sockets.
-#include <lcm/lcm-cpp.hpp>
-
+// torques within the effort limits, whatever it was fed. The readers take bytes: no sockets.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -16,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "chasles/controller/clock.hpp"
 #include "chasles/controller/controller.hpp"
 #include "chasles/controller/lcm_io.hpp"
 #include "chasles/core/model/urdf.hpp"
@@ -31,17 +29,16 @@ using namespace chasles::controller;
 struct Readers {
   RobotModel model = load_urdf_file(CHASLES_TEST_DATA "/panda.urdf", {"panda_hand"});
   int n = model.dof();
-  lcm::LCM lcm{"memq://"};
-  Rejections rejections;
+  SimulatedClock clock;
   Mailbox<JointState> states{JointState(n)};
   SpscRing<Target> targets{4, Target(n)};
-  StateReceiver state_receiver{lcm.getUnderlyingLCM(), "STATE", n, states, rejections};
-  TargetReceiver target_receiver{lcm.getUnderlyingLCM(), "TARGET", n, targets, rejections};
-  plant::CommandInbox commands{lcm, "COMMAND", n};
+  StateReceiver state_receiver{n, states};
+  TargetReceiver target_receiver{n, targets};
+  plant::CommandInbox commands{clock, "COMMAND", n};
   Controller controller{model, Config::critically_damped(n, 20.0)};
   SentCommands sent;
-  CommandWatch watch{nullptr, "COMMAND", sent};
-  CommandPublisher publisher{nullptr, "COMMAND", n};
+  CommandWatch watch{sent};
+  CommandEncoder publisher{n};
   int64_t sent_seq = 0;
   std::vector<bool> heard{false};  // by seq: our command has come back
   JointState state{n};  // the latest state accepted
@@ -67,8 +64,8 @@ void judge_the_command_watch(Readers& r, const uint8_t* message, int bytes) {
     r.heard.push_back(false);
     if (k == 0) {
       const auto& own = r.publisher.bytes();
-      FUZZ_CHECK(!r.watch.receive(own.data(), static_cast<int>(own.size())));
-      FUZZ_CHECK(r.watch.receive(own.data(), static_cast<int>(own.size())));
+      FUZZ_CHECK(!r.watch.receive(own.data(), own.size()));
+      FUZZ_CHECK(r.watch.receive(own.data(), own.size()));
       r.heard[size_t(seq)] = true;
     }
   }
@@ -79,7 +76,7 @@ void judge_the_command_watch(Readers& r, const uint8_t* message, int bytes) {
       seq > std::max<int64_t>(0, r.sent_seq - SentCommands::kWindow) && seq <= r.sent_seq &&
       big_endian(message + 8) == 1000 * seq && !r.heard[size_t(seq)];
   const int64_t before = r.watch.foreign();
-  const bool foreign = r.watch.receive(message, bytes);
+  const bool foreign = r.watch.receive(message, size_t(bytes));
   FUZZ_CHECK(foreign == !names_unheard_own);
   FUZZ_CHECK(r.watch.foreign() == before + (foreign ? 1 : 0));
   if (!foreign) r.heard[size_t(seq)] = true;
@@ -101,7 +98,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const int bytes = static_cast<int>(size - 1);
   switch (data[0] % 5) {
     case 0:
-      if (r.state_receiver.receive(message, bytes, r.now_ns).empty()) {
+      if (r.state_receiver.receive(message, size_t(bytes), r.now_ns).empty()) {
         JointState state(r.n);
         FUZZ_CHECK(r.states.read(state));
         FUZZ_CHECK(state.q.size() == r.n && state.q.allFinite() && state.qd.allFinite());
@@ -110,7 +107,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       }
       break;
     case 1:
-      if (r.target_receiver.receive(message, bytes).empty()) {
+      if (r.target_receiver.receive(message, size_t(bytes)).empty()) {
         Target target(r.n);
         FUZZ_CHECK(r.targets.pop(target));
         FUZZ_CHECK(target.num_joints >= 0 && target.num_joints <= r.n);
@@ -119,7 +116,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       break;
     case 2: {
       const int64_t rejected = r.commands.rejected();
-      r.commands.receive(message, bytes);
+      r.commands.receive(message, size_t(bytes));
       if (r.commands.rejected() == rejected) {
         const joint_torque_command_t& command = r.commands.take();
         FUZZ_CHECK(command.num_joints == r.n && static_cast<int>(command.torque.size()) == r.n);

@@ -6,7 +6,6 @@
 // Errors: one line "chasles_plant: ..." on stderr; exit 2 for a usage error, 1 for bad input
 // (URDF, --q0, --damping) or when LCM cannot start. SIGINT and SIGTERM end it cleanly (exit 0).
 #include <poll.h>
-#include <sys/prctl.h>
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
@@ -16,6 +15,7 @@
 #include <cstdio>
 #include <iostream>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -26,13 +26,10 @@
 #include "chasles/controller/realtime.hpp"
 #include "chasles/tools/error_line.hpp"
 #include "chasles/tools/number_list.hpp"
-#include "messaging.hpp"
-#include "plant.hpp"
+#include "simulation.hpp"
 
 namespace chasles::plant {
 
-using controller::monotonic_ns;
-using controller::realtime_us;
 namespace {
 
 /// A bad value in an option that parsed (exit 1, like a bad URDF).
@@ -44,27 +41,13 @@ class InputError : public std::runtime_error {
 struct Options {
   std::string robot;
   std::string tip;
-  double rate_hz = 1000.0;
-  int substeps = 1;
   std::string damping = "0";
   std::string q0;
-  bool lockstep = false;
   bool realtime = false;
-  double timeout_ms = 50.0;
-  double max_lag_ms = -1.0;  // < 0: timeout_ms
-  std::string prefix = "CHASLES_";
   std::string lcm_url;
-  Faults faults;
   double seconds = 0.0;
+  SimulationOptions sim;
 };
-
-// Before the first command, and whenever the answer to a state is lost, a lockstep plant sends
-// its latest state again this often, so a controller can start (or resume).
-constexpr int64_t kLockstepRepeatNs = 10'000'000;
-// The brake's velocity time constant. It is held over a step like any torque, so it must be
-// several steps long to stay stable at low rates.
-constexpr double kBrakeTimeConstant = 0.05;
-constexpr int kBrakeStepsPerTimeConstant = 10;
 
 volatile std::sig_atomic_t g_stop = 0;
 void on_signal(int) { g_stop = 1; }
@@ -136,162 +119,40 @@ Eigen::VectorXd joint_damping(const RobotModel& model, const std::string& text) 
   return damping;
 }
 
-// The simulation, its LCM link and its bookkeeping; run() is the loop of the chosen mode.
-class Simulation {
- public:
-  Simulation(const Options& options, const RobotModel& model, const Eigen::VectorXd& q0, const Eigen::VectorXd& damping,
-             lcm::LCM& lcm)
-      : options_(options),
-        lcm_(lcm),
-        plant_(model, q0, damping),
-        inbox_(lcm, command_channel_, model.dof()),
-        publisher_(lcm, options.prefix + "STATE", model.dof(), options.faults, max_in_flight(options)),
-        dt_(1.0 / options.rate_hz),
-        period_ns_(static_cast<int64_t>(std::llround(1e9 / options.rate_hz))),
-        brake_time_constant_(std::max(kBrakeTimeConstant, kBrakeStepsPerTimeConstant * dt_)) {}
-
-  void run() {
-    start_ns_ = monotonic_ns();
-    end_ns_ = options_.seconds > 0.0 ? start_ns_ + static_cast<int64_t>(options_.seconds * 1e9)
-                                     : std::numeric_limits<int64_t>::max();
-    publisher_.encode(realtime_us(), seq_, plant_.q(), plant_.qd(), plant_.effort());
-    publisher_.send(start_ns_);
-    if (options_.lockstep) {
-      run_lockstep();
-    } else {
-      run_real_time();
+// Real time: one step per period on an absolute CLOCK_MONOTONIC schedule, with the latest command
+// held. A wake-up more than a period late is an overrun; the schedule restarts from then rather
+// than racing to catch up.
+void run_real_time(Simulation& simulation, Bus& bus, const controller::Clock& clock, int64_t end_ns) {
+  controller::minimise_timer_slack();  // the default 50 µs slack is most of the wake-up jitter
+  const int64_t period_ns = simulation.period_ns();
+  int64_t next_ns = clock.now_ns();
+  while (!g_stop) {
+    next_ns += period_ns;
+    const timespec wake{static_cast<time_t>(next_ns / 1'000'000'000), static_cast<long>(next_ns % 1'000'000'000)};
+    clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &wake, nullptr);  // a stop signal interrupts it
+    const int64_t now_ns = clock.now_ns();
+    if (g_stop || now_ns >= end_ns) break;
+    if (now_ns - next_ns > period_ns) {
+      simulation.count_overrun();
+      next_ns = now_ns;
     }
+    bus.handle_pending();
+    simulation.step();
   }
+}
 
-  void print_summary() const {
-    std::fprintf(stderr,
-                 "chasles_plant: stopped after %lld steps (%.3f s simulated); commands rejected %lld, stale %lld; "
-                 "states not sent %lld; overruns %lld; watchdog brakes %lld\n",
-                 static_cast<long long>(seq_), static_cast<double>(seq_) * dt_,
-                 static_cast<long long>(inbox_.rejected()), static_cast<long long>(stale_ + inbox_.stale()),
-                 static_cast<long long>(publisher_.dropped()), static_cast<long long>(overruns_),
-                 static_cast<long long>(brakes_));
+// Lockstep: the steps happen as commands arrive (in the bus's handler); between them, the state is
+// repeated and delayed states are sent when due.
+void run_lockstep(Simulation& simulation, Bus& bus, const controller::Clock& clock, int64_t end_ns) {
+  pollfd lcm_fd{bus.fileno(), POLLIN, 0};
+  while (!g_stop) {
+    const int64_t now_ns = clock.now_ns();
+    if (now_ns >= end_ns) break;
+    const int64_t wake_ns = std::min(simulation.serve_lockstep(), end_ns);
+    const int timeout_ms = static_cast<int>(std::max<int64_t>(0, (wake_ns - now_ns + 999'999) / 1'000'000));
+    if (poll(&lcm_fd, 1, timeout_ms) > 0) bus.handle_pending();
   }
-
- private:
-  // Delayed states wait in a fixed queue: at most the steps of one delay, plus the lockstep
-  // repeats, plus slack.
-  static int max_in_flight(const Options& options) {
-    const double per_second = options.rate_hz + 1e9 / kLockstepRepeatNs;
-    return static_cast<int>(std::ceil((options.faults.delay_ms + options.faults.spike_ms) * 1e-3 * per_second)) + 4;
-  }
-
-  void step_and_publish(const Eigen::Ref<const Eigen::VectorXd>& tau, int64_t now_ns) {
-    plant_.step(tau, dt_, options_.substeps);
-    ++seq_;
-    publisher_.encode(realtime_us(), seq_, plant_.q(), plant_.qd(), plant_.effort());
-    publisher_.send(now_ns);
-    last_send_ns_ = now_ns;
-  }
-
-  static Eigen::Map<const Eigen::VectorXd> torque_of(const joint_torque_command_t& command) {
-    return {command.torque.data(), static_cast<Eigen::Index>(command.torque.size())};
-  }
-
-  // Real time: how many steps a command's state_seq may lag the newest state. The plant's own
-  // injected delays are added: they stand for the network, not for a late controller.
-  int64_t max_command_lag() const {
-    const double lag_ms = (options_.max_lag_ms < 0.0 ? options_.timeout_ms : options_.max_lag_ms) +
-                          options_.faults.delay_ms + options_.faults.spike_ms;
-    return static_cast<int64_t>(std::ceil(lag_ms * 1e-3 * options_.rate_hz));
-  }
-
-  // Real time: one step per period on an absolute CLOCK_MONOTONIC schedule, with the latest
-  // command held. A wake-up more than a period late is an overrun; the schedule restarts from
-  // then rather than racing to catch up.
-  void run_real_time() {
-    prctl(PR_SET_TIMERSLACK, 1UL);  // the default 50 µs slack is most of the wake-up jitter
-    inbox_.require_recent(&seq_, max_command_lag());
-    int64_t next_ns = start_ns_;
-    while (!g_stop) {
-      next_ns += period_ns_;
-      const timespec wake{static_cast<time_t>(next_ns / 1'000'000'000), static_cast<long>(next_ns % 1'000'000'000)};
-      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &wake, nullptr);  // a stop signal interrupts it
-      const int64_t now_ns = monotonic_ns();
-      if (g_stop || now_ns >= end_ns_) break;
-      if (now_ns - next_ns > period_ns_) {
-        ++overruns_;
-        next_ns = now_ns;
-      }
-      while (lcm_.handleTimeout(0) > 0) {
-      }
-      update_brake(now_ns);
-      if (braking_) {
-        step_and_publish(plant_.brake_torque(brake_time_constant_), now_ns);
-      } else {
-        step_and_publish(torque_of(inbox_.take()), now_ns);
-      }
-      publisher_.flush(now_ns);
-      inbox_.report_rejections(now_ns);
-    }
-  }
-
-  // The watchdog: brake while no valid command has arrived for the timeout, and until the first.
-  void update_brake(int64_t now_ns) {
-    const auto timeout_ns = static_cast<int64_t>(options_.timeout_ms * 1e6);
-    const bool brake = !inbox_.any() || now_ns - inbox_.latest_arrival_ns() > timeout_ns;
-    if (brake == braking_) return;
-    braking_ = brake;
-    if (brake) {
-      ++brakes_;
-      std::fprintf(stderr, "chasles_plant: no valid command on %s for %g ms: braking to rest\n",
-                   command_channel_.c_str(), options_.timeout_ms);
-    } else {
-      std::fprintf(stderr, "chasles_plant: commands on %s: brake released\n", command_channel_.c_str());
-    }
-  }
-
-  // Lockstep: one step per command that answers the latest state (state_seq == seq), applied at
-  // once; time stands still in between, so there is no watchdog. Commands answering an older
-  // state are ignored as stale.
-  void run_lockstep() {
-    last_send_ns_ = start_ns_;
-    pollfd lcm_fd{lcm_.getFileno(), POLLIN, 0};
-    while (!g_stop) {
-      const int64_t now_ns = monotonic_ns();
-      if (now_ns >= end_ns_) break;
-      const int64_t next_delayed_ns = publisher_.flush(now_ns);
-      const int64_t wake_ns = std::min({last_send_ns_ + kLockstepRepeatNs, next_delayed_ns, end_ns_});
-      const int timeout_ms = static_cast<int>(std::max<int64_t>(0, (wake_ns - now_ns + 999'999) / 1'000'000));
-      if (poll(&lcm_fd, 1, timeout_ms) > 0) {
-        while (lcm_.handleTimeout(0) > 0) {
-          if (!inbox_.fresh()) continue;
-          const joint_torque_command_t& command = inbox_.take();
-          if (command.state_seq != seq_) {
-            ++stale_;
-            continue;
-          }
-          step_and_publish(torque_of(command), monotonic_ns());
-        }
-      }
-      const int64_t after_ns = monotonic_ns();
-      if (after_ns - last_send_ns_ >= kLockstepRepeatNs) {
-        publisher_.send(after_ns);
-        last_send_ns_ = after_ns;
-      }
-      publisher_.flush(after_ns);
-      inbox_.report_rejections(after_ns);
-    }
-  }
-
-  const Options& options_;
-  const std::string command_channel_ = options_.prefix + "COMMAND";
-  lcm::LCM& lcm_;
-  Plant plant_;
-  CommandInbox inbox_;
-  StatePublisher publisher_;
-  const double dt_;
-  const int64_t period_ns_;
-  const double brake_time_constant_;
-  int64_t start_ns_ = 0, end_ns_ = 0, last_send_ns_ = 0;
-  int64_t seq_ = 0, stale_ = 0, overruns_ = 0, brakes_ = 0;
-  bool braking_ = true;  // real time: held until the first command
-};
+}
 
 int fail(const std::string& message, int code) { return chasles::tools::fail("chasles_plant", message, code); }
 
@@ -299,11 +160,11 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--robot", o.robot, "Robot description (URDF file)")->required()->type_name("FILE");
   app.add_option("--tip", o.tip, "Link that ends the chain; needed when the URDF tree has several leaves")
       ->type_name("LINK");
-  app.add_option("--rate", o.rate_hz, "Steps per second; one robot_state_t per step")
+  app.add_option("--rate", o.sim.rate_hz, "Steps per second; one robot_state_t per step")
       ->check(kPositive)
       ->type_name("HZ")
       ->capture_default_str();
-  app.add_option("--substeps", o.substeps, "RK4 steps per step")->check(CLI::Range(1, 1000))->capture_default_str();
+  app.add_option("--substeps", o.sim.substeps, "RK4 steps per step")->check(CLI::Range(1, 1000))->capture_default_str();
   app.add_option("--damping", o.damping, "Viscous joint damping, N*m*s/rad or N*s/m: one value, or one per joint")
       ->type_name("D[,D...]")
       ->capture_default_str();
@@ -311,20 +172,20 @@ void add_options(CLI::App& app, Options& o) {
                  "Initial joint positions, rad or m, within the limits (default: zero, or the nearest limit "
                  "where zero is outside)")
       ->type_name("Q,Q,...");
-  app.add_flag("--lockstep", o.lockstep,
+  app.add_flag("--lockstep", o.sim.lockstep,
                "One step per command answering the latest state (deterministic); until then the state is "
                "sent again every 10 ms. Default: real time");
   app.add_flag("--realtime", o.realtime,
                "SCHED_FIFO 70 and mlockall for the simulation (warns if refused), so states leave on time");
-  app.add_option("--timeout-ms", o.timeout_ms, "Real time: brake after this long without a valid command")
+  app.add_option("--timeout-ms", o.sim.timeout_ms, "Real time: brake after this long without a valid command")
       ->check(kPositive)
       ->capture_default_str();
-  app.add_option("--max-command-lag-ms", o.max_lag_ms,
+  app.add_option("--max-command-lag-ms", o.sim.max_lag_ms,
                  "Real time: ignore commands answering a state more than this much older than the newest "
                  "(or one not sent yet), as if none had come (default: --timeout-ms)")
       ->check(kNonNegative)
       ->type_name("MS");
-  app.add_option("--channel-prefix", o.prefix, "Channels are PREFIX STATE and PREFIX COMMAND")
+  app.add_option("--channel-prefix", o.sim.prefix, "Channels are PREFIX STATE and PREFIX COMMAND")
       ->check(
           [](const std::string& prefix) {
             // LCM subscribes by regular expression: only characters that match themselves.
@@ -337,21 +198,21 @@ void add_options(CLI::App& app, Options& o) {
       ->capture_default_str();
   app.add_option("--lcm-url", o.lcm_url, "LCM provider URL (default: $LCM_DEFAULT_URL, else LCM's default)")
       ->type_name("URL");
-  app.add_option("--seed", o.faults.seed, "Seed of the injected faults")->capture_default_str();
-  app.add_option("--drop", o.faults.drop, "Probability of not sending a state")
+  app.add_option("--seed", o.sim.faults.seed, "Seed of the injected faults")->capture_default_str();
+  app.add_option("--drop", o.sim.faults.drop, "Probability of not sending a state")
       ->check(CLI::Range(0.0, 1.0))
       ->type_name("P");
-  app.add_option("--delay-ms", o.faults.delay_ms, "Send every state this long after it is produced")
+  app.add_option("--delay-ms", o.sim.faults.delay_ms, "Send every state this long after it is produced")
       ->check(kNonNegative)
       ->type_name("D");
-  app.add_option("--delay-spike-ms", o.faults.spike_ms,
+  app.add_option("--delay-spike-ms", o.sim.faults.spike_ms,
                  "Every --delay-spike-every states, hold every state back for this long, then send them together")
       ->check(kNonNegative)
       ->type_name("D");
-  app.add_option("--delay-spike-every", o.faults.spike_every, "States between the starts of two delay spikes")
+  app.add_option("--delay-spike-every", o.sim.faults.spike_every, "States between the starts of two delay spikes")
       ->check(at_least(1.0, true, "a whole number of states, 1 or more"))
       ->type_name("N");
-  app.add_option("--noise", o.faults.noise, "Std. deviation of gaussian noise on the sent position, rad or m")
+  app.add_option("--noise", o.sim.faults.noise, "Std. deviation of gaussian noise on the sent position, rad or m")
       ->check(kNonNegative)
       ->type_name("SIGMA");
   app.add_option("--seconds", o.seconds, "Stop after this much wall-clock time (default: run until a signal)")
@@ -412,20 +273,23 @@ int main(int argc, char** argv) {
     sigaddset(&stop_signals, SIGTERM);
     pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
 
-    lcm::LCM lcm(options.lcm_url);
-    if (!lcm.good()) {
+    std::unique_ptr<Bus> bus;
+    try {
+      bus = std::make_unique<Bus>(options.lcm_url);
+    } catch (const chasles::Error&) {
       return fail("cannot start LCM" + (options.lcm_url.empty() ? std::string() : " on " + options.lcm_url) +
                       ": is there a multicast route? Run inside tools/netns.sh with "
                       "--lcm-url 'udpm://239.255.76.67:7667?ttl=0'",
                   1);
     }
-    Simulation simulation(options, model, q0, damping, lcm);
+    const chasles::controller::SystemClock clock;
+    Simulation simulation(model, options.sim, q0, damping, *bus, clock);
     pthread_sigmask(SIG_UNBLOCK, &stop_signals, nullptr);
 
     std::fprintf(stderr, "chasles_plant: %s, %d joints to %s, %g Hz %s; state on %sSTATE, commands on %sCOMMAND\n",
-                 model.name().c_str(), model.dof(), model.tip_link().c_str(), options.rate_hz,
-                 options.lockstep ? "lockstep" : "real time (braked until the first command)", options.prefix.c_str(),
-                 options.prefix.c_str());
+                 model.name().c_str(), model.dof(), model.tip_link().c_str(), options.sim.rate_hz,
+                 options.sim.lockstep ? "lockstep" : "real time (braked until the first command)",
+                 options.sim.prefix.c_str(), options.sim.prefix.c_str());
     // Below the controller's default priority (80): on a shared machine the controller's tick
     // comes first.
     if (options.realtime) {
@@ -433,7 +297,14 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "chasles_plant: warning: %s\n", warning.c_str());
       }
     }
-    simulation.run();
+    const int64_t end_ns = options.seconds > 0.0 ? clock.now_ns() + static_cast<int64_t>(options.seconds * 1e9)
+                                                 : std::numeric_limits<int64_t>::max();
+    simulation.start();
+    if (options.sim.lockstep) {
+      run_lockstep(simulation, *bus, clock, end_ns);
+    } else {
+      run_real_time(simulation, *bus, clock, end_ns);
+    }
     simulation.print_summary();
     return 0;
   } catch (const chasles::TipNotChosenError& e) {

@@ -5,37 +5,22 @@
 #include <cstdio>
 #include <limits>
 
-#include "chasles/controller/clock.hpp"
 #include "chasles/lcmtypes/checked.hpp"
 
 namespace chasles::plant {
 
-using controller::monotonic_ns;
-using controller::realtime_us;
-
-CommandInbox::CommandInbox(lcm::LCM& lcm, const std::string& channel, int num_joints)
-    : lcm_(lcm), channel_(channel), num_joints_(num_joints) {
+CommandInbox::CommandInbox(const Clock& clock, const std::string& channel, int num_joints)
+    : clock_(clock), channel_(channel), num_joints_(num_joints) {
   for (joint_torque_command_t* message : {&latest_, &incoming_}) {
     message->utime = message->seq = 0;
     message->state_seq = -1;
     message->num_joints = num_joints;
     message->torque.assign(static_cast<size_t>(num_joints), 0.0);
   }
-  // The C interface hands the channel over as a char*; the C++ one builds a std::string for every
-  // message, which may allocate.
-  subscription_ = lcm_subscribe(lcm_.getUnderlyingLCM(), channel_.c_str(), &CommandInbox::on_message, this);
 }
 
-CommandInbox::~CommandInbox() {
-  if (subscription_ != nullptr) lcm_unsubscribe(lcm_.getUnderlyingLCM(), subscription_);
-}
-
-void CommandInbox::on_message(const lcm_recv_buf_t* rbuf, const char*, void* self) {
-  static_cast<CommandInbox*>(self)->receive(rbuf->data, static_cast<int>(rbuf->data_size));
-}
-
-void CommandInbox::receive(const void* data, int size) {
-  if (std::string why = messages::decode_checked(data, size_t(size), incoming_, num_joints_, messages::Finite::Required);
+void CommandInbox::receive(const void* data, size_t size) {
+  if (std::string why = messages::decode_checked(data, size, incoming_, num_joints_, messages::Finite::Required);
       !why.empty()) {
     return reject(why);
   }
@@ -50,7 +35,7 @@ void CommandInbox::receive(const void* data, int size) {
   }
   std::swap(latest_, incoming_);
   fresh_ = true;
-  arrival_ns_ = monotonic_ns();
+  arrival_ns_ = clock_.now_ns();
   ++received_;
 }
 
@@ -68,9 +53,9 @@ void CommandInbox::report_rejections(int64_t now_ns) {
   last_report_ns_ = now_ns;
 }
 
-StatePublisher::StatePublisher(lcm::LCM& lcm, std::string channel, int num_joints, const Faults& faults,
+StatePublisher::StatePublisher(Bus& bus, std::string channel, int num_joints, const Faults& faults,
                                int max_in_flight)
-    : lcm_(lcm), channel_(std::move(channel)), faults_(faults), rng_(faults.seed) {
+    : bus_(bus), channel_(std::move(channel)), faults_(faults), rng_(faults.seed) {
   message_.utime = message_.seq = 0;
   message_.num_joints = num_joints;
   for (auto* v : {&message_.position, &message_.velocity, &message_.effort}) {
@@ -125,7 +110,7 @@ int64_t StatePublisher::flush(int64_t now_ns) {
 
 void StatePublisher::publish(const std::vector<uint8_t>& bytes) {
   // A send that fails is a lost message, as on a real network; the receiver sees the seq gap.
-  if (lcm_.publish(channel_, bytes.data(), static_cast<unsigned>(bytes.size())) != 0) ++dropped_;
+  if (!bus_.publish(channel_, bytes)) ++dropped_;
 }
 
 }  // namespace chasles::plant

@@ -7,21 +7,26 @@
 #include <chasles/joint_torque_command_t.hpp>
 #include <chasles/robot_state_t.hpp>
 #include <cstdint>
-#include <lcm/lcm-cpp.hpp>
 #include <random>
 #include <string>
 #include <vector>
 
+#include "chasles/controller/bus.hpp"
+#include "chasles/controller/clock.hpp"
+
 namespace chasles::plant {
+
+using controller::Bus;
+using controller::Clock;
 
 /// Keeps the latest valid joint_torque_command_t for an n-joint arm. Every message passes the
 /// checked decoder (lcmtypes/checked.hpp: fingerprint, joint count, exact size, encoding, finite
 /// torques), and one that fails is counted and reported on stderr (at most once a second), never
-/// kept.
+/// kept. Fed by whoever subscribes it to the command channel.
 class CommandInbox {
  public:
-  CommandInbox(lcm::LCM& lcm, const std::string& channel, int num_joints);
-  ~CommandInbox();
+  /// `clock` stamps each command's arrival.
+  CommandInbox(const Clock& clock, const std::string& channel, int num_joints);
   CommandInbox(const CommandInbox&) = delete;
   CommandInbox& operator=(const CommandInbox&) = delete;
 
@@ -34,7 +39,7 @@ class CommandInbox {
     return latest_;
   }
   const joint_torque_command_t& latest() const { return latest_; }
-  /// CLOCK_MONOTONIC time the latest valid command arrived, ns.
+  /// The clock's time when the latest valid command arrived, ns.
   int64_t latest_arrival_ns() const { return arrival_ns_; }
   int64_t rejected() const { return rejected_; }
   /// Valid commands refused because they answer a state too old (or one never sent).
@@ -51,15 +56,13 @@ class CommandInbox {
   /// Writes one stderr line about the rejections since the last report, at most once a second.
   void report_rejections(int64_t now_ns);
 
-  /// Checks one message and keeps it if valid. Public so that tests and fuzzers can feed it bytes.
-  void receive(const void* data, int size);
+  /// Checks one message and keeps it if valid.
+  void receive(const void* data, size_t size);
 
  private:
-  static void on_message(const lcm_recv_buf_t* rbuf, const char* channel, void* self);
   void reject(const std::string& why);
 
-  lcm::LCM& lcm_;
-  lcm_subscription_t* subscription_ = nullptr;
+  const Clock& clock_;
   std::string channel_;
   int num_joints_;
   joint_torque_command_t latest_, incoming_;
@@ -93,7 +96,7 @@ struct Faults {
 class StatePublisher {
  public:
   /// `max_in_flight`: how many delayed messages can wait at once; one more is dropped.
-  StatePublisher(lcm::LCM& lcm, std::string channel, int num_joints, const Faults& faults, int max_in_flight);
+  StatePublisher(Bus& bus, std::string channel, int num_joints, const Faults& faults, int max_in_flight);
 
   /// Encodes a state; the position gets the sensor noise here, so a state sent again is
   /// the same message.
@@ -113,7 +116,7 @@ class StatePublisher {
   };
   void publish(const std::vector<uint8_t>& bytes);
 
-  lcm::LCM& lcm_;
+  Bus& bus_;
   std::string channel_;
   Faults faults_;
   robot_state_t message_;

@@ -1,0 +1,80 @@
+// The seam between the processes and the wire: one LCM instance, publish and subscribe, in the
+// manner of Drake's DrakeLcmInterface. The provider URL chooses the wire: production runs on
+// udpm:// (UDP multicast), the in-process tests on memq:// (LCM's own in-process queue), and
+// every message takes the same path either way — lcm-gen's encoding, LCM's dispatch, and the
+// checked decoder of its type (lcmtypes/checked.hpp) on the receiving side.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+extern "C" {
+typedef struct _lcm_t lcm_t;
+typedef struct _lcm_subscription_t lcm_subscription_t;
+}
+
+namespace chasles::controller {
+
+class Bus {
+ public:
+  /// Called on the thread that handles the bus, with the message's bytes as received.
+  using Handler = std::function<void(const uint8_t* data, size_t size)>;
+
+  /// Ends its subscription when destroyed; must not outlive the Bus.
+  class Subscription {
+   public:
+    Subscription() = default;
+    ~Subscription();
+    Subscription(Subscription&& other) noexcept;
+    Subscription& operator=(Subscription&& other) noexcept;
+
+   private:
+    friend class Bus;
+    lcm_t* lcm_ = nullptr;
+    lcm_subscription_t* subscription_ = nullptr;
+    std::unique_ptr<Handler> handler_;
+  };
+
+  /// Starts LCM on `url` (empty: $LCM_DEFAULT_URL, else LCM's default). Throws chasles::Error if
+  /// it cannot.
+  explicit Bus(const std::string& url);
+  ~Bus();
+  Bus(const Bus&) = delete;
+  Bus& operator=(const Bus&) = delete;
+
+  /// Sends bytes on `channel`; false if LCM failed to (the message is lost, as on a network).
+  /// Allocates nothing.
+  bool publish(const std::string& channel, const void* data, size_t size);
+  bool publish(const std::string& channel, const std::vector<uint8_t>& bytes) {
+    return publish(channel, bytes.data(), bytes.size());
+  }
+  /// Encodes an lcm-gen message and sends it (allocates: not for the real-time loop).
+  template <typename Message>
+  bool publish_message(const std::string& channel, const Message& message) {
+    std::vector<uint8_t> bytes(static_cast<size_t>(message.getEncodedSize()));
+    message.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+    return publish(channel, bytes);
+  }
+
+  /// `channel` is a regular expression, as in LCM ("CHASLES_.*" hears every chasles channel).
+  [[nodiscard]] Subscription subscribe(const std::string& channel, Handler handler);
+
+  /// Delivers one message to its subscribers, waiting up to timeout_ms for it: > 0 if one was
+  /// delivered, 0 if none came, < 0 on an LCM error.
+  int handle(int timeout_ms);
+  /// Delivers every message already waiting, without blocking; returns how many.
+  int handle_pending();
+  /// A file descriptor that is readable when a message waits (for poll).
+  int fileno() const;
+  const std::string& url() const { return url_; }
+
+ private:
+  std::string url_;
+  lcm_t* lcm_;
+};
+
+}  // namespace chasles::controller

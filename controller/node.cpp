@@ -1,0 +1,294 @@
+#include "chasles/controller/node.hpp"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+
+namespace chasles::controller {
+
+Node::Snapshot::Snapshot(int n)
+    : q(Eigen::VectorXd::Zero(n)), q_desired(Eigen::VectorXd::Zero(n)), error(Eigen::VectorXd::Zero(n)),
+      torque(Eigen::VectorXd::Zero(n)) {}
+
+void Node::Timing::record(const TickRecord& r) {
+  jitter.record(r.jitter_us);
+  compute.record(r.compute_us);
+  if (r.latency_us >= 0.0) latency.record(r.latency_us);
+  if (r.commanded) publish.record(r.publish_us);
+}
+
+void Node::Timing::merge(const Timing& other) {
+  jitter.merge(other.jitter);
+  compute.merge(other.compute);
+  latency.merge(other.latency);
+  publish.merge(other.publish);
+}
+
+void Node::Timing::reset() {
+  jitter.reset();
+  compute.reset();
+  latency.reset();
+  publish.reset();
+}
+
+Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& clock, Buses buses)
+    : model_(model),
+      options_(options),
+      clock_(clock),
+      buses_(buses),
+      n_(model.dof()),
+      period_ns_(static_cast<int64_t>(std::llround(options.control.period * 1e9))),
+      channels_(options.channel_prefix),
+      states_(JointState(n_)),
+      targets_(16, Target(n_)),
+      snapshots_(Snapshot(n_)),
+      requests_(CartesianRequest(n_)),
+      paths_(2, JointPath(n_)),
+      state_receiver_(n_, states_),
+      target_receiver_(n_, targets_),
+      command_watch_(sent_commands_),
+      command_encoder_(n_),
+      controller_(model, options.control),
+      state_(n_),
+      target_(n_),
+      request_(n_),
+      path_(n_),
+      solver_(model),
+      ik_request_(n_),
+      ik_path_(n_),
+      data_(model),
+      last_(n_) {
+  subscriptions_.push_back(buses.receive.subscribe(channels_.state, [this](const uint8_t* data, size_t size) {
+    if (const std::string why = state_receiver_.receive(data, size, clock_.now_ns()); !why.empty()) {
+      rejections_.add("robot state " + why);
+    }
+  }));
+  subscriptions_.push_back(buses.receive.subscribe(channels_.target, [this](const uint8_t* data, size_t size) {
+    if (const std::string why = target_receiver_.receive(data, size); !why.empty()) rejections_.add("target " + why);
+  }));
+  subscriptions_.push_back(buses.receive.subscribe(
+      channels_.command, [this](const uint8_t* data, size_t size) { command_watch_.receive(data, size); }));
+  status_.num_joints = n_;
+}
+
+std::string Node::refusal() const {
+  if (command_watch_.foreign() == 0) return {};
+  return "another controller is already commanding " + channels_.command + " (heard " +
+         std::to_string(command_watch_.foreign()) + " command(s) before this one sent any, first seq " +
+         std::to_string(command_watch_.first_seq()) + "); refusing to start";
+}
+
+int64_t Node::first_tick() const { return clock_.now_ns() + period_ns_; }
+
+int64_t Node::tick(int64_t scheduled) {
+  const int64_t wake = clock_.now_ns();
+  TickRecord record;
+  record.jitter_us = 1e-3 * static_cast<double>(wake - scheduled);
+
+  if (states_.read(state_)) have_state_ = true;
+  if (command_watch_.foreign() > 0 && !controller_.stood_down()) stand_down();
+  while (targets_.pop(target_)) controller_.set_target(target_, wake);
+  if (controller_.take_request(request_)) requests_.write(request_);
+  if (paths_.pop(path_)) controller_.follow(path_, wake);
+  const bool command = controller_.tick(wake, have_state_ ? &state_ : nullptr);
+  int64_t utime = 0;
+  if (command) command_encoder_.encode(utime = clock_.utime_us(), ++seq_, state_.seq, controller_.torque());
+  const int64_t computed = clock_.now_ns();
+  record.compute_us = 1e-3 * static_cast<double>(computed - wake);
+  if (command) {
+    sent_commands_.record(seq_, utime);  // before the send: our own copy may come back at once
+    if (!buses_.command.publish(channels_.command, command_encoder_.bytes())) ++counters_.send_failures;
+    const int64_t sent = clock_.now_ns();
+    record.publish_us = 1e-3 * static_cast<double>(sent - computed);
+    if (state_.seq != answered_seq_) {
+      record.latency_us = 1e-3 * static_cast<double>(sent - state_.arrival_ns);
+      answered_seq_ = state_.seq;
+      if (options_.sync_margin_us > 0.0) phase_shift_ = sync_shift(wake - state_.arrival_ns, period_ns_);
+    }
+    record.commanded = true;
+    record.error_max = controller_.error().cwiseAbs().maxCoeff();
+    record.error_sq = controller_.error().squaredNorm();
+    ++counters_.commands;
+  }
+  const int64_t finished = clock_.now_ns();
+
+  ++counters_.ticks;
+  int64_t next = scheduled + period_ns_ + phase_shift_;
+  phase_shift_ = 0;
+  if (finished > next) {
+    const int64_t missed = (finished - next) / period_ns_ + 1;
+    counters_.overruns += missed;
+    next += missed * period_ns_;
+  }
+  if (!records_.push(record)) ++counters_.lost_records;
+  publish_snapshot();
+  return next;
+}
+
+// Someone else commands this arm (a second controller, a log replayed onto the live bus): two
+// senders on one command channel drive the arm with whatever torque came last, so this one stops
+// commanding for good and reports a FAULT; the arm's own watchdog takes over if the other sender
+// stops too. Latched: only an operator can tell which sender should drive.
+void Node::stand_down() {
+  controller_.stand_down("another sender is commanding %s (seq %lld answering state %lld; our latest state %lld): "
+                         "stopped commanding",
+                         channels_.command.c_str(), static_cast<long long>(command_watch_.first_seq()),
+                         static_cast<long long>(command_watch_.first_state_seq()),
+                         static_cast<long long>(have_state_ ? state_.seq : -1));
+}
+
+// Phase lock to a plant that sends states on its own clock: shifts the next deadline so that ticks
+// come sync_margin after a state arrives instead of anywhere up to a period later. A first-order
+// loop with a small gain (robust to arrival jitter) and a bounded step (the rate never strays more
+// than 2 % from nominal), so it also follows a plant on another host whose clock drifts.
+int64_t Node::sync_shift(int64_t waited_ns, int64_t period) const {
+  constexpr double kGain = 0.1;
+  const double error = options_.sync_margin_us * 1e3 - static_cast<double>(waited_ns);
+  const double step = std::clamp(kGain * error, -0.02 * static_cast<double>(period), 0.02 * static_cast<double>(period));
+  return static_cast<int64_t>(step);
+}
+
+// Written straight into the mailbox's free slot: nothing is copied twice on the loop.
+void Node::publish_snapshot() {
+  Snapshot& s = snapshots_.back();
+  s.loop = counters_;
+  s.mode = controller_.mode();
+  std::memcpy(s.fault, controller_.fault_reason(), sizeof(s.fault));
+  std::memcpy(s.rejection, controller_.last_rejection(), sizeof(s.rejection));
+  s.q_desired = controller_.reference().q;
+  s.error = controller_.error();
+  s.q = s.q_desired - s.error;
+  s.torque = controller_.torque();
+  s.stale = controller_.stale_ticks();
+  s.faults = controller_.faults();
+  s.foreign_commands = command_watch_.foreign();
+  s.rejected_targets = controller_.rejected_targets();
+  s.ik_iterations = controller_.ik_iterations();
+  s.ik_residual = controller_.ik_residual();
+  s.ik_converged = controller_.ik_converged();
+  snapshots_.publish();
+}
+
+// Ceres allocates and takes milliseconds: never on the loop, which only hands over requests and
+// paths without waiting.
+bool Node::plan() {
+  if (!ik_path_waiting_) {
+    if (!requests_.read(ik_request_)) return false;
+    plan_cartesian_path(solver_, ik_request_, ik_path_);
+  }
+  ik_path_waiting_ = !paths_.push(ik_path_);
+  return true;
+}
+
+void Node::drain() {
+  TickRecord r;
+  while (records_.pop(r)) {
+    window_.record(r);
+    if (r.commanded) {
+      error_sq_sum_ += r.error_sq;
+      error_samples_ += n_;
+      error_max_ = std::max(error_max_, r.error_max);
+    }
+  }
+}
+
+void Node::report() {
+  drain();
+  if (snapshots_.read(last_)) have_snapshot_ = true;
+  if (!have_snapshot_) return;
+  const Snapshot& s = last_;
+  const int64_t now = clock_.now_ns();
+  const bool changed = s.mode != reported_mode_;
+  if (changed) {
+    std::fprintf(stderr, "chasles_controller: %s%s%s\n", to_string(s.mode), s.mode == Mode::kFault ? ": " : "",
+                 s.mode == Mode::kFault ? s.fault : "");
+    reported_mode_ = s.mode;
+  }
+  if (s.rejected_targets != reported_rejections_) {
+    const auto count = static_cast<long long>(s.rejected_targets - reported_rejections_);
+    if (count == 1) {
+      std::fprintf(stderr, "chasles_controller: target refused: %s\n", s.rejection);
+    } else {
+      std::fprintf(stderr, "chasles_controller: %lld targets refused, last: %s\n", count, s.rejection);
+    }
+    reported_rejections_ = s.rejected_targets;
+  }
+  if (rejections_.count() != reported_wire_) {
+    std::fprintf(stderr, "chasles_controller: rejected %lld message(s), last: %s\n",
+                 static_cast<long long>(rejections_.count() - reported_wire_), rejections_.last().c_str());
+    reported_wire_ = rejections_.count();
+  }
+  const auto status_period = static_cast<int64_t>(1e9 / options_.status_hz);
+  if (!changed && now - last_status_ns_ < status_period) return;
+  last_status_ns_ = now;
+  fill_status();
+  total_.merge(window_);
+  window_.reset();
+  status_bytes_.resize(size_t(status_.getEncodedSize()));
+  status_.encode(status_bytes_.data(), 0, static_cast<int>(status_bytes_.size()));
+  buses_.status.publish(channels_.status, status_bytes_);
+}
+
+void Node::fill_status() {
+  const Snapshot& s = last_;
+  controller_status_t& status = status_;
+  status.utime = clock_.utime_us();
+  status.state = static_cast<int8_t>(s.mode);
+  status.message = s.mode == Mode::kFault ? s.fault : s.rejected_targets > 0 ? std::string("last target refused: ") + s.rejection : "";
+  auto copy = [](const Eigen::VectorXd& v) { return std::vector<double>(v.data(), v.data() + v.size()); };
+  status.q = copy(s.q);
+  status.q_desired = copy(s.q_desired);
+  status.tracking_error = copy(s.error);
+  status.torque = copy(s.torque);
+  const Transform& T = forward_kinematics(model_, data_, s.q);
+  const Eigen::Quaterniond quaternion(T.linear());
+  for (int i = 0; i < 3; ++i) status.tip_position[i] = T.translation()(i);
+  status.tip_quaternion[0] = quaternion.w();
+  status.tip_quaternion[1] = quaternion.x();
+  status.tip_quaternion[2] = quaternion.y();
+  status.tip_quaternion[3] = quaternion.z();
+  status.ik_iterations = s.ik_iterations;
+  status.ik_residual = s.ik_residual;
+  status.ik_converged = s.ik_converged;
+  const Percentiles j = percentiles(window_.jitter), c = percentiles(window_.compute), l = percentiles(window_.latency);
+  status.jitter_p50_us = j.p50, status.jitter_p99_us = j.p99, status.jitter_max_us = j.max;
+  status.compute_p50_us = c.p50, status.compute_p99_us = c.p99, status.compute_max_us = c.max;
+  status.latency_p50_us = l.p50, status.latency_p99_us = l.p99, status.latency_max_us = l.max;
+  status.ticks = s.loop.ticks;
+  status.overruns = s.loop.overruns;
+  status.stale_states = s.stale;
+  status.rejected_messages = rejections_.count() + s.rejected_targets;
+  status.faults = s.faults;
+}
+
+Summary Node::summary(double seconds) {
+  drain();
+  total_.merge(window_);
+  window_.reset();
+  if (snapshots_.read(last_)) have_snapshot_ = true;
+  const Snapshot& s = last_;
+  Summary summary;
+  summary.ticks = s.loop.ticks;
+  summary.seconds = seconds;
+  summary.rate_hz = seconds > 0.0 ? static_cast<double>(s.loop.ticks) / seconds : 0.0;
+  summary.overruns = s.loop.overruns;
+  summary.jitter_us = percentiles(total_.jitter);
+  summary.compute_us = percentiles(total_.compute);
+  summary.latency_us = percentiles(total_.latency);
+  summary.publish_us = percentiles(total_.publish);
+  summary.send_failures = s.loop.send_failures;
+  summary.lost_timing_records = s.loop.lost_records;
+  summary.tracking_rms = error_samples_ ? std::sqrt(error_sq_sum_ / static_cast<double>(error_samples_)) : 0.0;
+  summary.tracking_max = error_max_;
+  summary.commands = s.loop.commands;
+  summary.stale_states = s.stale;
+  summary.rejected_messages = rejections_.count() + s.rejected_targets;
+  summary.faults = s.faults;
+  summary.foreign_commands = s.foreign_commands;
+  summary.realtime_granted = realtime_granted_;
+  return summary;
+}
+
+}  // namespace chasles::controller

@@ -1,0 +1,163 @@
+// The controller as a node on a bus, in steps: everything the daemon's threads do, one call per
+// turn of each loop, on a Clock. The Daemon runs the steps on their threads with the system
+// clock and UDP multicast; the in-process tests run them in one thread on a SimulatedClock and a
+// memq:// bus beside a simulated plant, tick by tick.
+//
+//   tick()    the real-time loop's body: latest state → Controller::tick → command sent from a
+//             preallocated buffer → a timing record queued. Allocates nothing.
+//   plan()    the IK worker's: one Cartesian goal planned into a joint path with Ceres
+//   report()  the status thread's: timing records into histograms, changes on stderr,
+//             controller_status_t at status_hz (at once on a change of mode)
+//
+// The bus's handler (Bus::handle on the receiving bus) feeds the receivers, which hand over
+// through lock-free mailboxes and rings: no step waits for another.
+#pragma once
+
+#include <chasles/controller_status_t.hpp>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "chasles/controller/bus.hpp"
+#include "chasles/controller/clock.hpp"
+#include "chasles/controller/controller.hpp"
+#include "chasles/controller/daemon.hpp"
+#include "chasles/controller/lcm_io.hpp"
+#include "chasles/controller/mailbox.hpp"
+#include "chasles/controller/statistics.hpp"
+#include "chasles/core/kinematics/kinematics.hpp"
+
+namespace chasles::controller {
+
+/// Where the node receives, commands and reports. Three LCM instances in the daemon, so that the
+/// loop's publish never waits on a lock another thread holds; one memq:// bus in the tests.
+struct Buses {
+  Bus& receive;
+  Bus& command;
+  Bus& status;
+};
+
+class Node {
+ public:
+  /// Keeps references to all four arguments. Throws ArgumentError for a bad config.
+  Node(const RobotModel& model, const DaemonOptions& options, const Clock& clock, Buses buses);
+  Node(const Node&) = delete;
+  Node& operator=(const Node&) = delete;
+
+  /// Empty, or why this controller must not start: another sender was heard on the command
+  /// channel before this one has sent anything.
+  std::string refusal() const;
+
+  /// The first tick's scheduled time: now + one period.
+  int64_t first_tick() const;
+  /// One tick, scheduled for `scheduled` (it reads the clock for its measurements); returns the
+  /// time the next is scheduled for. A tick that finishes past it counts the deadlines missed
+  /// and starts again from the present rather than run a burst of late ticks.
+  int64_t tick(int64_t scheduled);
+  /// Plans the newest Cartesian request, if any, into a joint path for the loop; whether it did.
+  bool plan();
+  /// Drains the timing records, reports changes on stderr and publishes a status when one is due
+  /// (or the mode changed).
+  void report();
+  /// The summary of the run so far, over `seconds` of it.
+  Summary summary(double seconds);
+
+  void set_realtime_granted(bool granted) { realtime_granted_ = granted; }
+  const Controller& controller() const { return controller_; }
+
+ private:
+  // One tick's measurements, queued by the loop for the status step.
+  struct TickRecord {
+    double jitter_us = 0.0;
+    double compute_us = 0.0;   // state read → command encoded
+    double publish_us = 0.0;   // the send (LCM hands the datagram to every local subscriber)
+    double latency_us = -1.0;  // < 0: the tick answered no new state
+    double error_max = 0.0;    // max |e_i|, when the tick commanded
+    double error_sq = 0.0;     // Σ e_i²
+    bool commanded = false;
+  };
+  // The loop's own counts, totals since start.
+  struct LoopCounters {
+    int64_t ticks = 0, overruns = 0, commands = 0, send_failures = 0;
+    int64_t lost_records = 0;  // timing records the status step fell too far behind to take
+  };
+  // What the loop shows the status step, every tick.
+  struct Snapshot {
+    Mode mode = Mode::kWaiting;
+    char fault[192] = {};
+    char rejection[192] = {};
+    Eigen::VectorXd q, q_desired, error, torque;
+    int ik_iterations = 0;
+    double ik_residual = 0.0;
+    bool ik_converged = false;
+    LoopCounters loop;
+    int64_t stale = 0, faults = 0, rejected_targets = 0, foreign_commands = 0;
+    explicit Snapshot(int n = 0);
+  };
+  // Timing figures of the status window and of the whole run.
+  struct Timing {
+    Histogram jitter, compute, latency, publish;
+    void record(const TickRecord& r);
+    void merge(const Timing& other);
+    void reset();
+  };
+
+  void stand_down();
+  int64_t sync_shift(int64_t waited_ns, int64_t period) const;
+  void publish_snapshot();
+  void drain();
+  void fill_status();
+
+  const RobotModel& model_;
+  DaemonOptions options_;
+  const Clock& clock_;
+  Buses buses_;
+  const int n_;
+  const int64_t period_ns_;
+  Channels channels_;
+  Rejections rejections_;
+  Mailbox<JointState> states_;
+  SpscRing<Target> targets_;
+  Mailbox<Snapshot> snapshots_;
+  SpscRing<TickRecord> records_{8192};
+  Mailbox<CartesianRequest> requests_;  // loop → IK: only the newest request matters
+  SpscRing<JointPath> paths_;           // IK → loop
+  StateReceiver state_receiver_;
+  TargetReceiver target_receiver_;
+  SentCommands sent_commands_;
+  CommandWatch command_watch_;
+  CommandEncoder command_encoder_;
+  Controller controller_;
+  std::vector<Bus::Subscription> subscriptions_;  // after what they feed: ended first
+  bool realtime_granted_ = false;
+
+  // The loop's side.
+  JointState state_;
+  Target target_;
+  CartesianRequest request_;
+  JointPath path_;
+  LoopCounters counters_;
+  bool have_state_ = false;
+  int64_t answered_seq_ = -1, seq_ = 0, phase_shift_ = 0;
+
+  // The IK worker's side.
+  IkSolver solver_;
+  CartesianRequest ik_request_;
+  JointPath ik_path_;
+  bool ik_path_waiting_ = false;  // planned, not yet taken by the loop
+
+  // The status step's side.
+  Data data_;
+  Snapshot last_;
+  bool have_snapshot_ = false;
+  Timing window_, total_;
+  double error_sq_sum_ = 0.0, error_max_ = 0.0;
+  int64_t error_samples_ = 0;
+  controller_status_t status_;
+  std::vector<uint8_t> status_bytes_;
+  Mode reported_mode_ = Mode::kWaiting;
+  int64_t reported_rejections_ = 0, reported_wire_ = 0;
+  int64_t last_status_ns_ = INT64_MIN / 2;
+};
+
+}  // namespace chasles::controller

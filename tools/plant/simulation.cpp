@@ -1,0 +1,132 @@
+#include "simulation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace chasles::plant {
+namespace {
+
+// Before the first command, and whenever the answer to a state is lost, a lockstep plant sends
+// its latest state again this often, so a controller can start (or resume).
+constexpr int64_t kLockstepRepeatNs = 10'000'000;
+// The brake's velocity time constant. It is held over a step like any torque, so it must be
+// several steps long to stay stable at low rates.
+constexpr double kBrakeTimeConstant = 0.05;
+constexpr int kBrakeStepsPerTimeConstant = 10;
+
+Eigen::Map<const Eigen::VectorXd> torque_of(const joint_torque_command_t& command) {
+  return {command.torque.data(), static_cast<Eigen::Index>(command.torque.size())};
+}
+
+}  // namespace
+
+Simulation::Simulation(const RobotModel& model, const SimulationOptions& options, const Eigen::VectorXd& q0,
+                       const Eigen::VectorXd& damping, Bus& bus, const Clock& clock)
+    : options_(options),
+      bus_(bus),
+      clock_(clock),
+      command_channel_(options.prefix + "COMMAND"),
+      plant_(model, q0, damping),
+      inbox_(clock, command_channel_, model.dof()),
+      publisher_(bus, options.prefix + "STATE", model.dof(), options.faults, max_in_flight(options)),
+      dt_(1.0 / options.rate_hz),
+      period_ns_(static_cast<int64_t>(std::llround(1e9 / options.rate_hz))),
+      brake_time_constant_(std::max(kBrakeTimeConstant, kBrakeStepsPerTimeConstant * dt_)) {
+  if (!options.lockstep) inbox_.require_recent(&seq_, max_command_lag());
+  subscription_ = bus.subscribe(command_channel_, [this](const uint8_t* data, size_t size) { on_command(data, size); });
+}
+
+// Delayed states wait in a fixed queue: at most the steps of one delay, plus the lockstep repeats,
+// plus slack.
+int Simulation::max_in_flight(const SimulationOptions& options) {
+  const double per_second = options.rate_hz + 1e9 / kLockstepRepeatNs;
+  return static_cast<int>(std::ceil((options.faults.delay_ms + options.faults.spike_ms) * 1e-3 * per_second)) + 4;
+}
+
+// Real time: how many steps a command's state_seq may lag the newest state. The plant's own
+// injected delays are added: they stand for the network, not for a late controller.
+int64_t Simulation::max_command_lag() const {
+  const double lag_ms = (options_.max_lag_ms < 0.0 ? options_.timeout_ms : options_.max_lag_ms) +
+                        options_.faults.delay_ms + options_.faults.spike_ms;
+  return static_cast<int64_t>(std::ceil(lag_ms * 1e-3 * options_.rate_hz));
+}
+
+void Simulation::start() {
+  const int64_t now = clock_.now_ns();
+  publisher_.encode(clock_.utime_us(), seq_, plant_.q(), plant_.qd(), plant_.effort());
+  publisher_.send(now);
+  last_send_ns_ = now;
+}
+
+// Lockstep: one step per command that answers the latest state (state_seq == seq), applied at
+// once; time stands still in between, so there is no watchdog. Commands answering an older state
+// are ignored as stale.
+void Simulation::on_command(const uint8_t* data, size_t size) {
+  inbox_.receive(data, size);
+  if (!options_.lockstep || !inbox_.fresh()) return;
+  const joint_torque_command_t& command = inbox_.take();
+  if (command.state_seq != seq_) {
+    ++stale_;
+    return;
+  }
+  step_and_publish(torque_of(command));
+}
+
+void Simulation::step_and_publish(const Eigen::Ref<const Eigen::VectorXd>& tau) {
+  plant_.step(tau, dt_, options_.substeps);
+  ++seq_;
+  const int64_t now = clock_.now_ns();
+  publisher_.encode(clock_.utime_us(), seq_, plant_.q(), plant_.qd(), plant_.effort());
+  publisher_.send(now);
+  last_send_ns_ = now;
+}
+
+void Simulation::step() {
+  const int64_t now = clock_.now_ns();
+  update_brake(now);
+  if (braking_) {
+    step_and_publish(plant_.brake_torque(brake_time_constant_));
+  } else {
+    step_and_publish(torque_of(inbox_.take()));
+  }
+  publisher_.flush(now);
+  inbox_.report_rejections(now);
+}
+
+int64_t Simulation::serve_lockstep() {
+  const int64_t now = clock_.now_ns();
+  if (now - last_send_ns_ >= kLockstepRepeatNs) {
+    publisher_.send(now);
+    last_send_ns_ = now;
+  }
+  const int64_t next_delayed = publisher_.flush(now);
+  inbox_.report_rejections(now);
+  return std::min(last_send_ns_ + kLockstepRepeatNs, next_delayed);
+}
+
+// The watchdog: brake while no valid command has arrived for the timeout, and until the first.
+void Simulation::update_brake(int64_t now_ns) {
+  const auto timeout_ns = static_cast<int64_t>(options_.timeout_ms * 1e6);
+  const bool brake = !inbox_.any() || now_ns - inbox_.latest_arrival_ns() > timeout_ns;
+  if (brake == braking_) return;
+  braking_ = brake;
+  if (brake) {
+    ++brakes_;
+    std::fprintf(stderr, "chasles_plant: no valid command on %s for %g ms: braking to rest\n", command_channel_.c_str(),
+                 options_.timeout_ms);
+  } else {
+    std::fprintf(stderr, "chasles_plant: commands on %s: brake released\n", command_channel_.c_str());
+  }
+}
+
+void Simulation::print_summary() const {
+  std::fprintf(stderr,
+               "chasles_plant: stopped after %lld steps (%.3f s simulated); commands rejected %lld, stale %lld; "
+               "states not sent %lld; overruns %lld; watchdog brakes %lld\n",
+               static_cast<long long>(seq_), static_cast<double>(seq_) * dt_, static_cast<long long>(rejected_commands()),
+               static_cast<long long>(stale_commands()), static_cast<long long>(publisher_.dropped()),
+               static_cast<long long>(overruns_), static_cast<long long>(brakes_));
+}
+
+}  // namespace chasles::plant

@@ -1,0 +1,87 @@
+// The simulated arm on a bus: dynamics (Plant), zero-order hold of the latest valid command,
+// the watchdog's brake, injected faults on the states it sends, one step at a time on a Clock.
+// chasles_plant runs it on the system clock and UDP multicast; the in-process tests run it beside
+// a controller::Node on a SimulatedClock and a memq:// bus.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+
+#include "chasles/controller/bus.hpp"
+#include "chasles/controller/clock.hpp"
+#include "chasles/core/model/model.hpp"
+#include "messaging.hpp"
+#include "plant.hpp"
+
+namespace chasles::plant {
+
+struct SimulationOptions {
+  double rate_hz = 1000.0;  ///< steps per second; one robot_state_t per step
+  int substeps = 1;         ///< RK4 steps per step
+  /// One step per command answering the latest state, at once (deterministic); else real time.
+  bool lockstep = false;
+  double timeout_ms = 50.0;  ///< real time: brake after this long without a valid command
+  /// Real time: a command answering a state more than this much older than the newest counts as
+  /// none (< 0: timeout_ms). The injected delays are added.
+  double max_lag_ms = -1.0;
+  std::string prefix = "CHASLES_";  ///< channels PREFIX STATE and PREFIX COMMAND
+  Faults faults;
+};
+
+class Simulation {
+ public:
+  /// Starts at rest at q0 with viscous joint damping `damping`; subscribes to the command channel.
+  /// Keeps references to model, bus and clock.
+  Simulation(const RobotModel& model, const SimulationOptions& options, const Eigen::VectorXd& q0,
+             const Eigen::VectorXd& damping, Bus& bus, const Clock& clock);
+  Simulation(const Simulation&) = delete;
+  Simulation& operator=(const Simulation&) = delete;
+
+  /// Sends the initial state (seq 0).
+  void start();
+  /// Real time: one step of 1 / rate_hz at the clock's present — the watchdog, the held command
+  /// (or the brake), the state sent — and the delayed states that are due.
+  void step();
+  /// Lockstep: sends the latest state again when nothing answered it for 10 ms, and the delayed
+  /// states that are due; returns when it needs to run again (the steps themselves happen as
+  /// commands arrive).
+  int64_t serve_lockstep();
+  /// Real time: a step that came more than a period late (the caller's schedule slipped).
+  void count_overrun() { ++overruns_; }
+
+  int64_t period_ns() const { return period_ns_; }
+  const Plant& plant() const { return plant_; }
+  bool braking() const { return braking_; }
+  int64_t steps() const { return seq_; }
+  int64_t brakes() const { return brakes_; }
+  int64_t rejected_commands() const { return inbox_.rejected(); }
+  int64_t stale_commands() const { return stale_ + inbox_.stale(); }
+  int64_t states_not_sent() const { return publisher_.dropped(); }
+  /// One line on stderr: what the run did.
+  void print_summary() const;
+
+ private:
+  static int max_in_flight(const SimulationOptions& options);
+  int64_t max_command_lag() const;
+  void on_command(const uint8_t* data, size_t size);
+  void step_and_publish(const Eigen::Ref<const Eigen::VectorXd>& tau);
+  void update_brake(int64_t now_ns);
+
+  SimulationOptions options_;
+  Bus& bus_;
+  const Clock& clock_;
+  const std::string command_channel_;
+  Plant plant_;
+  CommandInbox inbox_;
+  StatePublisher publisher_;
+  const double dt_;
+  const int64_t period_ns_;
+  const double brake_time_constant_;
+  int64_t last_send_ns_ = 0;
+  int64_t seq_ = 0, stale_ = 0, overruns_ = 0, brakes_ = 0;
+  bool braking_ = true;  // real time: held until the first command
+  Bus::Subscription subscription_;  // last: ended before what it feeds
+};
+
+}  // namespace chasles::plant
