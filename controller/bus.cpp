@@ -39,7 +39,7 @@ bool Bus::publish(const std::string& channel, const void* data, size_t size) {
   return lcm_publish(lcm_, channel.c_str(), data, static_cast<unsigned>(size)) == 0;
 }
 
-Bus::Subscription Bus::subscribe(const std::string& channel, Handler handler) {
+Bus::Subscription Bus::subscribe(const std::string& channel, Handler handler, int queue_capacity) {
   Subscription s;
   s.lcm_ = lcm_;
   s.handler_ = std::make_unique<Handler>(std::move(handler));
@@ -52,6 +52,7 @@ Bus::Subscription Bus::subscribe(const std::string& channel, Handler handler) {
       },
       s.handler_.get());
   if (s.subscription_ == nullptr) throw Error("LCM could not subscribe to " + channel);
+  if (queue_capacity > 0) lcm_subscription_set_queue_capacity(s.subscription_, queue_capacity);
   return s;
 }
 

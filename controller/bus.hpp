@@ -61,7 +61,9 @@ class Bus {
   }
 
   /// `channel` is a regular expression, as in LCM ("CHASLES_.*" hears every chasles channel).
-  [[nodiscard]] Subscription subscribe(const std::string& channel, Handler handler);
+  /// `queue_capacity` > 0: how many messages may wait for this subscriber before LCM drops the
+  /// newest (LCM's default otherwise, 30).
+  [[nodiscard]] Subscription subscribe(const std::string& channel, Handler handler, int queue_capacity = 0);
 
   /// Delivers one message to its subscribers, waiting up to timeout_ms for it: > 0 if one was
   /// delivered, 0 if none came, < 0 on an LCM error.

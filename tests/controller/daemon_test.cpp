@@ -288,56 +288,6 @@ TEST(daemon, RefusesAChainWithASingularMassMatrix) {
       << err;
 }
 
-TEST(daemon, PlantKilledFaultsAndRestartedPlantIsHeldWhereItIs) {
-  const RobotModel model = panda();
-  Data data(model);
-  Seat bus;
-  auto plant = std::make_unique<ChildProcess>(plant_args({"--q0", list(bent_pose())}));
-  ChildProcess controller(controller_args({"--stale-ms", "10"}));
-  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
-  bus.listen(0.3);
-
-  plant->stop(SIGKILL);
-  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::FAULT); }, 2.0)) << controller.stderr_text();
-  const int64_t last_state_utime = bus.state->utime;
-  const double detection_ms = 1e-3 * static_cast<double>(bus.status->utime - last_state_utime);
-  std::printf("plant killed: FAULT reported %.2f ms after its last state\n", detection_ms);
-  EXPECT_LE(detection_ms, 10.0 + 100.0);
-  EXPECT_NE(bus.status->message.find("no fresh robot state"), std::string::npos) << bus.status->message;
-  bus.commands.clear();
-  bus.listen(0.1);
-  EXPECT_TRUE(bus.commands.empty()) << "no commands during a FAULT";
-
-  VectorXd elsewhere = bent_pose();
-  elsewhere(1) = 0.2;
-  elsewhere(3) = -1.8;
-  plant = std::make_unique<ChildProcess>(plant_args({"--q0", list(elsewhere)}));
-  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
-  ASSERT_TRUE(bus.until([&] { return !bus.commands.empty(); }, 1.0));
-  EXPECT_LT((vector_of(bus.status->q_desired) - elsewhere).cwiseAbs().maxCoeff(), 1e-3);
-  const VectorXd g = gravity_torques(model, data, elsewhere);
-  EXPECT_LT((vector_of(bus.commands.front().torque) - g).cwiseAbs().maxCoeff(), 0.5)
-      << "first torque " << vector_of(bus.commands.front().torque).transpose() << "\ng " << g.transpose();
-  EXPECT_GE(bus.status->faults, 1);
-}
-
-// A lossy link: with 10 % of the states dropped the arm still follows a JOINT move.
-TEST(daemon, TracksWithTenPercentOfStatesDropped) {
-  Seat bus;
-  ChildProcess plant(plant_args({"--q0", list(bent_pose()), "--drop", "0.1", "--seed", "3"}));
-  ChildProcess controller(controller_args({}));
-  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
-  VectorXd goal = bent_pose();
-  goal(0) -= 0.5;
-  goal(2) += 0.3;
-  bus.send_target(joint_target(goal, 1.0));
-  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::RUNNING); }, 2.0));
-  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0));
-  bus.listen(0.5);
-  EXPECT_LT((vector_of(bus.state->position) - goal).cwiseAbs().maxCoeff(), 2e-3);
-  EXPECT_EQ(bus.status->faults, 0) << controller.stderr_text();
-}
-
 // The whole send path of a tick — control law, encoding, the send on UDP multicast — allocates
 // nothing.
 TEST(daemon, TickAndPublishAllocateNothing) {

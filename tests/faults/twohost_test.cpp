@@ -64,7 +64,7 @@ TEST(twohost, TheControllerRunsInTheOtherNamespace) {
 // own state-arrival → command figure, and the round trip plant side → controller → plant side).
 TEST(twohost, JointMoveAcrossTheVethPair) {
   const std::string summary = temp_path("summary");
-  Bus bus(kLcmUrl);
+  Seat bus(kLcmUrl);
   ChildProcess plant(plant_args("CHASLES_", bent_pose()));
   ChildProcess controller(remote_controller_args("CHASLES_", summary));
   ASSERT_TRUE(bus.wait_for(controller_status_t::HOLDING, 5.0)) << controller.stderr_text();
@@ -105,7 +105,7 @@ TEST(twohost, JointMoveAcrossTheVethPair) {
 // channels (which would be a FAULT) and no command for one arm answers the other's states.
 TEST(twohost, TwoArmsWithDifferentPrefixesDoNotInterfere) {
   const std::string summary1 = temp_path("arm1"), summary2 = temp_path("arm2");
-  Bus arm1(kLcmUrl, "ARM1_"), arm2(kLcmUrl, "ARM2_");
+  Seat arm1(kLcmUrl, "ARM1_"), arm2(kLcmUrl, "ARM2_");
   VectorXd start2 = bent_pose();
   start2(0) = -0.5;
   ChildProcess plant1(plant_args("ARM1_", bent_pose()));
@@ -141,7 +141,7 @@ TEST(twohost, TwoArmsWithDifferentPrefixesDoNotInterfere) {
                 static_cast<long long>(s["commands"].get<int64_t>()));
     std::remove(path.c_str());
   }
-  for (const Bus* bus : {&arm1, &arm2}) {
+  for (const Seat* bus : {&arm1, &arm2}) {
     const CommandReport c = check_commands(panda(), bus->commands(), bus->statuses(), 0.05, 1e-3);
     EXPECT_EQ(c.non_finite + c.effort_violations + c.rate_violations, 0) << c.first_violation;
     EXPECT_EQ(c.restarts_from_gravity, 1) << "a command that answers none of this arm's states";

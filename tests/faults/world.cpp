@@ -1,0 +1,132 @@
+#include "world.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "chasles/lcmtypes/checked.hpp"
+
+namespace chasles::faults {
+namespace {
+
+constexpr size_t kPositions = 8192;  // states remembered by seq: seconds, far more than a command answers
+constexpr int kQueue = 1 << 16;      // the test's subscriptions lose nothing, whatever the burst
+
+}  // namespace
+
+Recorder::Recorder(Bus& bus, const SimulatedClock& clock, const std::string& prefix)
+    : bus_(bus), clock_(clock), prefix_(prefix), positions_(kPositions, {-1, Eigen::VectorXd()}) {
+  subscriptions_.push_back(bus.subscribe(
+      prefix + "STATE",
+      [this](const uint8_t* data, size_t size) {
+        robot_state_t m;
+        if (!messages::decode_checked(data, size, m, messages::kAnyArm, messages::Finite::Required).empty()) return;
+        ++index_;
+        state_arrivals_.push_back(clock_.now_ns());
+        positions_[size_t(m.seq) % kPositions] = {m.seq, vector_of(m.position)};
+        state_ = std::move(m);
+      },
+      kQueue));
+  subscriptions_.push_back(bus.subscribe(
+      prefix + "COMMAND",
+      [this](const uint8_t* data, size_t size) {
+        HeardCommand c{};
+        if (!messages::decode_checked(data, size, c.message).empty()) return;
+        if (own_commands_.count({c.message.seq, c.message.utime}) > 0) return;
+        c.index = ++index_;
+        const auto& [seq, q] = positions_[size_t(std::max<int64_t>(c.message.state_seq, 0)) % kPositions];
+        if (seq == c.message.state_seq) c.q_answered = q;
+        commands_.push_back(std::move(c));
+      },
+      kQueue));
+  subscriptions_.push_back(bus.subscribe(
+      prefix + "STATUS",
+      [this](const uint8_t* data, size_t size) {
+        HeardStatus s{};
+        if (!messages::decode_checked(data, size, s.message).empty()) return;
+        s.index = ++index_;
+        status_ = s.message;
+        statuses_.push_back(std::move(s));
+      },
+      kQueue));
+}
+
+int64_t Recorder::commands_after(int64_t index) const {
+  return std::count_if(commands_.begin(), commands_.end(), [index](const HeardCommand& c) { return c.index > index; });
+}
+
+World::World() : bus_("memq://"), recorder_(std::make_unique<Recorder>(bus_, clock_)) {}
+
+World::~World() {
+  controllers_.clear();  // their subscriptions before the bus
+  plant_.reset();
+  recorder_.reset();
+}
+
+plant::Simulation& World::start_plant(const Eigen::VectorXd& q0, const plant::SimulationOptions& options) {
+  plant_.reset();
+  plant_ = std::make_unique<plant::Simulation>(panda(), options, q0, Eigen::VectorXd::Constant(q0.size(), 0.5), bus_,
+                                               clock_);
+  plant_->start();
+  plant_next_ = now() + plant_->period_ns();
+  bus_.handle_pending();
+  return *plant_;
+}
+
+void World::kill_plant() { plant_.reset(); }
+
+int World::add_controller(const controller::DaemonOptions& options, int64_t phase_ns) {
+  auto c = std::make_unique<Controller>();
+  c->options = options;
+  c->node = std::make_unique<controller::Node>(panda(), c->options, clock_,
+                                               controller::Buses{bus_, bus_, bus_});
+  c->next = c->node->first_tick() + phase_ns;
+  controllers_.push_back(std::move(c));
+  return static_cast<int>(controllers_.size()) - 1;
+}
+
+// The earliest turn due by `until`, if any: the plant's step first at a tie (its state is then
+// heard by a controller ticking at the same instant), then the controllers in the order added.
+void World::turn(int64_t until) {
+  bus_.handle_pending();  // what the test sent just now arrives now
+  while (true) {
+    int64_t next = until + 1;
+    if (plant_) next = std::min(next, plant_next_);
+    for (const auto& c : controllers_) {
+      if (c->ticking) next = std::min(next, c->next);
+    }
+    if (next > until) break;
+    clock_.advance_to(next);
+    if (plant_ && plant_next_ == next) {
+      plant_->step();
+      plant_next_ += plant_->period_ns();
+      bus_.handle_pending();
+    }
+    for (auto& c : controllers_) {
+      if (!c->ticking || c->next != next) continue;
+      c->next = c->node->tick(c->next);
+      bus_.handle_pending();
+      c->node->plan();
+      c->node->report();
+      bus_.handle_pending();
+    }
+  }
+  clock_.advance_to(until);
+  bus_.handle_pending();
+}
+
+void World::run_for(double seconds) { turn(now() + static_cast<int64_t>(std::llround(seconds * 1e9))); }
+
+bool World::run_until(const std::function<bool()>& done, double seconds) {
+  const int64_t end = now() + static_cast<int64_t>(std::llround(seconds * 1e9));
+  while (!done()) {
+    if (now() >= end) return false;
+    turn(std::min(end, now() + kMs / 10));
+  }
+  return true;
+}
+
+void World::send_joint_target(const Eigen::VectorXd& goal, double duration) {
+  recorder_->publish("TARGET", testing::joint_target(goal, duration));
+}
+
+}  // namespace chasles::faults

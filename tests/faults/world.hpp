@@ -1,0 +1,129 @@
+// The whole loop in one process, in simulated time: a controller::Node (or two) and a plant
+// Simulation on one memq:// bus and one SimulatedClock, run turn by turn in a fixed order, with
+// the test's Recorder on the same bus. Every message is lcm-gen encoded, dispatched by LCM and
+// read by the checked decoders, as between processes; only time is simulated, so a run is exact
+// and repeatable, and there are no stalls to excuse.
+//
+// The schedule: the plant steps at k·T_plant from its start; each controller ticks on its own
+// period from its start (phase), then the IK worker plans at once and the status step runs. After
+// every turn the bus delivers what was sent: the network has no latency here, the delays are the
+// ones the plant injects.
+#pragma once
+
+#include <Eigen/Core>
+#include <chasles/arm_target_t.hpp>
+#include <chasles/controller_status_t.hpp>
+#include <chasles/robot_state_t.hpp>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <set>
+#include <type_traits>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "chasles/controller/bus.hpp"
+#include "chasles/controller/clock.hpp"
+#include "chasles/controller/node.hpp"
+#include "checks.hpp"
+#include "simulation.hpp"
+
+namespace chasles::faults {
+
+using controller::Bus;
+using controller::SimulatedClock;
+
+/// The test's seat on the bus: every state (its arrival time), command (with the state it
+/// answers) and status heard, in order of arrival.
+class Recorder {
+ public:
+  Recorder(Bus& bus, const SimulatedClock& clock, const std::string& prefix = "CHASLES_");
+
+  /// Publishes a message on PREFIX + channel; commands sent this way are not the controller's
+  /// and are left out of commands().
+  template <typename Message>
+  void publish(const std::string& channel, const Message& message) {
+    if constexpr (std::is_same_v<Message, joint_torque_command_t>) own_commands_.insert({message.seq, message.utime});
+    bus_.publish_message(prefix_ + channel, message);
+  }
+
+  const std::vector<HeardCommand>& commands() const { return commands_; }
+  const std::vector<HeardStatus>& statuses() const { return statuses_; }
+  /// Arrival times of the valid states heard, ns.
+  const std::vector<int64_t>& state_arrivals() const { return state_arrivals_; }
+  const std::optional<robot_state_t>& state() const { return state_; }
+  const std::optional<controller_status_t>& status() const { return status_; }
+  bool status_is(int8_t mode) const { return status_ && status_->state == mode; }
+  /// Commands heard after the index'th message.
+  int64_t commands_after(int64_t index) const;
+  int64_t index() const { return index_; }
+
+ private:
+  Bus& bus_;
+  const SimulatedClock& clock_;
+  std::string prefix_;
+  int64_t index_ = 0;
+  std::vector<std::pair<int64_t, Eigen::VectorXd>> positions_;  // by seq modulo its size
+  std::vector<int64_t> state_arrivals_;
+  std::optional<robot_state_t> state_;
+  std::optional<controller_status_t> status_;
+  std::vector<HeardStatus> statuses_;
+  std::vector<HeardCommand> commands_;
+  std::set<std::pair<int64_t, int64_t>> own_commands_;
+  std::vector<Bus::Subscription> subscriptions_;
+};
+
+class World {
+ public:
+  static constexpr int64_t kMs = 1'000'000;
+
+  /// The model is the Panda to its TCP (checks.hpp's panda()).
+  World();
+  ~World();
+
+  SimulatedClock& clock() { return clock_; }
+  Bus& bus() { return bus_; }
+  Recorder& recorder() { return *recorder_; }
+  int64_t now() const { return clock_.now_ns(); }
+
+  /// A plant at q0 (damping 0.5 on every joint by default), its first state sent now.
+  plant::Simulation& start_plant(const Eigen::VectorXd& q0, const plant::SimulationOptions& options = {});
+  /// The plant stops as a killed process does: no more states, no goodbye.
+  void kill_plant();
+  plant::Simulation* plant() { return plant_.get(); }
+
+  /// A controller whose first tick comes one period plus `phase_ns` from now; it has been
+  /// listening since it was added. Returns its index.
+  int add_controller(const controller::DaemonOptions& options, int64_t phase_ns = kMs / 2);
+  controller::Node& controller(int i = 0) { return *controllers_.at(size_t(i))->node; }
+  /// Whether controller i ticks (a controller that is only listening, as a daemon does before its
+  /// loop starts, does not).
+  void set_ticking(int i, bool ticking) { controllers_.at(size_t(i))->ticking = ticking; }
+
+  /// Runs every turn due up to now + seconds.
+  void run_for(double seconds);
+  /// Runs until `done` holds after a turn, at most `seconds`; whether it held.
+  bool run_until(const std::function<bool()>& done, double seconds);
+
+  /// A JOINT target to `goal` over `duration` s.
+  void send_joint_target(const Eigen::VectorXd& goal, double duration);
+
+ private:
+  struct Controller {
+    controller::DaemonOptions options;
+    std::unique_ptr<controller::Node> node;
+    int64_t next = 0;
+    bool ticking = true;
+  };
+  void turn(int64_t until);
+
+  SimulatedClock clock_;
+  Bus bus_;
+  std::unique_ptr<Recorder> recorder_;
+  std::unique_ptr<plant::Simulation> plant_;
+  int64_t plant_next_ = 0;
+  std::vector<std::unique_ptr<Controller>> controllers_;
+};
+
+}  // namespace chasles::faults
