@@ -97,11 +97,32 @@ class Recording {
     std::this_thread::sleep_for(std::chrono::microseconds(500));
   }
 
-  /// Stops the logger (SIGINT: it writes what it holds and closes the file) and returns the log.
+  /// Sends WARMUP messages with payload 1 until the logger has written one, and so everything
+  /// sent before it (one sender, one receiver: LCM keeps the order; lcm-logger flushes its file
+  /// when a message comes after its flush interval, hence more than one); then stops the logger
+  /// (SIGINT: it closes the file), cuts the log where those end markers begin, and returns it: the
+  /// log holds what the test sent, and ends with it.
   std::string finish() {
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    const uint8_t end = 1;
+    const std::string marker = std::string("WARMUP") + char(end);
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    bool written = false;
+    while (!written && std::chrono::steady_clock::now() < deadline) {
+      lcm_publish(lcm_, "WARMUP", &end, 1);
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      written = read_file(path).find(marker) != std::string::npos;
+    }
+    EXPECT_TRUE(written) << "lcm-logger did not write what was sent";
     EXPECT_EQ(logger_.stop(SIGINT), 0) << logger_.stderr_text();
-    return read_file(path);
+    std::string log = read_file(path);
+    for (const RawEvent& e : raw_events(log)) {
+      if (e.channel == "WARMUP" && e.size == 28 + 6 + 1 && uint8_t(log[e.offset + 34]) == end) {
+        log.resize(e.offset);
+        std::ofstream(path, std::ios::binary | std::ios::trunc) << log;
+        break;
+      }
+    }
+    return log;
   }
 
   const std::string path;
