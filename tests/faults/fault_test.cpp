@@ -13,6 +13,9 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Geometry>
+
+#include "chasles/core/kinematics/kinematics.hpp"
 #include "world.hpp"
 
 namespace chasles::faults {
@@ -365,6 +368,31 @@ TEST(faults, ReplayedCommandsWithStaleStateSeq) {
   EXPECT_TRUE(rig.world.plant()->braking());
   EXPECT_EQ(rig.world.plant()->brakes(), 1);
   EXPECT_LT(rig.world.plant()->plant().qd().cwiseAbs().maxCoeff(), 1e-3);
+}
+
+// The IK worker in simulated time: a CARTESIAN target becomes a request, Node::plan solves it with
+// Ceres between two ticks, the loop follows the joint path; the plant's tip ends at the goal pose.
+TEST(loop, CartesianMoveEndsAtTheGoalPose) {
+  Rig rig;
+  ASSERT_TRUE(rig.holding());
+  Data data(panda());
+  const Transform goal = forward_kinematics(panda(), data, goal_a());
+  const Eigen::Quaterniond rotation(goal.linear());
+  arm_target_t target{};
+  target.mode = arm_target_t::CARTESIAN;
+  for (int i = 0; i < 3; ++i) target.tip_position[i] = goal.translation()(i);
+  target.tip_quaternion[0] = rotation.w(), target.tip_quaternion[1] = rotation.x();
+  target.tip_quaternion[2] = rotation.y(), target.tip_quaternion[3] = rotation.z();
+  target.duration = 1.5;
+  rig.bus().publish("TARGET", target);
+  rig.world.run_for(2.5);
+  EXPECT_EQ(summarise(rig.bus().statuses()).modes, "HOLDING>RUNNING>HOLDING");
+  EXPECT_TRUE(rig.status().ik_converged);
+  const Transform reached = forward_kinematics(panda(), data, vector_of(rig.bus().state()->position));
+  EXPECT_LT((reached.translation() - goal.translation()).norm(), 1e-3);
+  EXPECT_LT(Eigen::AngleAxisd(reached.linear().transpose() * goal.linear()).angle(), 1e-3);
+  EXPECT_EQ(rig.status().faults, 0);
+  expect_safe(rig, "none (Cartesian move)");
 }
 
 }  // namespace
