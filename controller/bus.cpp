@@ -26,7 +26,7 @@ Bus::Subscription& Bus::Subscription::operator=(Subscription&& other) noexcept {
   return *this;
 }
 
-Bus::Bus(const std::string& url) : url_(url), lcm_(lcm_create(url.empty() ? nullptr : url.c_str())) {
+Bus::Bus(const std::string& url) : lcm_(lcm_create(url.empty() ? nullptr : url.c_str())) {
   if (lcm_ == nullptr) {
     throw Error("LCM could not start on " + (url.empty() ? std::string("its default URL") : url) +
                 " (no multicast route? inside a network namespace run tools/netns.sh)");

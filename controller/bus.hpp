@@ -72,10 +72,8 @@ class Bus {
   int handle_pending();
   /// A file descriptor that is readable when a message waits (for poll).
   int fileno() const;
-  const std::string& url() const { return url_; }
 
  private:
-  std::string url_;
   lcm_t* lcm_;
 };
 

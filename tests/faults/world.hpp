@@ -82,8 +82,6 @@ class World {
   World();
   ~World();
 
-  SimulatedClock& clock() { return clock_; }
-  Bus& bus() { return bus_; }
   Recorder& recorder() { return *recorder_; }
   int64_t now() const { return clock_.now_ns(); }
 
