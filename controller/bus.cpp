@@ -1,6 +1,12 @@
 #include "chasles/controller/bus.hpp"
 
 #include <lcm/lcm.h>
+#include <pthread.h>
+#include <sched.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <thread>
 
 #include "chasles/core/error.hpp"
 
@@ -11,7 +17,7 @@ Bus::Subscription::~Subscription() {
 }
 
 Bus::Subscription::Subscription(Subscription&& other) noexcept
-    : lcm_(other.lcm_), subscription_(other.subscription_), handler_(std::move(other.handler_)) {
+    : lcm_(other.lcm_), subscription_(other.subscription_), slot_(std::move(other.slot_)) {
   other.subscription_ = nullptr;
 }
 
@@ -20,13 +26,26 @@ Bus::Subscription& Bus::Subscription::operator=(Subscription&& other) noexcept {
     if (subscription_ != nullptr) lcm_unsubscribe(lcm_, subscription_);
     lcm_ = other.lcm_;
     subscription_ = other.subscription_;
-    handler_ = std::move(other.handler_);
+    slot_ = std::move(other.slot_);
     other.subscription_ = nullptr;
   }
   return *this;
 }
 
-Bus::Bus(const std::string& url) : lcm_(lcm_create(url.empty() ? nullptr : url.c_str())) {
+namespace {
+
+// The provider LCM will use for `url`: udpm:// (its default) stamps each datagram with the
+// kernel's receive time.
+bool stamps_arrival(const std::string& url) {
+  const char* env = std::getenv("LCM_DEFAULT_URL");
+  const std::string effective = !url.empty() ? url : env != nullptr && *env != '\0' ? env : "udpm://";
+  return effective.rfind("udpm://", 0) == 0;
+}
+
+}  // namespace
+
+Bus::Bus(const std::string& url)
+    : lcm_(lcm_create(url.empty() ? nullptr : url.c_str())), kernel_stamps_(stamps_arrival(url)) {
   if (lcm_ == nullptr) {
     throw Error("LCM could not start on " + (url.empty() ? std::string("its default URL") : url) +
                 " (no multicast route? inside a network namespace run tools/netns.sh)");
@@ -42,15 +61,18 @@ bool Bus::publish(const std::string& channel, const void* data, size_t size) {
 Bus::Subscription Bus::subscribe(const std::string& channel, Handler handler, int queue_capacity) {
   Subscription s;
   s.lcm_ = lcm_;
-  s.handler_ = std::make_unique<Handler>(std::move(handler));
+  s.slot_ = std::make_unique<Subscription::Slot>(Subscription::Slot{std::move(handler), this});
   // The C interface hands the channel over as a char*; the C++ one builds a std::string for every
   // message, which may allocate.
   s.subscription_ = lcm_subscribe(
       lcm_, channel.c_str(),
       [](const lcm_recv_buf_t* rbuf, const char*, void* context) {
-        (*static_cast<Handler*>(context))(static_cast<const uint8_t*>(rbuf->data), rbuf->data_size);
+        auto& slot = *static_cast<Subscription::Slot*>(context);
+        slot.bus->arrival_utime_ = slot.bus->kernel_stamps_ ? rbuf->recv_utime : -1;
+        slot.handler(static_cast<const uint8_t*>(rbuf->data), rbuf->data_size);
+        slot.bus->arrival_utime_ = -1;
       },
-      s.handler_.get());
+      s.slot_.get());
   if (s.subscription_ == nullptr) throw Error("LCM could not subscribe to " + channel);
   if (queue_capacity > 0) lcm_subscription_set_queue_capacity(s.subscription_, queue_capacity);
   return s;
@@ -65,5 +87,20 @@ int Bus::handle_pending() {
 }
 
 int Bus::fileno() const { return lcm_get_fileno(lcm_); }
+
+std::string Bus::start_receiving(int priority) {
+  std::string warning;
+  std::thread starter([&] {
+    sched_param param{};
+    param.sched_priority = priority;
+    if (const int err = pthread_setschedparam(pthread_self(), SCHED_FIFO, &param); err != 0) {
+      warning = std::string("SCHED_FIFO refused for LCM's receive thread (") + std::strerror(err) +
+                "): it runs under SCHED_OTHER";
+    }
+    lcm_get_fileno(lcm_);  // udpm:// starts its receive thread here, which inherits this one's policy
+  });
+  starter.join();
+  return warning;
+}
 
 }  // namespace chasles::controller

@@ -34,9 +34,13 @@ class Bus {
 
    private:
     friend class Bus;
+    struct Slot {
+      Handler handler;
+      Bus* bus;
+    };
     lcm_t* lcm_ = nullptr;
     lcm_subscription_t* subscription_ = nullptr;
-    std::unique_ptr<Handler> handler_;
+    std::unique_ptr<Slot> slot_;
   };
 
   /// Starts LCM on `url` (empty: $LCM_DEFAULT_URL, else LCM's default). Throws chasles::Error if
@@ -73,8 +77,23 @@ class Bus {
   /// A file descriptor that is readable when a message waits (for poll).
   int fileno() const;
 
+  /// While a handler runs: when the kernel received its message, µs since the Unix epoch
+  /// (CLOCK_REALTIME, the socket's SO_TIMESTAMP) — before LCM's receive thread and the hand-over
+  /// to the handling thread, so a latency measured from it includes both. −1 when the provider
+  /// stamps no arrival (memq:// stamps the wall clock, which a simulated clock does not follow).
+  int64_t arrival_utime() const { return arrival_utime_; }
+
+  /// Starts LCM's receive thread now, from a thread running SCHED_FIFO at `priority`, so that it
+  /// inherits that policy: on udpm:// every message passes through that thread before any handler
+  /// sees it, and under SCHED_OTHER it waits behind every busy process. Call before the first
+  /// subscribe (which would start the thread under the caller's policy). Returns a warning when
+  /// SCHED_FIFO is refused (the thread then starts under SCHED_OTHER); empty otherwise.
+  std::string start_receiving(int priority);
+
  private:
   lcm_t* lcm_;
+  bool kernel_stamps_;
+  int64_t arrival_utime_ = -1;
 };
 
 }  // namespace chasles::controller

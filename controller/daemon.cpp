@@ -15,37 +15,57 @@ namespace {
 // How long a controller listens on its command channel before it starts: several periods of a
 // controller that is already running, at any rate a sender at 20 Hz or more would show.
 constexpr double kListenBeforeStart_s = 0.05;
-constexpr int64_t kIdleNs = 1'000'000;  // the IK worker's and the status thread's pace
+// How long an idle thread waits before it looks at the stop flag again (a doorbell or the bus
+// wakes it sooner when there is work).
+constexpr int64_t kIdleNs = 100'000'000;
+constexpr int64_t kReceiverPollNs = 20'000'000;
+
+void warn(const std::vector<std::string>& warnings) {
+  for (const auto& w : warnings) std::fprintf(stderr, "chasles_controller: warning: %s\n", w.c_str());
+}
 
 }  // namespace
 
 struct Daemon::Impl {
   DaemonOptions options;
   SystemClock clock;
-  Bus receive, command, status;
+  Bus receive;
+  std::string receive_warning;
+  Bus command, status;
   Node node;
   std::atomic<bool> done{false};
 
   Impl(const RobotModel& model, const DaemonOptions& o)
       : options(o),
         receive(o.lcm_url),
+        // Before the Node subscribes: LCM's receive thread starts under SCHED_FIFO with
+        // --realtime, because every state passes through it before the loop can see it.
+        receive_warning(o.realtime ? receive.start_receiving(o.priority) : std::string()),
         command(o.lcm_url),
         status(o.lcm_url),
-        node(model, options, clock, Buses{receive, command, status}) {}
+        node(model, options, clock, Buses{receive, command, status}) {
+    if (!receive_warning.empty()) warn({receive_warning});
+  }
 
-  void receive_loop() {
-    while (!done.load(std::memory_order_relaxed)) receive.handle(20);
+  bool state_driven() const { return options.tick == TickSource::kState; }
+
+  // Handles what arrives on the receiving bus until `until` (or done).
+  void receive_until(int64_t until) {
+    for (int64_t now = clock.now_ns(); !done.load(std::memory_order_relaxed) && now < until; now = clock.now_ns()) {
+      if (wait_readable(receive.fileno(), std::min(until, now + kReceiverPollNs))) receive.handle_pending();
+    }
   }
 
   void ik_loop() {
     while (!done.load(std::memory_order_relaxed)) {
-      if (!node.plan()) clock.sleep_until(clock.now_ns() + kIdleNs);
+      if (!node.plan()) node.planner_bell().wait_until(clock.now_ns() + kIdleNs);
     }
   }
 
   void status_loop() {
+    const auto status_period = static_cast<int64_t>(1e9 / options.status_hz);
     while (!done.load(std::memory_order_relaxed)) {
-      clock.sleep_until(clock.now_ns() + kIdleNs);
+      node.reporter_bell().wait_until(clock.now_ns() + std::min(status_period, kIdleNs));
       node.report();
     }
   }
@@ -54,15 +74,25 @@ struct Daemon::Impl {
     minimise_timer_slack();
     if (options.realtime) {
       const auto warnings = make_realtime(options.priority, options.cpu);
-      for (const auto& w : warnings) std::fprintf(stderr, "chasles_controller: warning: %s\n", w.c_str());
+      warn(warnings);
       node.set_realtime_granted(warnings.empty());
     }
     const int64_t start = clock.now_ns();
     const int64_t end = options.seconds > 0.0 ? start + static_cast<int64_t>(options.seconds * 1e9) : INT64_MAX;
     int64_t next = node.first_tick();
-    while (!stop.load(std::memory_order_relaxed) && next <= end) {
-      clock.sleep_until(next);
-      next = node.tick(next);
+    if (state_driven()) {
+      // One thread from the state's arrival to the command: LCM's receive thread hands the
+      // datagram over through its pipe, this thread dispatches it and ticks at once.
+      const int fd = receive.fileno();
+      while (!stop.load(std::memory_order_relaxed) && next <= end) {
+        if (wait_readable(fd, next)) receive.handle_pending();
+        if (node.state_waiting() || clock.now_ns() >= next) next = node.tick(next);
+      }
+    } else {
+      while (!stop.load(std::memory_order_relaxed) && next <= end) {
+        clock.sleep_until(next);
+        next = node.tick(next);
+      }
     }
   }
 };
@@ -74,22 +104,22 @@ Daemon::~Daemon() = default;
 Summary Daemon::run(const std::atomic<bool>& stop) {
   Impl& d = *impl_;
   const int64_t start = d.clock.now_ns();
-  std::thread receiver([&d] { d.receive_loop(); });
   // Whatever is heard on the command channel before this controller sends comes from another.
-  d.clock.sleep_until(start + static_cast<int64_t>(std::max(3.0 * d.options.control.period, kListenBeforeStart_s) * 1e9));
-  if (const std::string why = d.node.refusal(); !why.empty()) {
-    d.done = true;
-    receiver.join();
-    throw Error(why);
-  }
+  d.receive_until(start + static_cast<int64_t>(std::max(3.0 * d.options.control.period, kListenBeforeStart_s) * 1e9));
+  if (const std::string why = d.node.refusal(); !why.empty()) throw Error(why);
+  // Clock-driven, a thread of its own receives; state-driven, the loop does.
+  std::thread receiver;
+  if (!d.state_driven()) receiver = std::thread([&d] { d.receive_until(INT64_MAX); });
   std::thread status([&d] { d.status_loop(); });
   std::thread ik([&d] { d.ik_loop(); });
   std::thread loop([&d, &stop] { d.realtime_loop(stop); });
   loop.join();
   d.done = true;
+  d.node.planner_bell().ring();
+  d.node.reporter_bell().ring();
   status.join();
   ik.join();
-  receiver.join();
+  if (receiver.joinable()) receiver.join();
   return d.node.summary(1e-9 * static_cast<double>(d.clock.now_ns() - start));
 }
 

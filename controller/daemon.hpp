@@ -1,15 +1,18 @@
-// The running controller: four threads around one Controller, on the system clock and LCM.
+// The running controller: threads around one Controller, on the system clock and LCM.
 //
-//   LCM thread      receives states and targets, validates them, posts them to mailboxes
-//   real-time loop  every period (absolute-time sleep): latest state → Controller::tick →
-//                   command published from a preallocated buffer → a timing record queued
+//   real-time loop  state-driven (the default): blocks on the bus, and when a state arrives
+//                   validates it, runs Controller::tick and publishes the command at once; with
+//                   no state for 1.5 periods it ticks on the clock (the stale-state watchdog).
+//                   --tick clock: ticks every period on an absolute-time sleep, with the latest
+//                   state, and an LCM thread receives (for a plant that does not stream).
 //   IK worker       plans Cartesian goals into joint paths with Ceres (milliseconds, allocating)
 //   status thread   drains the timing records into histograms, publishes controller_status_t
 //                   at status_hz (at once on a change of mode) and reports changes on stderr
 //
 // Only the status thread and the caller allocate or print; the loop and the receivers hand over
-// through lock-free mailboxes and a ring. Each thread runs one step of a controller::Node
-// (node.hpp) per turn, which the in-process tests run in simulated time.
+// through lock-free mailboxes and a ring, and the loop wakes the workers with doorbells (idle,
+// they cost no wake-ups). Each thread runs one step of a controller::Node (node.hpp) per turn,
+// which the in-process tests run in simulated time.
 #pragma once
 
 #include <atomic>
@@ -22,6 +25,12 @@
 
 namespace chasles::controller {
 
+/// What starts a tick.
+enum class TickSource {
+  kState,  ///< a state's arrival (and the clock, as the watchdog, when states stop)
+  kClock,  ///< the clock, every period: for a plant that does not stream (a --lockstep plant)
+};
+
 struct DaemonOptions {
   Config control;
   std::string lcm_url;  ///< empty: LCM's default (or $LCM_DEFAULT_URL)
@@ -31,10 +40,7 @@ struct DaemonOptions {
   int cpu = -1;
   double seconds = 0.0;  ///< stop after this long; 0: run until stopped
   double status_hz = 100.0;
-  /// > 0: lock the tick phase to the arrival of states, ticking this long after each (see
-  /// Daemon). For a plant or driver that sends states at the control rate on its own clock; not
-  /// for a lockstep plant, whose states answer the commands.
-  double sync_margin_us = 0.0;
+  TickSource tick = TickSource::kState;
 };
 
 /// What a run measured; the figures of --summary.
@@ -42,12 +48,17 @@ struct Summary {
   int64_t ticks = 0;
   double rate_hz = 0.0;
   double seconds = 0.0;
+  /// Clock ticks: periods missed by a tick that ran late. State-driven: commands sent more than a
+  /// period after their state arrived (the plant's next step came first).
   int64_t overruns = 0;
-  Percentiles jitter_us;   ///< wake-up time minus scheduled time
+  bool state_driven = true;
+  Percentiles jitter_us;   ///< tick start minus its trigger: the state's arrival at this host (kernel
+                           ///< receive time) for a state-driven tick, else the scheduled time
   Percentiles compute_us;  ///< state read → command encoded (the control computation)
   Percentiles publish_us;  ///< the send system call: LCM over UDP multicast delivers to every
                            ///< local subscriber socket inside it, so it grows with their number
-  Percentiles latency_us;  ///< state arrival at this process → its command sent
+  Percentiles latency_us;  ///< state arrival at this host (kernel receive time on udpm://) → its
+                           ///< command sent
   double tracking_rms = 0.0, tracking_max = 0.0;  ///< |q_d − q| over commanding ticks, rad or m
   int64_t commands = 0;
   int64_t send_failures = 0;

@@ -1,20 +1,23 @@
 #include "chasles/controller/lcm_io.hpp"
 
+#include <algorithm>
+
 #include "chasles/lcmtypes/checked.hpp"
 
 namespace chasles::controller {
 
 void Rejections::add(const std::string& reason) {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    last_ = reason;
-  }
+  Reason& slot = latest_.back();
+  const size_t n = std::min(reason.size(), slot.size() - 1);
+  std::copy_n(reason.begin(), n, slot.begin());
+  slot[n] = '\0';
+  latest_.publish();
   count_.fetch_add(1, std::memory_order_relaxed);
 }
 
-std::string Rejections::last() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return last_;
+const char* Rejections::last() {
+  latest_.read(last_);
+  return last_.data();
 }
 
 StateReceiver::StateReceiver(int num_joints, Mailbox<JointState>& mailbox)

@@ -13,7 +13,6 @@
 #include <chasles/joint_torque_command_t.hpp>
 #include <chasles/robot_state_t.hpp>
 #include <cstdint>
-#include <mutex>
 #include <string>
 #include <vector>
 
@@ -29,17 +28,22 @@ struct Channels {
       : state(prefix + "STATE"), command(prefix + "COMMAND"), target(prefix + "TARGET"), status(prefix + "STATUS") {}
 };
 
-/// Counts rejected messages and keeps the latest reason, for the status report.
+/// Counts rejected messages and keeps the latest reason, for the status report. Lock-free: with
+/// state-driven ticks the real-time loop itself handles the bus.
 class Rejections {
  public:
+  /// The thread that handles the bus: one more message refused, and why (cut to 191 characters).
   void add(const std::string& reason);
+  /// Any thread.
   int64_t count() const { return count_.load(std::memory_order_relaxed); }
-  std::string last() const;
+  /// The reporting thread: the latest reason.
+  const char* last();
 
  private:
+  using Reason = std::array<char, 192>;
   std::atomic<int64_t> count_{0};
-  mutable std::mutex mutex_;  // never taken on the real-time thread
-  std::string last_;
+  Mailbox<Reason> latest_{Reason{}};
+  Reason last_{};
 };
 
 /// robot_state_t on `channel` → validated JointState in `mailbox`.

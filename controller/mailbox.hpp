@@ -29,6 +29,8 @@ class Mailbox {
     publish();
   }
 
+  /// Consumer side: whether a value was published since the last read.
+  bool fresh() const { return (middle_.load(std::memory_order_acquire) & kFresh) != 0; }
   /// Consumer side: true and `out` set to the newest value if one was published since the last
   /// read, else false and `out` untouched.
   bool read(T& out) {

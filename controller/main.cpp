@@ -13,6 +13,7 @@
 #include <csignal>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 #include <string>
@@ -112,6 +113,7 @@ void write_summary(const std::string& path, const Summary& s) {
   const Json json = {{"ticks", s.ticks},
                      {"rate_hz", s.rate_hz},
                      {"seconds", s.seconds},
+                     {"tick", s.state_driven ? "state" : "clock"},
                      {"overruns", s.overruns},
                      {"jitter_us", to_json(s.jitter_us)},
                      {"compute_us", to_json(s.compute_us)},
@@ -169,10 +171,13 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 99));
   app.add_option("--cpu", options.cpu, "pin the loop to this CPU with --realtime (default: the last one; -1: none)")
       ->check(CLI::Range(-1, 1023));
-  app.add_option("--sync-us", options.sync_margin_us,
-                 "lock the tick phase to the plant's states, ticking this many µs after each arrives "
-                 "(cuts state-to-command latency; not with a --lockstep plant)")
-      ->check(CLI::PositiveNumber);
+  app.add_option("--tick", options.tick,
+                 "what starts a tick: 'state', as each state arrives, with the clock as the watchdog "
+                 "(default); 'clock', every period, with the latest state (for a plant that does not "
+                 "stream, such as chasles_plant --lockstep)")
+      ->transform(CLI::CheckedTransformer(
+          std::map<std::string, chasles::controller::TickSource>{{"state", chasles::controller::TickSource::kState},
+                                                                 {"clock", chasles::controller::TickSource::kClock}}));
   app.add_option("--channel-prefix", options.channel_prefix, "prefix of the LCM channels (default CHASLES_)");
   app.add_option("--lcm-url", options.lcm_url, "LCM URL (default: LCM's, or $LCM_DEFAULT_URL)");
   app.add_option("--seconds", options.seconds, "stop after this long (default: run until SIGINT/SIGTERM)")

@@ -61,7 +61,7 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
       data_(model),
       last_(n_) {
   subscriptions_.push_back(buses.receive.subscribe(channels_.state, [this](const uint8_t* data, size_t size) {
-    if (const std::string why = state_receiver_.receive(data, size, clock_.now_ns()); !why.empty()) {
+    if (const std::string why = state_receiver_.receive(data, size, arrival_ns(buses_.receive)); !why.empty()) {
       rejections_.add("robot state " + why);
     }
   }));
@@ -80,32 +80,52 @@ std::string Node::refusal() const {
          std::to_string(command_watch_.first_seq()) + "); refusing to start";
 }
 
+// When the message being handled reached this host: the kernel's stamp where the bus has one,
+// so that the latency includes LCM's receive thread and the hand-over to this one; else now.
+int64_t Node::arrival_ns(const Bus& bus) const {
+  const int64_t now = clock_.now_ns();
+  const int64_t stamp_us = bus.arrival_utime();
+  if (stamp_us < 0) return now;
+  const int64_t age_ns = (clock_.utime_us() - stamp_us) * 1000;
+  return now - std::clamp<int64_t>(age_ns, 0, period_ns_ * 1000);  // a wall clock stepped meanwhile: bounded
+}
+
 int64_t Node::first_tick() const { return clock_.now_ns() + period_ns_; }
 
 int64_t Node::tick(int64_t scheduled) {
   const int64_t wake = clock_.now_ns();
+  const bool state_driven = options_.tick == TickSource::kState;
+  const Mode mode_before = controller_.mode();
   TickRecord record;
-  record.jitter_us = 1e-3 * static_cast<double>(wake - scheduled);
 
-  if (states_.read(state_)) have_state_ = true;
+  const bool fresh = states_.read(state_);
+  if (fresh) have_state_ = true;
+  const int64_t trigger = state_driven && fresh ? state_.arrival_ns : scheduled;
+  record.jitter_us = 1e-3 * static_cast<double>(wake - trigger);
   if (command_watch_.foreign() > 0 && !controller_.stood_down()) stand_down();
   while (targets_.pop(target_)) controller_.set_target(target_, wake);
-  if (controller_.take_request(request_)) requests_.write(request_);
-  if (paths_.pop(path_)) controller_.follow(path_, wake);
+  if (controller_.take_request(request_)) {
+    requests_.write(request_);
+    planner_bell_.ring();
+  }
+  if (paths_.pop(path_)) {
+    controller_.follow(path_, wake);
+    planner_bell_.ring();  // room for a path the worker may be holding
+  }
   const bool command = controller_.tick(wake, have_state_ ? &state_ : nullptr);
   int64_t utime = 0;
   if (command) command_encoder_.encode(utime = clock_.utime_us(), ++seq_, state_.seq, controller_.torque());
   const int64_t computed = clock_.now_ns();
   record.compute_us = 1e-3 * static_cast<double>(computed - wake);
+  int64_t sent = computed;
   if (command) {
     sent_commands_.record(seq_, utime);  // before the send: our own copy may come back at once
     if (!buses_.command.publish(channels_.command, command_encoder_.bytes())) ++counters_.send_failures;
-    const int64_t sent = clock_.now_ns();
+    sent = clock_.now_ns();
     record.publish_us = 1e-3 * static_cast<double>(sent - computed);
     if (state_.seq != answered_seq_) {
       record.latency_us = 1e-3 * static_cast<double>(sent - state_.arrival_ns);
       answered_seq_ = state_.seq;
-      if (options_.sync_margin_us > 0.0) phase_shift_ = sync_shift(wake - state_.arrival_ns, period_ns_);
     }
     record.commanded = true;
     record.error_max = controller_.error().cwiseAbs().maxCoeff();
@@ -115,15 +135,28 @@ int64_t Node::tick(int64_t scheduled) {
   const int64_t finished = clock_.now_ns();
 
   ++counters_.ticks;
-  int64_t next = scheduled + period_ns_ + phase_shift_;
-  phase_shift_ = 0;
-  if (finished > next) {
-    const int64_t missed = (finished - next) / period_ns_ + 1;
-    counters_.overruns += missed;
-    next += missed * period_ns_;
+  int64_t next = 0;
+  if (state_driven) {
+    if (fresh && sent - trigger > period_ns_) ++counters_.overruns;
+    next = fresh ? trigger + period_ns_ + period_ns_ / 2 : scheduled + period_ns_;
+    next = std::max(next, finished);
+  } else {
+    next = scheduled + period_ns_;
+    if (finished > next) {
+      const int64_t missed = (finished - next) / period_ns_ + 1;
+      counters_.overruns += missed;
+      next += missed * period_ns_;
+    }
   }
   if (!records_.push(record)) ++counters_.lost_records;
   publish_snapshot();
+  // The status goes out at once on what an operator must hear about now.
+  const int64_t rejected = controller_.rejected_targets(), foreign = command_watch_.foreign();
+  if (controller_.mode() != mode_before || rejected != noticed_rejections_ || foreign != noticed_foreign_) {
+    noticed_rejections_ = rejected;
+    noticed_foreign_ = foreign;
+    reporter_bell_.ring();
+  }
   return next;
 }
 
@@ -137,17 +170,6 @@ void Node::stand_down() {
                          channels_.command.c_str(), static_cast<long long>(command_watch_.first_seq()),
                          static_cast<long long>(command_watch_.first_state_seq()),
                          static_cast<long long>(have_state_ ? state_.seq : -1));
-}
-
-// Phase lock to a plant that sends states on its own clock: shifts the next deadline so that ticks
-// come sync_margin after a state arrives instead of anywhere up to a period later. A first-order
-// loop with a small gain (robust to arrival jitter) and a bounded step (the rate never strays more
-// than 2 % from nominal), so it also follows a plant on another host whose clock drifts.
-int64_t Node::sync_shift(int64_t waited_ns, int64_t period) const {
-  constexpr double kGain = 0.1;
-  const double error = options_.sync_margin_us * 1e3 - static_cast<double>(waited_ns);
-  const double step = std::clamp(kGain * error, -0.02 * static_cast<double>(period), 0.02 * static_cast<double>(period));
-  return static_cast<int64_t>(step);
 }
 
 // Written straight into the mailbox's free slot: nothing is copied twice on the loop.
@@ -177,9 +199,10 @@ bool Node::plan() {
   if (!ik_path_waiting_) {
     if (!requests_.read(ik_request_)) return false;
     plan_cartesian_path(solver_, ik_request_, ik_path_);
+    ik_path_waiting_ = true;
   }
   ik_path_waiting_ = !paths_.push(ik_path_);
-  return true;
+  return !ik_path_waiting_;  // a path that found no room waits for the loop's ring
 }
 
 void Node::drain() {
@@ -217,7 +240,7 @@ void Node::report() {
   }
   if (rejections_.count() != reported_wire_) {
     std::fprintf(stderr, "chasles_controller: rejected %lld message(s), last: %s\n",
-                 static_cast<long long>(rejections_.count() - reported_wire_), rejections_.last().c_str());
+                 static_cast<long long>(rejections_.count() - reported_wire_), rejections_.last());
     reported_wire_ = rejections_.count();
   }
   const auto status_period = static_cast<int64_t>(1e9 / options_.status_hz);
@@ -274,6 +297,7 @@ Summary Node::summary(double seconds) {
   summary.seconds = seconds;
   summary.rate_hz = seconds > 0.0 ? static_cast<double>(s.loop.ticks) / seconds : 0.0;
   summary.overruns = s.loop.overruns;
+  summary.state_driven = options_.tick == TickSource::kState;
   summary.jitter_us = percentiles(total_.jitter);
   summary.compute_us = percentiles(total_.compute);
   summary.latency_us = percentiles(total_.latency);

@@ -4,13 +4,16 @@
 // memq:// bus beside a simulated plant, tick by tick.
 //
 //   tick()    the real-time loop's body: latest state → Controller::tick → command sent from a
-//             preallocated buffer → a timing record queued. Allocates nothing.
+//             preallocated buffer → a timing record queued. Allocates nothing. State-driven,
+//             it runs as soon as a state has been handled (state_waiting()), and on the clock
+//             only as the watchdog when states stop.
 //   plan()    the IK worker's: one Cartesian goal planned into a joint path with Ceres
 //   report()  the status thread's: timing records into histograms, changes on stderr,
 //             controller_status_t at status_hz (at once on a change of mode)
 //
-// The bus's handler (Bus::handle on the receiving bus) feeds the receivers, which hand over
-// through lock-free mailboxes and rings: no step waits for another.
+// The bus's handler (Bus::handle on the receiving bus: the real-time loop's own thread when
+// state-driven) feeds the receivers, which hand over through lock-free mailboxes and rings: no
+// step waits for another. The loop rings the workers' doorbells when it hands them work.
 #pragma once
 
 #include <chasles/controller_status_t.hpp>
@@ -24,6 +27,7 @@
 #include "chasles/controller/daemon.hpp"
 #include "chasles/controller/lcm_io.hpp"
 #include "chasles/controller/mailbox.hpp"
+#include "chasles/controller/realtime.hpp"
 #include "chasles/controller/statistics.hpp"
 #include "chasles/core/kinematics/kinematics.hpp"
 
@@ -50,11 +54,17 @@ class Node {
 
   /// The first tick's scheduled time: now + one period.
   int64_t first_tick() const;
+  /// State-driven: a state has arrived that no tick has read yet (tick now).
+  bool state_waiting() const { return states_.fresh(); }
   /// One tick, scheduled for `scheduled` (it reads the clock for its measurements); returns the
-  /// time the next is scheduled for. A tick that finishes past it counts the deadlines missed
-  /// and starts again from the present rather than run a burst of late ticks.
+  /// time the next is scheduled for.
+  ///   clock-driven: a tick that finishes past the next schedule counts the periods missed and
+  ///     starts again from the present rather than run a burst of late ticks;
+  ///   state-driven: a tick that reads a new state is timed from that state's arrival, and the
+  ///     next is due 1.5 periods after it — the watchdog's tick, if no state comes first.
   int64_t tick(int64_t scheduled);
-  /// Plans the newest Cartesian request, if any, into a joint path for the loop; whether it did.
+  /// Plans the newest Cartesian request, if any, into a joint path for the loop; whether a path
+  /// was handed over (false: nothing to do, or the path waits for room — wait for the bell).
   bool plan();
   /// Drains the timing records, reports changes on stderr and publishes a status when one is due
   /// (or the mode changed).
@@ -64,6 +74,11 @@ class Node {
 
   void set_realtime_granted(bool granted) { realtime_granted_ = granted; }
   const Controller& controller() const { return controller_; }
+  /// Rung by the loop when plan() has work: a Cartesian request, or room for a waiting path.
+  Doorbell& planner_bell() { return planner_bell_; }
+  /// Rung by the loop when report() must run before the status is due: a change of mode, a
+  /// refused target, a foreign command.
+  Doorbell& reporter_bell() { return reporter_bell_; }
 
  private:
   // One tick's measurements, queued by the loop for the status step.
@@ -103,7 +118,7 @@ class Node {
   };
 
   void stand_down();
-  int64_t sync_shift(int64_t waited_ns, int64_t period) const;
+  int64_t arrival_ns(const Bus& bus) const;
   void publish_snapshot();
   void drain();
   void fill_status();
@@ -130,6 +145,7 @@ class Node {
   Controller controller_;
   std::vector<Bus::Subscription> subscriptions_;  // after what they feed: ended first
   bool realtime_granted_ = false;
+  Doorbell planner_bell_, reporter_bell_;
 
   // The loop's side.
   JointState state_;
@@ -138,7 +154,8 @@ class Node {
   JointPath path_;
   LoopCounters counters_;
   bool have_state_ = false;
-  int64_t answered_seq_ = -1, seq_ = 0, phase_shift_ = 0;
+  int64_t answered_seq_ = -1, seq_ = 0;
+  int64_t noticed_rejections_ = 0, noticed_foreign_ = 0;  // what the reporter was last rung for
 
   // The IK worker's side.
   IkSolver solver_;

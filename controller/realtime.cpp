@@ -1,12 +1,19 @@
 #include "chasles/controller/realtime.hpp"
 
+#include <poll.h>
 #include <pthread.h>
 #include <sched.h>
+#include <sys/eventfd.h>
 #include <sys/mman.h>
 #include <sys/prctl.h>
+#include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <system_error>
+
+#include "chasles/controller/clock.hpp"
 
 namespace chasles::controller {
 
@@ -34,6 +41,30 @@ std::vector<std::string> make_realtime(int priority, int cpu) {
     }
   }
   return warnings;
+}
+
+bool wait_readable(int fd, int64_t until_ns) {
+  const int64_t left = std::max<int64_t>(0, until_ns - monotonic_ns());
+  const timespec timeout{static_cast<time_t>(left / 1'000'000'000), static_cast<long>(left % 1'000'000'000)};
+  pollfd p{fd, POLLIN, 0};
+  return ppoll(&p, 1, &timeout, nullptr) > 0 && (p.revents & POLLIN) != 0;
+}
+
+Doorbell::Doorbell() : fd_(eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {
+  if (fd_ < 0) throw std::system_error(errno, std::generic_category(), "eventfd");
+}
+
+Doorbell::~Doorbell() { close(fd_); }
+
+void Doorbell::ring() {
+  const uint64_t one = 1;
+  [[maybe_unused]] const ssize_t written = write(fd_, &one, sizeof(one));  // fails only when 2^64 − 2 rings wait
+}
+
+bool Doorbell::wait_until(int64_t until_ns) {
+  if (!wait_readable(fd_, until_ns)) return false;
+  uint64_t rings = 0;
+  return read(fd_, &rings, sizeof(rings)) == static_cast<ssize_t>(sizeof(rings));
 }
 
 }  // namespace chasles::controller

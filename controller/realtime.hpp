@@ -1,7 +1,9 @@
 // Real-time scheduling of the calling thread, asked for and reported, never required: a system
-// that refuses it still runs the controller, with a clear warning.
+// that refuses it still runs the controller, with a clear warning. And the two waits the loops
+// block in: on a file descriptor (the bus) and on a doorbell (work handed to a worker).
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -14,5 +16,28 @@ void minimise_timer_slack();
 /// SCHED_FIFO at `priority`, all memory locked (mlockall), and pinned to `cpu` (−1: not pinned).
 /// Returns one warning per request the OS refused; empty when all were granted.
 std::vector<std::string> make_realtime(int priority, int cpu);
+
+/// Blocks until `fd` is readable or CLOCK_MONOTONIC reaches `until_ns`; whether it is readable.
+/// A signal ends the wait early (false), so a stop request is seen at once.
+bool wait_readable(int fd, int64_t until_ns);
+
+/// A wake-up one thread rings and another waits on (an eventfd). Ringing is one non-blocking
+/// write and allocates nothing, so the real-time loop can wake a worker that would otherwise
+/// poll: an idle worker costs no wake-ups.
+class Doorbell {
+ public:
+  Doorbell();
+  ~Doorbell();
+  Doorbell(const Doorbell&) = delete;
+  Doorbell& operator=(const Doorbell&) = delete;
+
+  void ring();
+  /// Waits until rung or until CLOCK_MONOTONIC reaches `until_ns`; whether it was rung (the rings
+  /// so far are consumed: several count as one).
+  bool wait_until(int64_t until_ns);
+
+ private:
+  int fd_;
+};
 
 }  // namespace chasles::controller

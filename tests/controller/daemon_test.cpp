@@ -152,7 +152,7 @@ TEST(daemon, LockstepJointMoveReachesTheTargetAndSettles) {
   Seat bus;
   const std::string summary = temp_path("summary");
   ChildProcess plant(plant_args({"--lockstep", "--q0", list(bent_pose())}));
-  ChildProcess controller(controller_args({"--summary", summary}));
+  ChildProcess controller(controller_args({"--tick", "clock", "--summary", summary}));
   ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
 
   VectorXd goal = bent_pose();
@@ -194,7 +194,7 @@ TEST(daemon, LockstepCartesianMoveEndsAtTheGoalPose) {
   const Eigen::Quaterniond r(T_goal.linear());
   Seat bus;
   ChildProcess plant(plant_args({"--lockstep", "--q0", list(bent_pose())}));
-  ChildProcess controller(controller_args({}));
+  ChildProcess controller(controller_args({"--tick", "clock"}));
   ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
 
   arm_target_t target{};
@@ -221,7 +221,7 @@ TEST(daemon, LockstepCartesianMoveEndsAtTheGoalPose) {
 TEST(daemon, HoldUnderGravityDriftsLessThanAMilliradianIn5s) {
   Seat bus;
   ChildProcess plant(plant_args({"--lockstep", "--q0", list(bent_pose())}));
-  ChildProcess controller(controller_args({}));
+  ChildProcess controller(controller_args({"--tick", "clock"}));
   ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
   double drift = 0.0;
   const int64_t end = monotonic_ns() + 5'000'000'000;

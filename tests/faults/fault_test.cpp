@@ -1,15 +1,18 @@
 // The fault matrix in simulated time: controller and plant in one process on a memq:// bus and a
 // SimulatedClock (world.hpp), every fault injected exactly, every outcome asserted exactly. The
-// expected number of FAULTs is derived from what the bus carried — the arrival time of every
-// state the controller could have heard, against its tick schedule and the stale limit — so a
-// regression in the stale-state rule, in the recovery or in the plant's fault injection shows as a
-// count that differs. For every fault, the whole command stream is checked against the safety
-// pipeline (checks.hpp). Each test prints its row of the fault table ("FAULT TABLE | ...").
+// controller ticks as states arrive (the default) unless a row says clock-driven. The expected
+// number of FAULTs is derived from what the bus carried — the arrival time of every state the
+// controller could have heard, against the tick schedule those arrivals make and the stale
+// limit — so a regression in the stale-state rule, in the recovery or in the plant's fault
+// injection shows as a count that differs. For every fault, the whole command stream is checked
+// against the safety pipeline (checks.hpp), and the plant's count of late cycles against the
+// states it dropped. Each test prints its row of the fault table ("FAULT TABLE | ...").
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -23,12 +26,14 @@ namespace {
 
 using Eigen::VectorXd;
 using controller::DaemonOptions;
+using controller::TickSource;
 constexpr int64_t kMs = World::kMs;
 constexpr int64_t kPhase = kMs / 2;  // controller ticks half a period after the plant's steps
 constexpr double kRamp = 0.05;       // the controller's default --torque-ramp-ms
 
-DaemonOptions controller_options(double stale_ms = 10.0) {
+DaemonOptions controller_options(double stale_ms = 10.0, TickSource tick = TickSource::kState) {
   DaemonOptions o;
+  o.tick = tick;
   o.control = controller::Config::critically_damped(7, 20.0);
   o.control.damping = VectorXd::Constant(7, 0.5);  // the plant's, fed forward
   o.control.stale_ns = static_cast<int64_t>(stale_ms * 1e6);
@@ -44,17 +49,45 @@ VectorXd goal_a() {
 
 double distance(const VectorXd& a, const VectorXd& b) { return (a - b).cwiseAbs().maxCoeff(); }
 
-// The FAULTs the stale rule must raise: the controller ticks at first_tick + k·period; at each
-// tick the newest state it holds arrived at the last arrival at or before it; a tick that finds
-// it older than the limit is stale, and every run of stale ticks after a fresh one is one FAULT.
-// (Arrivals and ticks never coincide: the controller ticks half a period after the plant.)
-int64_t expected_faults(const std::vector<int64_t>& arrivals, int64_t first_tick, int64_t last_tick, double stale_ms) {
+// The ticks a controller makes, from the arrivals of the states it heard. Clock-driven: every
+// period from its first tick. State-driven: at every arrival (several at one instant make one
+// tick), and when none comes, 1.5 periods after the last arrival, then every period (the
+// watchdog) — as node.hpp specifies, derived here from the arrivals alone.
+std::vector<int64_t> tick_times(const std::vector<int64_t>& arrivals, int64_t first_tick, int64_t last_tick,
+                                TickSource tick) {
+  std::vector<int64_t> ticks;
+  if (tick == TickSource::kClock) {
+    for (int64_t t = first_tick; t <= last_tick; t += kMs) ticks.push_back(t);
+    return ticks;
+  }
+  int64_t deadline = first_tick;
+  size_t next = 0;
+  while (true) {
+    const bool arrival = next < arrivals.size() && arrivals[next] <= deadline;
+    const int64_t t = arrival ? arrivals[next] : deadline;
+    if (t > last_tick) break;
+    ticks.push_back(t);
+    if (arrival) {
+      while (next < arrivals.size() && arrivals[next] == t) ++next;
+      deadline = t + kMs + kMs / 2;
+    } else {
+      deadline = t + kMs;
+    }
+  }
+  return ticks;
+}
+
+// The FAULTs the stale rule must raise: at each tick the newest state the controller holds arrived
+// at the last arrival at or before it; a tick that finds it older than the limit is stale, and every
+// run of stale ticks after a fresh one is one FAULT.
+int64_t expected_faults(const std::vector<int64_t>& arrivals, int64_t first_tick, int64_t last_tick, double stale_ms,
+                        TickSource tick) {
   const auto stale_ns = static_cast<int64_t>(stale_ms * 1e6);
   int64_t faults = 0;
   bool fresh_before = false, stale_before = false;
   size_t next = 0;
   int64_t latest = -1;
-  for (int64_t t = first_tick; t <= last_tick; t += kMs) {
+  for (const int64_t t : tick_times(arrivals, first_tick, last_tick, tick)) {
     while (next < arrivals.size() && arrivals[next] <= t) latest = arrivals[next++];
     if (latest < 0) continue;
     const bool stale = t - latest > stale_ns;
@@ -68,10 +101,12 @@ int64_t expected_faults(const std::vector<int64_t>& arrivals, int64_t first_tick
 // A plant at the bent pose and one controller, holding it.
 struct Rig {
   World world;
+  TickSource tick;
   int64_t first_tick = 0;
-  explicit Rig(const plant::SimulationOptions& plant = {}, double stale_ms = 10.0) {
+  explicit Rig(const plant::SimulationOptions& plant = {}, double stale_ms = 10.0, TickSource t = TickSource::kState)
+      : tick(t) {
     world.start_plant(bent_pose(), plant);
-    world.add_controller(controller_options(stale_ms), kPhase);
+    world.add_controller(controller_options(stale_ms, tick), kPhase);
     first_tick = world.now() + kMs + kPhase;
   }
   Recorder& bus() { return world.recorder(); }
@@ -85,13 +120,25 @@ struct Rig {
     world.run_for(duration + 0.5);
     return distance(vector_of(bus().state()->position), goal);
   }
+  // The plant's late cycles the bus explains when nothing delays the states: a step is late when
+  // no command answered the state of the step before, from the step after the first answer on.
+  int64_t late_cycles_the_bus_explains() {
+    std::set<int64_t> answered;
+    for (const HeardCommand& c : bus().commands()) answered.insert(c.message.state_seq);
+    if (answered.empty()) return 0;
+    int64_t late = 0;
+    for (int64_t s = *answered.begin() + 1; s <= world.plant()->steps(); ++s) late += answered.count(s - 1) == 0;
+    return late;
+  }
   int64_t fault_count_the_bus_explains(double stale_ms = 10.0) {
-    return expected_faults(bus().state_arrivals(), first_tick, world.now(), stale_ms);
+    return expected_faults(bus().state_arrivals(), first_tick, world.now(), stale_ms, tick);
   }
 };
 
-// The checks every fault test ends with; prints the test's row of the fault table.
-void expect_safe(Rig& rig, const std::string& fault) {
+// The checks every fault test ends with; prints the test's row of the fault table. Commands are a
+// period apart; state-driven, a lost state makes one gap of 1.5 periods (the watchdog's tick) and
+// one of half a period (the next state's): `spacing_p99_us` says which the row expects.
+void expect_safe(Rig& rig, const std::string& fault, double spacing_p99_us = 1000.0) {
   const auto& statuses = rig.bus().statuses();
   const CommandReport c = check_commands(panda(), rig.bus().commands(), statuses, kRamp, 1e-3);
   const StatusReport s = summarise(statuses);
@@ -105,10 +152,13 @@ void expect_safe(Rig& rig, const std::string& fault) {
   // within the rate limit of the last command before it.
   EXPECT_GE(c.restarts_from_gravity, 1);
   EXPECT_LE(c.restarts_from_gravity, 1 + s.faults);
-  // In simulated time every command is a period after the one before, and no tick is late.
+  // In simulated time no tick is late, and a state-driven tick starts the instant its state arrives.
   EXPECT_EQ(c.spacing_p50_us, 1000.0);
-  EXPECT_EQ(c.spacing_p99_us, 1000.0);
+  EXPECT_EQ(c.spacing_p99_us, spacing_p99_us);
   EXPECT_EQ(s.overruns, 0);
+  if (rig.tick == TickSource::kState) {
+    EXPECT_EQ(rig.world.controller().summary(1.0).latency_us.max, 0.0);
+  }
 }
 
 TEST(faults, FaultFreeMoveAndTheOracleAgree) {
@@ -117,7 +167,57 @@ TEST(faults, FaultFreeMoveAndTheOracleAgree) {
   EXPECT_LT(rig.move(goal_a(), 1.0), 1e-3);
   EXPECT_EQ(rig.status().faults, 0);
   EXPECT_EQ(rig.fault_count_the_bus_explains(), 0);
+  EXPECT_EQ(rig.world.plant()->late_cycles(), 0);
   expect_safe(rig, "none");
+}
+
+// Clock-driven ticks (--tick clock), half a period after the plant's steps: the same rules hold —
+// no FAULT and no late cycle without a fault, and under 50 % drops the FAULTs the bus explains.
+TEST(faults, ClockDrivenTicksKeepTheSameRules) {
+  {
+    Rig rig({}, 10.0, TickSource::kClock);
+    ASSERT_TRUE(rig.holding());
+    EXPECT_LT(rig.move(goal_a(), 1.0), 1e-3);
+    EXPECT_EQ(rig.status().faults, 0);
+    EXPECT_EQ(rig.world.plant()->late_cycles(), 0);
+    expect_safe(rig, "none, clock-driven");
+  }
+  {
+    plant::SimulationOptions plant;
+    plant.faults.seed = 11;
+    plant.faults.drop = 0.5;
+    Rig rig(plant, 10.0, TickSource::kClock);
+    ASSERT_TRUE(rig.holding());
+    rig.world.send_joint_target(goal_a(), 1.0);
+    rig.world.run_for(8.0);
+    const int64_t expected = rig.fault_count_the_bus_explains();
+    EXPECT_GE(expected, 1);
+    EXPECT_EQ(rig.status().faults, expected);
+    EXPECT_EQ(rig.world.plant()->late_cycles(), rig.late_cycles_the_bus_explains());
+    expect_safe(rig, "50 % of states dropped (seed 11), clock-driven");
+  }
+}
+
+// A state that reaches the controller a period late (1 ms of network delay): its answer reaches the
+// plant after the step it was for, so every cycle is late. After --max-late (20) in a row the plant
+// brakes, once, and stays braked while the lateness lasts, as Franka's FCI stops an arm; with
+// --max-late 0 it counts the same late cycles and never brakes.
+TEST(faults, EveryCycleLateBrakesTheArmAfterMaxLate) {
+  for (const int max_late : {20, 0}) {
+    plant::SimulationOptions plant;
+    plant.faults.delay_ms = 1.0;
+    plant.max_late = max_late;
+    Rig rig(plant);
+    ASSERT_TRUE(rig.holding());
+    rig.world.run_for(0.5);
+    const plant::Simulation& p = *rig.world.plant();
+    EXPECT_GT(p.late_cycles(), 400);
+    EXPECT_EQ(p.late_in_a_row(), p.late_cycles()) << "no cycle was on time";
+    EXPECT_EQ(p.late_stops(), max_late > 0 ? 1 : 0);
+    EXPECT_EQ(p.brakes(), max_late > 0 ? 1 : 0);
+    EXPECT_EQ(p.braking(), max_late > 0);
+    EXPECT_EQ(rig.status().faults, 0) << "the controller is in time by its own clock: only the plant can tell";
+  }
 }
 
 // kill -9 of the plant in the middle of a JOINT move: one FAULT, raised on the first tick after the
@@ -164,8 +264,10 @@ TEST(faults, TenPercentOfStatesDropped) {
   EXPECT_LT(rig.move(goal_a(), 1.0), 1e-3);
   EXPECT_GT(rig.world.plant()->states_not_sent(), 100);
   EXPECT_EQ(rig.fault_count_the_bus_explains(), 0);
+  EXPECT_EQ(rig.world.plant()->late_cycles(), rig.late_cycles_the_bus_explains());
+  EXPECT_EQ(rig.world.plant()->late_stops(), 0);
   EXPECT_EQ(rig.status().faults, 0);
-  expect_safe(rig, "10 % of states dropped (seed 7)");
+  expect_safe(rig, "10 % of states dropped (seed 7)", 1500.0);
 }
 
 // 50 % dropped: a run of 10 or more drops (p = 2^-10 per state) leaves the controller without a
@@ -184,7 +286,8 @@ TEST(faults, FiftyPercentOfStatesDropped) {
     EXPECT_GE(expected, 1) << "seed 11 should give at least one run of 10 drops in 8 s";
     EXPECT_EQ(rig.status().faults, expected);
     EXPECT_EQ(summarise(rig.bus().statuses()).fault_transitions, expected);
-    expect_safe(rig, "50 % of states dropped (seed 11), stale-ms 10");
+    EXPECT_EQ(rig.world.plant()->late_cycles(), rig.late_cycles_the_bus_explains());
+    expect_safe(rig, "50 % of states dropped (seed 11), stale-ms 10", 1500.0);
   }
   {
     Rig rig(plant, 30.0);
@@ -192,7 +295,7 @@ TEST(faults, FiftyPercentOfStatesDropped) {
     EXPECT_LT(rig.move(goal_a(), 1.0), 1e-3);
     EXPECT_EQ(rig.fault_count_the_bus_explains(30.0), 0);
     EXPECT_EQ(rig.status().faults, 0);
-    expect_safe(rig, "50 % of states dropped (seed 11), stale-ms 30");
+    expect_safe(rig, "50 % of states dropped (seed 11), stale-ms 30", 1500.0);
   }
 }
 

@@ -69,6 +69,7 @@ plant::Simulation& World::start_plant(const Eigen::VectorXd& q0, const plant::Si
   plant_->start();
   plant_next_ = now() + plant_->period_ns();
   bus_.handle_pending();
+  answer_states();
   return *plant_;
 }
 
@@ -88,6 +89,7 @@ int World::add_controller(const controller::DaemonOptions& options, int64_t phas
 // heard by a controller ticking at the same instant), then the controllers in the order added.
 void World::turn(int64_t until) {
   bus_.handle_pending();  // what the test sent just now arrives now
+  answer_states();
   while (true) {
     int64_t next = until + 1;
     if (plant_) next = std::min(next, plant_next_);
@@ -100,18 +102,30 @@ void World::turn(int64_t until) {
       plant_->step();
       plant_next_ += plant_->period_ns();
       bus_.handle_pending();
+      answer_states();
     }
     for (auto& c : controllers_) {
-      if (!c->ticking || c->next != next) continue;
-      c->next = c->node->tick(c->next);
-      bus_.handle_pending();
-      c->node->plan();
-      c->node->report();
-      bus_.handle_pending();
+      if (c->ticking && c->next == next) run_tick(*c);
     }
   }
   clock_.advance_to(until);
   bus_.handle_pending();
+  answer_states();
+}
+
+void World::run_tick(Controller& c) {
+  c.next = c.node->tick(c.next);
+  bus_.handle_pending();
+  c.node->plan();
+  c.node->report();
+  bus_.handle_pending();
+}
+
+// State-driven controllers tick on the state just delivered, at the same instant.
+void World::answer_states() {
+  for (auto& c : controllers_) {
+    if (c->ticking && c->options.tick == controller::TickSource::kState && c->node->state_waiting()) run_tick(*c);
+  }
 }
 
 void World::run_for(double seconds) { turn(now() + static_cast<int64_t>(std::llround(seconds * 1e9))); }

@@ -4,10 +4,11 @@
 // read by the checked decoders, as between processes; only time is simulated, so a run is exact
 // and repeatable, and there are no stalls to excuse.
 //
-// The schedule: the plant steps at k·T_plant from its start; each controller ticks on its own
-// period from its start (phase), then the IK worker plans at once and the status step runs. After
-// every turn the bus delivers what was sent: the network has no latency here, the delays are the
-// ones the plant injects.
+// The schedule: the plant steps at k·T_plant from its start. A state-driven controller (the
+// default) ticks the instant a state is delivered, and on its watchdog's schedule when none
+// comes; a clock-driven one ticks on its own period from its start (phase). After each tick the
+// IK worker plans at once and the status step runs. After every turn the bus delivers what was
+// sent: the network has no latency here, the delays are the ones the plant injects.
 #pragma once
 
 #include <Eigen/Core>
@@ -91,8 +92,9 @@ class World {
   void kill_plant();
   plant::Simulation* plant() { return plant_.get(); }
 
-  /// A controller whose first tick comes one period plus `phase_ns` from now; it has been
-  /// listening since it was added. Returns its index.
+  /// A controller whose first tick comes one period plus `phase_ns` from now (state-driven: its
+  /// first watchdog tick, unless a state comes first); it has been listening since it was
+  /// added. Returns its index.
   int add_controller(const controller::DaemonOptions& options, int64_t phase_ns = kMs / 2);
   controller::Node& controller(int i = 0) { return *controllers_.at(size_t(i))->node; }
   /// Whether controller i ticks (a controller that is only listening, as a daemon does before its
@@ -115,6 +117,8 @@ class World {
     bool ticking = true;
   };
   void turn(int64_t until);
+  void run_tick(Controller& c);
+  void answer_states();
 
   SimulatedClock clock_;
   Bus bus_;

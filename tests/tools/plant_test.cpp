@@ -319,40 +319,58 @@ TEST(plant, MalformedCommandsAreRejectedNotApplied) {
   EXPECT_NE(err.find("commands rejected " + std::to_string(kRejected) + ","), std::string::npos) << err;
 }
 
-// (d) Real time: when commands stop, the watchdog brakes the falling arm to rest.
-TEST(plant, WatchdogBrakesToRestWhenCommandsStop) {
-  const Eigen::VectorXd q0 = bent_pose(), zero = Eigen::VectorXd::Zero(7);
-  Controller controller;
-  PlantProcess plant(
-      {"--robot", data_path("panda.urdf"), "--tip", "panda_hand", "--q0", list(q0), "--timeout-ms", "50"});
-  std::optional<robot_state_t> state = controller.wait_state(0);
-  ASSERT_TRUE(state);
-  // Zero torque, answering every state, for 0.15 s: the arm falls.
-  const auto release = Clock::now() + std::chrono::milliseconds(150);
-  while (Clock::now() < release) {
-    state = controller.wait_state(state->seq + 1, 1.0);
+// (d) Real time: when commands stop, the arm is braked to rest: after --max-late late cycles in a row
+// (silence makes every cycle late; 40 here, so a test process stalled for less than 40 ms while it
+// answers does not trip it), and with --max-late 0 by the 50 ms watchdog.
+TEST(plant, BrakesToRestWhenCommandsStop) {
+  for (const bool late_stop : {true, false}) {
+    const Eigen::VectorXd q0 = bent_pose(), zero = Eigen::VectorXd::Zero(7);
+    Controller controller;
+    std::vector<std::string> args = {"--robot", data_path("panda.urdf"), "--tip", "panda_hand", "--q0", list(q0)};
+    if (late_stop) {
+      args.insert(args.end(), {"--max-late", "40", "--timeout-ms", "500"});
+    } else {
+      args.insert(args.end(), {"--max-late", "0", "--timeout-ms", "50"});
+    }
+    PlantProcess plant(args);
+    std::optional<robot_state_t> state = controller.wait_state(0);
     ASSERT_TRUE(state);
-    controller.send(state->seq, zero);
-  }
-  const double falling_speed = vector_of(state->velocity).cwiseAbs().maxCoeff();
-  EXPECT_GT(falling_speed, 0.3) << "the arm should be falling";
+    // Zero torque, answering every state, for 0.15 s: the arm falls.
+    const auto release = Clock::now() + std::chrono::milliseconds(150);
+    while (Clock::now() < release) {
+      state = controller.wait_state(state->seq + 1, 1.0);
+      ASSERT_TRUE(state);
+      controller.send(state->seq, zero);
+    }
+    const double falling_speed = vector_of(state->velocity).cwiseAbs().maxCoeff();
+    EXPECT_GT(falling_speed, 0.3) << "the arm should be falling";
 
-  // Silence: after the 50 ms timeout the brake takes the velocity down with a 50 ms time constant
-  // (slower at first where the effort limits clamp it): 0.7 s of simulated time is ten time
-  // constants and more. The plant's clock is the wall clock, and a loaded machine can starve it of
-  // steps, so the test waits for rest up to 3 s rather than judging at a fixed moment.
-  double final_speed = falling_speed;
-  const auto give_up = Clock::now() + std::chrono::seconds(3);
-  while (final_speed >= 1e-3 && Clock::now() < give_up) {
-    controller.listen(0.1);
-    state = controller.wait_state(0);
-    ASSERT_TRUE(state);
-    final_speed = vector_of(state->velocity).cwiseAbs().maxCoeff();
+    // Silence: after 40 ms (late) or the 50 ms timeout the brake takes the velocity down with a 50 ms time constant
+    // (slower at first where the effort limits clamp it): 0.7 s of simulated time is ten time
+    // constants and more. The plant's clock is the wall clock, and a loaded machine can starve it of
+    // steps, so the test waits for rest up to 3 s rather than judging at a fixed moment.
+    double final_speed = falling_speed;
+    const auto give_up = Clock::now() + std::chrono::seconds(3);
+    while (final_speed >= 1e-3 && Clock::now() < give_up) {
+      controller.listen(0.1);
+      state = controller.wait_state(0);
+      ASSERT_TRUE(state);
+      final_speed = vector_of(state->velocity).cwiseAbs().maxCoeff();
+    }
+    EXPECT_LT(final_speed, 1e-3) << "falling at " << falling_speed << " rad/s, still " << final_speed << " after 3 s";
+    EXPECT_EQ(plant.stop(), 0);
+    const std::string err = plant.stderr_text();
+    if (late_stop) {
+      EXPECT_NE(err.find("40 late cycles in a row on TEST_COMMAND (no command answered the previous state in time): "
+                         "braking to rest"),
+                std::string::npos)
+          << err;
+      EXPECT_NE(err.find("late stops 1;"), std::string::npos) << err;
+    } else {
+      EXPECT_NE(err.find("no valid command on TEST_COMMAND for 50 ms: braking to rest"), std::string::npos) << err;
+      EXPECT_NE(err.find("late stops 0;"), std::string::npos) << err;
+    }
   }
-  EXPECT_LT(final_speed, 1e-3) << "falling at " << falling_speed << " rad/s, still " << final_speed << " after 3 s";
-  EXPECT_EQ(plant.stop(), 0);
-  const std::string err = plant.stderr_text();
-  EXPECT_NE(err.find("no valid command on TEST_COMMAND for 50 ms: braking to rest"), std::string::npos) << err;
 }
 
 // --seconds ends the run by itself; bad input and usage errors are one line and an exit code.

@@ -180,6 +180,11 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--timeout-ms", o.sim.timeout_ms, "Real time: brake after this long without a valid command")
       ->check(kPositive)
       ->capture_default_str();
+  app.add_option("--max-late", o.sim.max_late,
+                 "Real time: brake after this many late cycles in a row (0: never). A step is late when no "
+                 "command answering the previous state has arrived by then, as an arm counts a missed deadline")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   app.add_option("--max-command-lag-ms", o.sim.max_lag_ms,
                  "Real time: ignore commands answering a state more than this much older than the newest "
                  "(or one not sent yet), as if none had come (default: --timeout-ms)")
@@ -234,7 +239,9 @@ int main(int argc, char** argv) {
       "chasles.joint_torque_command_t from PREFIX COMMAND (zero-order hold, clamped to the URDF effort\n"
       "limits). Dynamics: M(q) qdd = tau - c - g - D qd, RK4. Real time: without a valid command for\n"
       "--timeout-ms the arm brakes to rest, tau = g(q) - M(q) qd / T. A command answering a state older\n"
-      "than --max-command-lag-ms counts as none (and is reported).\n"
+      "than --max-command-lag-ms counts as none (and is reported). A step at which no command answering\n"
+      "the previous state has arrived is a late cycle; after --max-late in a row the arm brakes the same\n"
+      "way until a command is on time again.\n"
       "Examples:\n"
       "  tools/netns.sh chasles_plant --robot ur5.urdf --tip tool0 \\\n"
       "      --lcm-url 'udpm://239.255.76.67:7667?ttl=0'\n"
@@ -273,6 +280,14 @@ int main(int argc, char** argv) {
     sigaddset(&stop_signals, SIGTERM);
     pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
 
+    // Real time before LCM starts: its receive thread, which every command passes through,
+    // inherits SCHED_FIFO. Below the controller's default priority (80): on a shared machine the
+    // controller's tick comes first.
+    if (options.realtime) {
+      for (const auto& warning : chasles::controller::make_realtime(70, -1)) {
+        std::fprintf(stderr, "chasles_plant: warning: %s\n", warning.c_str());
+      }
+    }
     std::unique_ptr<Bus> bus;
     try {
       bus = std::make_unique<Bus>(options.lcm_url);
@@ -290,13 +305,6 @@ int main(int argc, char** argv) {
                  model.name().c_str(), model.dof(), model.tip_link().c_str(), options.sim.rate_hz,
                  options.sim.lockstep ? "lockstep" : "real time (braked until the first command)",
                  options.sim.prefix.c_str(), options.sim.prefix.c_str());
-    // Below the controller's default priority (80): on a shared machine the controller's tick
-    // comes first.
-    if (options.realtime) {
-      for (const auto& warning : chasles::controller::make_realtime(70, -1)) {
-        std::fprintf(stderr, "chasles_plant: warning: %s\n", warning.c_str());
-      }
-    }
     const int64_t end_ns = options.seconds > 0.0 ? clock.now_ns() + static_cast<int64_t>(options.seconds * 1e9)
                                                  : std::numeric_limits<int64_t>::max();
     simulation.start();

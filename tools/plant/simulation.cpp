@@ -84,6 +84,7 @@ void Simulation::step_and_publish(const Eigen::Ref<const Eigen::VectorXd>& tau) 
 
 void Simulation::step() {
   const int64_t now = clock_.now_ns();
+  count_late_cycle();
   update_brake(now);
   if (braking_) {
     step_and_publish(plant_.brake_torque(brake_time_constant_));
@@ -105,26 +106,49 @@ int64_t Simulation::serve_lockstep() {
   return std::min(last_send_ns_ + kLockstepRepeatNs, next_delayed);
 }
 
-// The watchdog: brake while no valid command has arrived for the timeout, and until the first.
+// The deadline an arm keeps: the command for this step must answer the state sent at the last.
+void Simulation::count_late_cycle() {
+  if (!inbox_.any()) return;  // not commanded yet: nothing is late
+  if (inbox_.latest().state_seq == seq_) {
+    late_in_a_row_ = 0;
+    return;
+  }
+  ++late_cycles_;
+  ++late_in_a_row_;
+}
+
+// The watchdog: brake while no valid command has arrived for the timeout, and until the first;
+// and, as an arm does, after max_late late cycles in a row, until a command is on time again.
 void Simulation::update_brake(int64_t now_ns) {
   const auto timeout_ns = static_cast<int64_t>(options_.timeout_ms * 1e6);
-  const bool brake = !inbox_.any() || now_ns - inbox_.latest_arrival_ns() > timeout_ns;
+  const bool silent = !inbox_.any() || now_ns - inbox_.latest_arrival_ns() > timeout_ns;
+  const bool late = options_.max_late > 0 && late_in_a_row_ >= options_.max_late;
+  const bool brake = silent || late;
   if (brake == braking_) return;
   braking_ = brake;
-  if (brake) {
+  if (!brake) {
+    std::fprintf(stderr, "chasles_plant: commands on %s: brake released\n", command_channel_.c_str());
+  } else if (silent) {
     ++brakes_;
     std::fprintf(stderr, "chasles_plant: no valid command on %s for %g ms: braking to rest\n", command_channel_.c_str(),
                  options_.timeout_ms);
   } else {
-    std::fprintf(stderr, "chasles_plant: commands on %s: brake released\n", command_channel_.c_str());
+    ++brakes_;
+    ++late_stops_;
+    std::fprintf(stderr,
+                 "chasles_plant: %lld late cycles in a row on %s (no command answered the previous state in time): "
+                 "braking to rest\n",
+                 static_cast<long long>(late_in_a_row_), command_channel_.c_str());
   }
 }
 
 void Simulation::print_summary() const {
   std::fprintf(stderr,
-               "chasles_plant: stopped after %lld steps (%.3f s simulated); commands rejected %lld, stale %lld; "
-               "states not sent %lld; overruns %lld; watchdog brakes %lld\n",
-               static_cast<long long>(seq_), static_cast<double>(seq_) * dt_, static_cast<long long>(rejected_commands()),
+               "chasles_plant: stopped after %lld steps (%.3f s simulated); late cycles %lld (%.3f %%), late stops %lld; "
+               "commands rejected %lld, stale %lld; states not sent %lld; overruns %lld; watchdog brakes %lld\n",
+               static_cast<long long>(seq_), static_cast<double>(seq_) * dt_, static_cast<long long>(late_cycles_),
+               seq_ > 0 ? 100.0 * static_cast<double>(late_cycles_) / static_cast<double>(seq_) : 0.0,
+               static_cast<long long>(late_stops_), static_cast<long long>(rejected_commands()),
                static_cast<long long>(stale_commands()), static_cast<long long>(publisher_.dropped()),
                static_cast<long long>(overruns_), static_cast<long long>(brakes_));
 }

@@ -25,6 +25,9 @@ struct SimulationOptions {
   /// Real time: a command answering a state more than this much older than the newest counts as
   /// none (< 0: timeout_ms). The injected delays are added.
   double max_lag_ms = -1.0;
+  /// Real time: brake after this many late cycles in a row (0: never), as Franka's FCI stops
+  /// the arm after 20 (communication_constraints_violation).
+  int max_late = 20;
   std::string prefix = "CHASLES_";  ///< channels PREFIX STATE and PREFIX COMMAND
   Faults faults;
 };
@@ -40,8 +43,10 @@ class Simulation {
 
   /// Sends the initial state (seq 0).
   void start();
-  /// Real time: one step of 1 / rate_hz at the clock's present — the watchdog, the held command
-  /// (or the brake), the state sent — and the delayed states that are due.
+  /// Real time: one step of 1 / rate_hz at the clock's present — the deadline check, the
+  /// watchdog, the held command (or the brake), the state sent — and the delayed states that
+  /// are due. A step is a late cycle when, from the first command on, no command answering the
+  /// previous state (state_seq = that state's seq) has arrived: the controller missed the cycle.
   void step();
   /// Lockstep: sends the latest state again when nothing answered it for 10 ms, and the delayed
   /// states that are due; returns when it needs to run again (the steps themselves happen as
@@ -55,6 +60,11 @@ class Simulation {
   bool braking() const { return braking_; }
   int64_t steps() const { return seq_; }
   int64_t brakes() const { return brakes_; }
+  /// Real time: steps whose previous state no command answered in time, in all and in a row now.
+  int64_t late_cycles() const { return late_cycles_; }
+  int64_t late_in_a_row() const { return late_in_a_row_; }
+  /// Real time: brakes for --max-late late cycles in a row.
+  int64_t late_stops() const { return late_stops_; }
   int64_t rejected_commands() const { return inbox_.rejected(); }
   int64_t stale_commands() const { return stale_ + inbox_.stale(); }
   int64_t states_not_sent() const { return publisher_.dropped(); }
@@ -66,6 +76,7 @@ class Simulation {
   int64_t max_command_lag() const;
   void on_command(const uint8_t* data, size_t size);
   void step_and_publish(const Eigen::Ref<const Eigen::VectorXd>& tau);
+  void count_late_cycle();
   void update_brake(int64_t now_ns);
 
   SimulationOptions options_;
@@ -80,6 +91,7 @@ class Simulation {
   const double brake_time_constant_;
   int64_t last_send_ns_ = 0;
   int64_t seq_ = 0, stale_ = 0, overruns_ = 0, brakes_ = 0;
+  int64_t late_cycles_ = 0, late_in_a_row_ = 0, late_stops_ = 0;
   bool braking_ = true;  // real time: held until the first command
   Bus::Subscription subscription_;  // last: ended before what it feeds
 };
