@@ -4,14 +4,14 @@
 # first (into build/, as tools/test.sh does).
 #
 #   tools/demo.sh [--seconds N] [--robot ur5|panda|FILE.urdf] [--tip LINK] [--summary FILE]
-#                 [--sync-us M]
+#                 [--tick state|clock]
 #
 #   --seconds N      length of the controlled run (default 10)
 #   --robot R        ur5 or panda (tests/data/R.urdf), or a URDF file (default panda)
 #   --tip LINK       the chain's tip, for a URDF with several leaves (ur5: tool0, panda: panda_hand)
 #   --summary FILE   also copy the controller's summary JSON here
-#   --sync-us M      phase-lock the controller's ticks M µs after the plant's states (default 100;
-#                    0: off, the controller runs on its own clock and a state waits up to a period)
+#   --tick T         the controller's ticks: 'state', as each state arrives (default), or 'clock',
+#                    every period on its own clock (a state then waits up to a period)
 #
 # In a private network namespace (tools/netns.sh) it starts lcm-logger, chasles_plant (real time,
 # 1 kHz, damped) and chasles_controller --realtime, sends a programme of targets with
@@ -180,7 +180,7 @@ PY
   # The controller knows the plant's joint damping and feeds it forward (--damping).
   start chasles_controller "$DEMO_BUILD/controller/chasles_controller" "${model[@]}" --realtime --damping 0.5 \
     --lcm-url "$lcm_url" \
-    ${DEMO_SYNC_US:+--sync-us "$DEMO_SYNC_US"} --summary "$dir/summary.json"
+    --tick "$DEMO_TICK" --summary "$dir/summary.json"
   run_start=$(now)
   sleep 0.3
   check_alive
@@ -223,7 +223,7 @@ PY
 # The report: the controller's summary beside the reference, and what the log holds.
 report() {
   python3 - "$DEMO_DIR" <<'PY'
-import json, os, struct, sys
+import json, os, re, struct, sys
 from collections import Counter
 
 d = sys.argv[1]
@@ -246,8 +246,8 @@ track = s["tracking_error"]
 unit = "rad" if all(t != "prismatic" for t in model["joint_types"]) else "rad or m"
 print()
 print(f"{model['robot']}: {model['dof']} joints to {model['tip_link']}; controller {'SCHED_FIFO' if s.get('realtime') else 'SCHED_OTHER (real time refused)'}")
-print(f"  ticks               {s['ticks']} in {f(s.get('seconds'), 2)} s ({f(s['rate_hz'], 1)} Hz)")
-print(f"  wake-up jitter      {pct(jit)}")
+print(f"  ticks               {s['ticks']} in {f(s.get('seconds'), 2)} s ({f(s['rate_hz'], 1)} Hz), {s.get('tick', 'clock')}-driven")
+print(f"  wake-up jitter      {pct(jit)}   ({'state arrival' if s.get('tick') == 'state' else 'schedule'} -> tick start)")
 print(f"  overruns            {s['overruns']}")
 print(f"  compute             {pct(s['compute_us'])}")
 print(f"  latency             {pct(lat)}   (state arrival -> command sent)")
@@ -262,14 +262,23 @@ for line in notes[:6]:
     print(f"  {line}")
 if len(notes) > 6:
     print(f"  ... {len(notes) - 6} more in {os.path.join(d, 'chasles_controller.err')}")
+late_pct = None
 plant = [line.strip() for line in open(os.path.join(d, "chasles_plant.err")) if "stopped after" in line]
 if plant:
+    m = re.search(r"stopped after (\d+) steps.*late cycles (\d+) \(([0-9.]+) %\), late stops (\d+)", plant[-1])
+    if m:
+        print(f"  late cycles (plant) {m.group(2)} of {m.group(1)} steps ({m.group(3)} %), {m.group(4)} late stops")
+        late_pct = float(m.group(3))
     print(f"  {plant[-1]}")
 print()
 print(f"Reference on this machine (chasles_loop_bench, {ref['sched']}, {f(ref['seconds'], 0)} s each):")
 print(f"  bare 1 kHz loop     {pct(sleep)}, {sleep['late_500us']} wake-ups > 500 us")
 print(f"  LCM ping-pong       {pct(rtt)}  ({rtt['message_bytes']}-byte robot_state_t, {rtt['answered']}/{rtt['sent']} answered)")
+if rtt.get("sent"):
+    print(f"  ping-pongs slower than a period: {rtt['beyond_period']} of {rtt['sent']} ({100 * rtt['beyond_period'] / rtt['sent']:.3f} %), "
+          "the late cycles a bare LCM exchange would have")
 print(f"  jitter  p99: controller / bare loop       = {ratio(jit['p99'], sleep['p99'])}")
+print(f"  latency p50: controller / LCM round trip  = {ratio(lat['p50'], rtt['p50'])}")
 print(f"  latency p99: controller / LCM round trip  = {ratio(lat['p99'], rtt['p99'])}")
 
 # The LCM log: events are (sync 0xEDA1DA01, number, utime, channel length, data length, channel, data).
@@ -305,17 +314,17 @@ seconds=10
 robot=panda
 tip=
 summary=
-sync_us=100
+tick=state
 while [ $# -gt 0 ]; do
   case "$1" in
-    --seconds | --robot | --tip | --summary | --sync-us)
+    --seconds | --robot | --tip | --summary | --tick)
       [ $# -ge 2 ] || { echo "demo.sh: $1 needs a value (try --help)" >&2; exit 2; }
       case "$1" in
         --seconds) seconds=$2 ;;
         --robot) robot=$2 ;;
         --tip) tip=$2 ;;
         --summary) summary=$2 ;;
-        --sync-us) sync_us=$2 ;;
+        --tick) tick=$2 ;;
       esac
       shift 2
       ;;
@@ -327,11 +336,10 @@ if ! [[ "$seconds" =~ ^[0-9]+([.][0-9]*)?$ ]] || ! awk -v n="$seconds" 'BEGIN { 
   echo "demo.sh: --seconds must be a number of seconds, at least 1 (got '$seconds')" >&2
   exit 2
 fi
-if [ -n "$sync_us" ] && ! [[ "$sync_us" =~ ^[0-9]+([.][0-9]*)?$ ]]; then
-  echo "demo.sh: --sync-us must be a number of microseconds (got '$sync_us')" >&2
-  exit 2
-fi
-awk -v m="${sync_us:-0}" 'BEGIN { exit !(m == 0) }' && sync_us=  # 0: off
+case "$tick" in
+  state | clock) ;;
+  *) echo "demo.sh: --tick must be state or clock (got '$tick')" >&2; exit 2 ;;
+esac
 case "$robot" in
   ur5 | panda)
     urdf="$root/tests/data/$robot.urdf"
@@ -364,7 +372,7 @@ fi
 dir="$build/demo/$(date +%Y%m%d-%H%M%S)"
 mkdir -p "$dir"
 export DEMO_INSIDE=1 DEMO_DIR="$dir" DEMO_BUILD="$build" DEMO_SECONDS="$seconds" DEMO_URDF="$urdf" \
-  DEMO_TIP="$tip" DEMO_SYNC_US="$sync_us"
+  DEMO_TIP="$tip" DEMO_TICK="$tick"
 "$root/tools/netns.sh" bash "$root/tools/demo.sh"
 report
 

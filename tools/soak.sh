@@ -8,7 +8,7 @@
 #   tools/soak.sh MINUTES [--robot ur5|panda]
 #
 # Runs in a private network namespace (tools/netns.sh): chasles_plant --realtime at 1 kHz and
-# chasles_controller --realtime --sync-us 100, with a JOINT move between two poses every 2 s.
+# chasles_controller --realtime (state-driven ticks), with a JOINT move between two poses every 2 s.
 # Everything is kept in build/soak/<time>/: each process's output, summary.json, rss.csv.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -37,7 +37,7 @@ PY
   "$build/tools/chasles_plant" "${model[@]}" --realtime --rate 1000 --damping 0.5 --q0 "$home" \
     --lcm-url "$lcm_url" >"$dir/chasles_plant.out" 2>"$dir/chasles_plant.err" &
   plant=$!
-  "$build/controller/chasles_controller" "${model[@]}" --realtime --damping 0.5 --sync-us 100 --lcm-url "$lcm_url" \
+  "$build/controller/chasles_controller" "${model[@]}" --realtime --damping 0.5 --lcm-url "$lcm_url" \
     --summary "$dir/summary.json" >"$dir/chasles_controller.out" 2>"$dir/chasles_controller.err" &
   controller=$!
   trap 'kill -TERM $controller $plant 2>/dev/null || true; wait' EXIT

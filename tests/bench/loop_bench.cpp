@@ -200,6 +200,7 @@ class PingPong {
   struct Result {
     Summary round_trip;
     size_t sent = 0, answered = 0;
+    size_t beyond_period = 0;  // answered after a period, or never: what a plant would count late
     int message_bytes = 0;
   };
 
@@ -233,6 +234,7 @@ class PingPong {
     answered.reserve(k);
     for (size_t i = 0; i < k; ++i) {
       if (rtt_ns_[i] >= 0) answered.push_back(rtt_ns_[i]);
+      if (rtt_ns_[i] < 0 || rtt_ns_[i] > period) ++result.beyond_period;
     }
     result.answered = answered.size();
     result.round_trip = summarise(std::move(answered));
@@ -325,7 +327,7 @@ int main(int argc, char** argv) {
   app.footer(
       "Output: {\"rate_hz\", \"seconds\", \"sched\", \"mlockall\",\n"
       "         \"sleep_jitter_us\": {\"p50\", \"p99\", \"max\", \"late_500us\", \"overruns\", \"samples\"},\n"
-      "         \"lcm_round_trip_us\": {\"p50\", \"p99\", \"max\", \"sent\", \"answered\", \"message_bytes\"}}\n"
+      "         \"lcm_round_trip_us\": {\"p50\", \"p99\", \"max\", \"sent\", \"answered\", \"beyond_period\", \"message_bytes\"}}\n"
       "Example (as root; tools/netns.sh keeps the multicast on a private loopback):\n"
       "  tools/netns.sh chasles_loop_bench --realtime --lcm-url 'udpm://239.255.76.67:7667?ttl=0'");
   try {
@@ -369,8 +371,8 @@ int main(int argc, char** argv) {
       PingPong bench(o, echo);
       const PingPong::Result r = bench.run();
       out += ",\"lcm_round_trip_us\":{" + summary_json(r.round_trip) + ",\"sent\":" + std::to_string(r.sent) +
-             ",\"answered\":" + std::to_string(r.answered) + ",\"message_bytes\":" + std::to_string(r.message_bytes) +
-             "}";
+             ",\"answered\":" + std::to_string(r.answered) + ",\"beyond_period\":" + std::to_string(r.beyond_period) +
+             ",\"message_bytes\":" + std::to_string(r.message_bytes) + "}";
     }
   } catch (const Failure& e) {
     stop_echo();

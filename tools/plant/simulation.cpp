@@ -84,7 +84,7 @@ void Simulation::step_and_publish(const Eigen::Ref<const Eigen::VectorXd>& tau) 
 
 void Simulation::step() {
   const int64_t now = clock_.now_ns();
-  count_late_cycle();
+  count_late_cycle(now);
   update_brake(now);
   if (braking_) {
     step_and_publish(plant_.brake_torque(brake_time_constant_));
@@ -107,8 +107,14 @@ int64_t Simulation::serve_lockstep() {
 }
 
 // The deadline an arm keeps: the command for this step must answer the state sent at the last.
-void Simulation::count_late_cycle() {
+// A step that comes early — this process was held up and catches up on its schedule — gave the
+// controller less than a period, so it is not judged (a real arm's steps never come early).
+void Simulation::count_late_cycle(int64_t now_ns) {
   if (!inbox_.any()) return;  // not commanded yet: nothing is late
+  if (now_ns - last_send_ns_ < period_ns_ - period_ns_ / 10) {
+    ++unjudged_;
+    return;
+  }
   if (inbox_.latest().state_seq == seq_) {
     late_in_a_row_ = 0;
     return;
@@ -144,11 +150,13 @@ void Simulation::update_brake(int64_t now_ns) {
 
 void Simulation::print_summary() const {
   std::fprintf(stderr,
-               "chasles_plant: stopped after %lld steps (%.3f s simulated); late cycles %lld (%.3f %%), late stops %lld; "
+               "chasles_plant: stopped after %lld steps (%.3f s simulated); late cycles %lld (%.3f %%), late stops %lld, "
+               "early steps not judged %lld; "
                "commands rejected %lld, stale %lld; states not sent %lld; overruns %lld; watchdog brakes %lld\n",
                static_cast<long long>(seq_), static_cast<double>(seq_) * dt_, static_cast<long long>(late_cycles_),
                seq_ > 0 ? 100.0 * static_cast<double>(late_cycles_) / static_cast<double>(seq_) : 0.0,
-               static_cast<long long>(late_stops_), static_cast<long long>(rejected_commands()),
+               static_cast<long long>(late_stops_), static_cast<long long>(unjudged_),
+               static_cast<long long>(rejected_commands()),
                static_cast<long long>(stale_commands()), static_cast<long long>(publisher_.dropped()),
                static_cast<long long>(overruns_), static_cast<long long>(brakes_));
 }

@@ -47,6 +47,8 @@ class Simulation {
   /// watchdog, the held command (or the brake), the state sent — and the delayed states that
   /// are due. A step is a late cycle when, from the first command on, no command answering the
   /// previous state (state_seq = that state's seq) has arrived: the controller missed the cycle.
+  /// A step that comes less than 0.9 periods after the last (this process catching up after it
+  /// was held up) gave the controller no full period and is not judged.
   void step();
   /// Lockstep: sends the latest state again when nothing answered it for 10 ms, and the delayed
   /// states that are due; returns when it needs to run again (the steps themselves happen as
@@ -65,6 +67,8 @@ class Simulation {
   int64_t late_in_a_row() const { return late_in_a_row_; }
   /// Real time: brakes for --max-late late cycles in a row.
   int64_t late_stops() const { return late_stops_; }
+  /// Real time: steps not judged because they came early (see step()).
+  int64_t unjudged_steps() const { return unjudged_; }
   int64_t rejected_commands() const { return inbox_.rejected(); }
   int64_t stale_commands() const { return stale_ + inbox_.stale(); }
   int64_t states_not_sent() const { return publisher_.dropped(); }
@@ -76,7 +80,7 @@ class Simulation {
   int64_t max_command_lag() const;
   void on_command(const uint8_t* data, size_t size);
   void step_and_publish(const Eigen::Ref<const Eigen::VectorXd>& tau);
-  void count_late_cycle();
+  void count_late_cycle(int64_t now_ns);
   void update_brake(int64_t now_ns);
 
   SimulationOptions options_;
@@ -91,7 +95,7 @@ class Simulation {
   const double brake_time_constant_;
   int64_t last_send_ns_ = 0;
   int64_t seq_ = 0, stale_ = 0, overruns_ = 0, brakes_ = 0;
-  int64_t late_cycles_ = 0, late_in_a_row_ = 0, late_stops_ = 0;
+  int64_t late_cycles_ = 0, late_in_a_row_ = 0, late_stops_ = 0, unjudged_ = 0;
   bool braking_ = true;  // real time: held until the first command
   Bus::Subscription subscription_;  // last: ended before what it feeds
 };
