@@ -12,6 +12,7 @@
 // Prints one JSON object on stdout; warnings on stderr. Errors: one line "chasles_loop_bench: ..."
 // on stderr, exit 2 for a usage error, 1 when LCM cannot start or nothing echoes.
 #include <poll.h>
+#include <fcntl.h>
 #include <sched.h>
 #include <signal.h>
 #include <sys/mman.h>
@@ -48,6 +49,7 @@ struct Options {
   double rate_hz = 1000.0;
   bool realtime = false;
   std::string lcm_url;
+  std::string echo_netns;  // the echo's network namespace (a /proc/PID/ns/net or /run/netns path)
 };
 
 class Failure : public std::runtime_error {
@@ -170,6 +172,11 @@ void echo_received(const lcm_recv_buf_t* rbuf, const char*, void* user) {
   action.sa_handler = on_signal;
   sigaction(SIGTERM, &action, nullptr);
   if (o.realtime) mlockall(MCL_CURRENT | MCL_FUTURE);  // SCHED_FIFO is inherited, memory locks are not
+  if (!o.echo_netns.empty()) {  // the other "host" of tools/netns2.sh
+    const int ns = open(o.echo_netns.c_str(), O_RDONLY | O_CLOEXEC);
+    if (ns < 0 || setns(ns, CLONE_NEWNET) != 0) ::_exit(1);
+    close(ns);
+  }
   lcm::LCM lcm(o.lcm_url);
   if (!lcm.good()) ::_exit(1);
   // LCM's C interface: GCC 12's -fsanitize=vptr miscompiles its typed C++ subscription.
@@ -249,7 +256,7 @@ class PingPong {
     ping_.seq = -1;
     while (!echo_ready_) {
       int status = 0;
-      if (waitpid(echo_, &status, WNOHANG) == echo_) throw Failure("the echo process could not start LCM");
+      if (waitpid(echo_, &status, WNOHANG) == echo_) throw Failure("the echo process could not start LCM (or enter --echo-netns)");
       if (monotonic_ns() > give_up) {
         throw Failure(std::string("no answer on ") + kPong + " within 5 s: is multicast looped back?" +
                       " Run inside tools/netns.sh");
@@ -324,6 +331,11 @@ int main(int argc, char** argv) {
                "SCHED_FIFO 80 and mlockall, as the controller's --realtime (warns if refused)");
   app.add_option("--lcm-url", o.lcm_url, "LCM provider URL (default: $LCM_DEFAULT_URL, else LCM's default)")
       ->type_name("URL");
+  app.add_option("--echo-netns", o.echo_netns,
+                 "Run the ping-pong's echo in this network namespace (tools/netns2.sh's $CHASLES_NETNS_B): "
+                 "the round trip then crosses the veth pair, as between two hosts")
+      ->check(CLI::ExistingFile)
+      ->type_name("PATH");
   app.footer(
       "Output: {\"rate_hz\", \"seconds\", \"sched\", \"mlockall\",\n"
       "         \"sleep_jitter_us\": {\"p50\", \"p99\", \"max\", \"late_500us\", \"overruns\", \"samples\"},\n"

@@ -98,6 +98,21 @@ TEST(twohost, JointMoveAcrossTheVethPair) {
               static_cast<long long>(s["ticks"].get<int64_t>()));
   EXPECT_GT(round_trip.size(), 1000u);
   std::remove(summary.c_str());
+
+  // The anchor, measured now across the same pair: an LCM ping-pong whose echo runs in B, under
+  // the same scheduling as the controller above (SCHED_OTHER). The state-driven tick is one wake-up
+  // and one send where the ping-pong has two of each: the ratio says what the tick adds.
+  const testing::RunResult bench = testing::run_to_completion(
+      {CHASLES_LOOP_BENCH, "--mode", "pingpong", "--seconds", "2", "--lcm-url", kLcmUrl, "--echo-netns",
+       std::getenv("CHASLES_NETNS_B")});
+  ASSERT_EQ(bench.exit_code, 0) << bench.err;
+  const nlohmann::json rtt = nlohmann::json::parse(bench.out)["lcm_round_trip_us"];
+  EXPECT_GT(rtt["answered"].get<int64_t>(), 1000);
+  std::printf("two hosts: veth LCM ping-pong p50 %.0f us, p99 %.0f us; controller latency / ping-pong: p50 %.2f, "
+              "p99 %.2f\n",
+              rtt["p50"].get<double>(), rtt["p99"].get<double>(),
+              s["latency_us"]["p50"].get<double>() / rtt["p50"].get<double>(),
+              s["latency_us"]["p99"].get<double>() / rtt["p99"].get<double>());
 }
 
 // Two arms on one network, ARM1_ and ARM2_: arm 1 moves while arm 2 holds, then arm 2 moves to
