@@ -265,9 +265,9 @@ if len(notes) > 6:
 late_pct = None
 plant = [line.strip() for line in open(os.path.join(d, "chasles_plant.err")) if "stopped after" in line]
 if plant:
-    m = re.search(r"stopped after (\d+) steps.*late cycles (\d+) \(([0-9.]+) %\), late stops (\d+)", plant[-1])
+    m = re.search(r"late cycles (\d+) of (\d+) commanded steps \(([0-9.]+) %\), late stops (\d+)", plant[-1])
     if m:
-        print(f"  late cycles (plant) {m.group(2)} of {m.group(1)} steps ({m.group(3)} %), {m.group(4)} late stops")
+        print(f"  late cycles (plant) {m.group(1)} of {m.group(2)} commanded steps ({m.group(3)} %), {m.group(4)} late stops")
         late_pct = float(m.group(3))
     print(f"  {plant[-1]}")
 print()

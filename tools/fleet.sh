@@ -187,7 +187,7 @@ for line in open(os.path.join(d, "cpu.txt")):
     cpu[pid] = 100.0 * (int(after) - int(before)) / int(hz) / float(window)
 plants = open(os.path.join(d, "plant_pids.txt")).read().split()
 controllers = open(os.path.join(d, "controller_pids.txt")).read().split()
-pattern = re.compile(r"stopped after (\d+) steps.*late cycles (\d+) \(([0-9.]+) %\), late stops (\d+)")
+pattern = re.compile(r"late cycles (\d+) of (\d+) commanded steps \(([0-9.]+) %\), late stops (\d+)")
 rows, held = [], 0
 print(f"{'arm':>4} {'ticks':>7} {'faults':>6} {'overruns':>8} {'latency p50/p99 us':>19} {'late cycles':>16} "
       f"{'late stops':>10} {'cpu ctl %':>9} {'cpu plant %':>11}")
@@ -201,7 +201,7 @@ for i in range(n):
     m = None
     for line in open(os.path.join(d, f"plant{i}.err")):
         m = pattern.search(line) or m
-    steps, late, late_pct, stops = (int(m.group(1)), int(m.group(2)), float(m.group(3)), int(m.group(4))) if m else (0, 0, 100.0, -1)
+    late, steps, late_pct, stops = (int(m.group(1)), int(m.group(2)), float(m.group(3)), int(m.group(4))) if m else (0, 0, 100.0, -1)
     c_ctl, c_plant = cpu[controllers[i]], cpu[plants[i]]
     ok = s["faults"] == 0 and stops == 0 and late_pct <= 0.1
     held += ok

@@ -365,10 +365,10 @@ TEST(plant, BrakesToRestWhenCommandsStop) {
                          "braking to rest"),
                 std::string::npos)
           << err;
-      EXPECT_NE(err.find("late stops 1,"), std::string::npos) << err;
+      EXPECT_NE(err.find(" late cycles, 1 late stops;"), std::string::npos) << "stopped after the last command: " << err;
     } else {
       EXPECT_NE(err.find("no valid command on TEST_COMMAND for 50 ms: braking to rest"), std::string::npos) << err;
-      EXPECT_NE(err.find("late stops 0,"), std::string::npos) << err;
+      EXPECT_NE(err.find(" late cycles, 0 late stops;"), std::string::npos) << err;
     }
   }
 }

@@ -111,6 +111,10 @@ int64_t Simulation::serve_lockstep() {
 // controller less than a period, so it is not judged (a real arm's steps never come early).
 void Simulation::count_late_cycle(int64_t now_ns) {
   if (!inbox_.any()) return;  // not commanded yet: nothing is late
+  if (inbox_.latest_arrival_ns() != commanded_.last_command_ns) {  // the account up to the latest command
+    if (commanded_.last_command_ns < 0) commanded_.first_step = seq_;
+    commanded_ = {inbox_.latest_arrival_ns(), commanded_.first_step, seq_, late_cycles_, late_stops_};
+  }
   if (now_ns - last_send_ns_ < period_ns_ - period_ns_ / 10) {
     ++unjudged_;
     return;
@@ -148,17 +152,23 @@ void Simulation::update_brake(int64_t now_ns) {
   }
 }
 
+// Late cycles are reported up to the last command, and apart after it: when a controller stops, the
+// silence that follows is the end of its session (its late stop included), not deadlines it missed
+// while it ran.
 void Simulation::print_summary() const {
+  const int64_t steps = commanded_.last_step - commanded_.first_step;
   std::fprintf(stderr,
-               "chasles_plant: stopped after %lld steps (%.3f s simulated); late cycles %lld (%.3f %%), late stops %lld, "
-               "early steps not judged %lld; "
-               "commands rejected %lld, stale %lld; states not sent %lld; overruns %lld; watchdog brakes %lld\n",
-               static_cast<long long>(seq_), static_cast<double>(seq_) * dt_, static_cast<long long>(late_cycles_),
-               seq_ > 0 ? 100.0 * static_cast<double>(late_cycles_) / static_cast<double>(seq_) : 0.0,
-               static_cast<long long>(late_stops_), static_cast<long long>(unjudged_),
-               static_cast<long long>(rejected_commands()),
-               static_cast<long long>(stale_commands()), static_cast<long long>(publisher_.dropped()),
-               static_cast<long long>(overruns_), static_cast<long long>(brakes_));
+               "chasles_plant: stopped after %lld steps (%.3f s simulated); late cycles %lld of %lld commanded steps "
+               "(%.3f %%), late stops %lld; after the last command %lld late cycles, %lld late stops; early steps not "
+               "judged %lld; commands rejected %lld, stale %lld; states not sent %lld; overruns %lld; brakes %lld\n",
+               static_cast<long long>(seq_), static_cast<double>(seq_) * dt_,
+               static_cast<long long>(commanded_.late_cycles), static_cast<long long>(steps),
+               steps > 0 ? 100.0 * static_cast<double>(commanded_.late_cycles) / static_cast<double>(steps) : 0.0,
+               static_cast<long long>(commanded_.late_stops), static_cast<long long>(late_cycles_ - commanded_.late_cycles),
+               static_cast<long long>(late_stops_ - commanded_.late_stops), static_cast<long long>(unjudged_),
+               static_cast<long long>(rejected_commands()), static_cast<long long>(stale_commands()),
+               static_cast<long long>(publisher_.dropped()), static_cast<long long>(overruns_),
+               static_cast<long long>(brakes_));
 }
 
 }  // namespace chasles::plant

@@ -96,6 +96,10 @@ class Simulation {
   int64_t last_send_ns_ = 0;
   int64_t seq_ = 0, stale_ = 0, overruns_ = 0, brakes_ = 0;
   int64_t late_cycles_ = 0, late_in_a_row_ = 0, late_stops_ = 0, unjudged_ = 0;
+  // The account as it stood when the latest command arrived (see print_summary).
+  struct Commanded {
+    int64_t last_command_ns = -1, first_step = 0, last_step = 0, late_cycles = 0, late_stops = 0;
+  } commanded_;
   bool braking_ = true;  // real time: held until the first command
   Bus::Subscription subscription_;  // last: ended before what it feeds
 };
