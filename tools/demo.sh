@@ -359,15 +359,8 @@ source "$root/tools/deps.sh"
 chasles_install_missing "${chasles_packages_build[@]}" "${chasles_packages_plots[@]}"
 
 build=${CHASLES_BUILD_DIR:-$root/build}
-mkdir -p "$build"
 echo "Building chasles, chasles_plant, chasles_controller and chasles_loop_bench in $build ..."
-if ! { cmake -S "$root" -B "$build" -G Ninja -DCHASLES_WERROR=ON &&
-  cmake --build "$build" -j 2 --target chasles chasles_plant chasles_controller_daemon chasles_loop_bench; } \
-  >"$build/demo-build.log" 2>&1; then
-  tail -n 40 "$build/demo-build.log" >&2
-  echo "demo.sh: the build failed (full log: $build/demo-build.log)" >&2
-  exit 1
-fi
+chasles_build demo "$build" chasles chasles_plant chasles_controller_daemon chasles_loop_bench || exit 1
 
 dir="$build/demo/$(date +%Y%m%d-%H%M%S)"
 mkdir -p "$dir"

@@ -161,15 +161,8 @@ source "$root/tools/deps.sh"
 chasles_install_missing "${chasles_packages_build[@]}"
 
 build=${CHASLES_BUILD_DIR:-$root/build}
-mkdir -p "$build"
 echo "Building chasles, chasles_plant and chasles_controller in $build ..."
-if ! { cmake -S "$root" -B "$build" -G Ninja -DCHASLES_WERROR=ON &&
-  cmake --build "$build" -j 2 --target chasles chasles_plant chasles_controller_daemon; } \
-  >"$build/fleet-build.log" 2>&1; then
-  tail -n 40 "$build/fleet-build.log" >&2
-  echo "fleet.sh: the build failed (full log: $build/fleet-build.log)" >&2
-  exit 1
-fi
+chasles_build fleet "$build" chasles chasles_plant chasles_controller_daemon || exit 1
 
 dir="$build/fleet/$(date +%Y%m%d-%H%M%S)"
 mkdir -p "$dir"
