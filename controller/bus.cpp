@@ -1,13 +1,12 @@
 #include "chasles/controller/bus.hpp"
 
 #include <lcm/lcm.h>
-#include <pthread.h>
-#include <sched.h>
 
 #include <cstdlib>
 #include <cstring>
 #include <thread>
 
+#include "chasles/controller/realtime.hpp"
 #include "chasles/core/error.hpp"
 
 namespace chasles::controller {
@@ -91,9 +90,7 @@ int Bus::fileno() const { return lcm_get_fileno(lcm_); }
 std::string Bus::start_receiving(int priority) {
   std::string warning;
   std::thread starter([&] {
-    sched_param param{};
-    param.sched_priority = priority;
-    if (const int err = pthread_setschedparam(pthread_self(), SCHED_FIFO, &param); err != 0) {
+    if (const int err = request_fifo(priority); err != 0) {
       warning = std::string("SCHED_FIFO refused for LCM's receive thread (") + std::strerror(err) +
                 "): it runs under SCHED_OTHER";
     }

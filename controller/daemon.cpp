@@ -63,10 +63,9 @@ struct Daemon::Impl {
   }
 
   void status_loop() {
-    const auto status_period = static_cast<int64_t>(1e9 / options.status_hz);
     while (!done.load(std::memory_order_relaxed)) {
-      node.reporter_bell().wait_until(clock.now_ns() + std::min(status_period, kIdleNs));
-      node.report();
+      const int64_t due = node.report();
+      node.reporter_bell().wait_until(std::min(due, clock.now_ns() + kIdleNs));
     }
   }
 

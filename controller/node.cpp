@@ -217,12 +217,13 @@ void Node::drain() {
   }
 }
 
-void Node::report() {
+int64_t Node::report() {
   drain();
-  if (snapshots_.read(last_)) have_snapshot_ = true;
-  if (!have_snapshot_) return;
-  const Snapshot& s = last_;
   const int64_t now = clock_.now_ns();
+  const auto status_period = static_cast<int64_t>(1e9 / options_.status_hz);
+  if (snapshots_.read(last_)) have_snapshot_ = true;
+  if (!have_snapshot_) return now + status_period;
+  const Snapshot& s = last_;
   const bool changed = s.mode != reported_mode_;
   if (changed) {
     std::fprintf(stderr, "chasles_controller: %s%s%s\n", to_string(s.mode), s.mode == Mode::kFault ? ": " : "",
@@ -243,8 +244,7 @@ void Node::report() {
                  static_cast<long long>(rejections_.count() - reported_wire_), rejections_.last());
     reported_wire_ = rejections_.count();
   }
-  const auto status_period = static_cast<int64_t>(1e9 / options_.status_hz);
-  if (!changed && now - last_status_ns_ < status_period) return;
+  if (!changed && now - last_status_ns_ < status_period) return last_status_ns_ + status_period;
   last_status_ns_ = now;
   fill_status();
   total_.merge(window_);
@@ -252,6 +252,7 @@ void Node::report() {
   status_bytes_.resize(size_t(status_.getEncodedSize()));
   status_.encode(status_bytes_.data(), 0, static_cast<int>(status_bytes_.size()));
   buses_.status.publish(channels_.status, status_bytes_);
+  return now + status_period;
 }
 
 void Node::fill_status() {

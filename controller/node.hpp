@@ -67,8 +67,8 @@ class Node {
   /// was handed over (false: nothing to do, or the path waits for room — wait for the bell).
   bool plan();
   /// Drains the timing records, reports changes on stderr and publishes a status when one is due
-  /// (or the mode changed).
-  void report();
+  /// (or the mode changed); returns when the next is due.
+  int64_t report();
   /// The summary of the run so far, over `seconds` of it.
   Summary summary(double seconds);
 

@@ -19,6 +19,12 @@ namespace chasles::controller {
 
 void minimise_timer_slack() { prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL); }
 
+int request_fifo(int priority) {
+  sched_param param{};
+  param.sched_priority = priority;
+  return pthread_setschedparam(pthread_self(), SCHED_FIFO, &param);
+}
+
 std::vector<std::string> make_realtime(int priority, int cpu) {
   std::vector<std::string> warnings;
   // Locked memory keeps page faults out of the tick; MCL_FUTURE covers later stacks and buffers.
@@ -26,9 +32,7 @@ std::vector<std::string> make_realtime(int priority, int cpu) {
     warnings.push_back(std::string("mlockall refused (") + std::strerror(errno) +
                        "): page faults may stall ticks; raise RLIMIT_MEMLOCK or run as root");
   }
-  sched_param param{};
-  param.sched_priority = priority;
-  if (const int err = pthread_setschedparam(pthread_self(), SCHED_FIFO, &param); err != 0) {
+  if (const int err = request_fifo(priority); err != 0) {
     warnings.push_back(std::string("SCHED_FIFO refused (") + std::strerror(err) +
                        "): the loop runs under SCHED_OTHER; grant CAP_SYS_NICE or an rtprio limit");
   }

@@ -13,6 +13,9 @@ namespace chasles::controller {
 /// wake-up by 50 µs to batch timers, most of a 1 kHz loop's measured jitter.
 void minimise_timer_slack();
 
+/// SCHED_FIFO at `priority` for the calling thread; 0, or the error (errno value) that refused it.
+int request_fifo(int priority);
+
 /// SCHED_FIFO at `priority`, all memory locked (mlockall), and pinned to `cpu` (−1: not pinned).
 /// Returns one warning per request the OS refused; empty when all were granted.
 std::vector<std::string> make_realtime(int priority, int cpu);

@@ -138,12 +138,13 @@ void Simulation::update_brake(int64_t now_ns) {
   braking_ = brake;
   if (!brake) {
     std::fprintf(stderr, "chasles_plant: commands on %s: brake released\n", command_channel_.c_str());
-  } else if (silent) {
-    ++brakes_;
+    return;
+  }
+  ++brakes_;
+  if (silent) {
     std::fprintf(stderr, "chasles_plant: no valid command on %s for %g ms: braking to rest\n", command_channel_.c_str(),
                  options_.timeout_ms);
   } else {
-    ++brakes_;
     ++late_stops_;
     std::fprintf(stderr,
                  "chasles_plant: %lld late cycles in a row on %s (no command answered the previous state in time): "
