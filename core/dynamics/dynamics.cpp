@@ -126,6 +126,36 @@ const Eigen::VectorXd& velocity_product(const RobotModel& model, Data& data, con
   return data.c;
 }
 
+const Eigen::VectorXd& momentum_terms(const RobotModel& model, Data& data, const JointVector& q,
+                                      const JointVector& qd) {
+  check_joint_vector(model, qd, "qd");
+  local_transforms(model, data, q);
+  const int n = model.dof();
+  // Forward: body twists V_i and the gravity each body feels, as the base acceleration (0, −g)
+  // seen from body i (the V̇_i of a chain at rest).
+  data.Vd[0] << Vector3d::Zero(), -model.gravity();
+  for (int i = 0; i < n; ++i) {
+    const Transform& T = data.T_local[body(i)];
+    data.V[body(i)] = adjoint_inverse_times(T, data.V[body(i) - 1]) + axis_times(model.joint(i), qd(i));
+    data.Vd[body(i)] = adjoint_inverse_times(T, data.Vd[body(i) - 1]);
+  }
+  // Backward: subtree momentum H and gravity wrench W, carried toward the base as wrenches are.
+  Vector6d H = Vector6d::Zero(), W = Vector6d::Zero();
+  for (int i = n - 1; i >= 0; --i) {
+    const SpatialInertia& G = model.body_inertia(i);
+    const Joint& joint = model.joint(i);
+    const Vector6d& V = data.V[body(i)];
+    H += G * V;
+    W += G * data.Vd[body(i)];
+    data.p(i) = axis_dot(joint, H);
+    data.ct_qd(i) = axis_dot(joint, ad_transpose_times(V, H));
+    data.g(i) = axis_dot(joint, W);
+    H = adjoint_inverse_transpose_times(data.T_local[body(i)], H);
+    W = adjoint_inverse_transpose_times(data.T_local[body(i)], W);
+  }
+  return data.p;
+}
+
 const Eigen::MatrixXd& mass_matrix(const RobotModel& model, Data& data, const JointVector& q) {
   local_transforms(model, data, q);
   const int n = model.dof();

@@ -24,6 +24,14 @@ const Eigen::VectorXd& gravity_torques(const RobotModel& model, Data& data, cons
 const Eigen::VectorXd& velocity_product(const RobotModel& model, Data& data, const JointVector& q,
                                         const JointVector& qd);
 
+/// The terms of the generalized-momentum balance ṗ = τ + Cᵀ(q, q̇) q̇ − g(q) + τ_ext, in one O(n)
+/// pass: p = M(q) q̇ into data.p, Cᵀ(q, q̇) q̇ into data.ct_qd (with the Christoffel C, so that
+/// Ṁ = C + Cᵀ) and g(q) into data.g. Joint j's entries are A_jᵀ H_j, A_jᵀ [ad_{V_j}]ᵀ H_j and A_jᵀ W_j,
+/// H_j and W_j being the momentum of bodies j…n and the wrench that holds them against gravity, in
+/// body j's frame: since p = Σ J_iᵀ G_i V_i with each body's own inertia constant, ṗ − Σ J_iᵀ Ḣ_i =
+/// Σ J̇_iᵀ G_i V_i, and joint j's column moves as [Ad_T0j] ad_{V_j} A_j. Returns data.p.
+const Eigen::VectorXd& momentum_terms(const RobotModel& model, Data& data, const JointVector& q, const JointVector& qd);
+
 /// M(q) by the composite-rigid-body algorithm; the full symmetric matrix.
 const Eigen::MatrixXd& mass_matrix(const RobotModel& model, Data& data, const JointVector& q);
 

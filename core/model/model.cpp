@@ -117,6 +117,8 @@ Data::Data(const RobotModel& model)
       c(Eigen::VectorXd::Zero(model.dof())),
       M(Eigen::MatrixXd::Zero(model.dof(), model.dof())),
       qdd(Eigen::VectorXd::Zero(model.dof())),
+      p(Eigen::VectorXd::Zero(model.dof())),
+      ct_qd(Eigen::VectorXd::Zero(model.dof())),
       M_llt(model.dof()) {}
 
 }  // namespace chasles

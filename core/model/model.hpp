@@ -162,6 +162,8 @@ struct Data {
   Eigen::VectorXd c;    ///< velocity product C(q, q̇) q̇
   Eigen::MatrixXd M;    ///< mass matrix
   Eigen::VectorXd qdd;  ///< forward dynamics
+  Eigen::VectorXd p;      ///< generalized momentum M(q) q̇
+  Eigen::VectorXd ct_qd;  ///< Cᵀ(q, q̇) q̇, the momentum balance's velocity term
   Eigen::LLT<Eigen::MatrixXd> M_llt;
 };
 
