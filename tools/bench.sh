@@ -27,7 +27,7 @@ for arg in "$@"; do
 done
 
 source "$root/tools/deps.sh"
-chasles_install_missing "${chasles_packages_build[@]}" libbenchmark-dev liborocos-kdl-dev libkdl-parser-dev >&2
+chasles_install_missing "${chasles_packages_build[@]}" "${chasles_packages_bench[@]}" >&2
 
 # Tests and tools are not needed here; leaving them out keeps this build independent of them.
 build="$root/build-bench"

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs the Debian packages chasles needs, and only those that are missing.
-# Sourced by demo.sh, test.sh and bench.sh; run alone it installs the full set.
+# Sourced by demo.sh, test.sh and bench.sh; run alone it installs the full set (with the
+# benchmarks' packages).
 # As root it runs apt-get; otherwise it prints the exact command and fails.
 set -euo pipefail
 
@@ -22,6 +23,10 @@ chasles_packages_monitor=(
   "${chasles_packages_plots[@]}" libjchart2d-java default-jre
   xvfb imagemagick tesseract-ocr tesseract-ocr-eng xdotool
 )
+
+# The benchmarks (tools/bench.sh): Google Benchmark, and Orocos KDL (1.5.1 in Debian 12, which has
+# ChainExternalWrenchEstimator) with kdl_parser, the library chasles is timed against.
+chasles_packages_bench=(libbenchmark-dev liborocos-kdl-dev libkdl-parser-dev)
 
 # The fuzz targets (tools/fuzz.sh, and the fuzz stage of tools/test.sh): clang with libFuzzer and
 # the sanitizer runtimes.
@@ -62,5 +67,6 @@ chasles_install_missing() {
 }
 
 if [ "${BASH_SOURCE[0]}" = "$0" ]; then
-  chasles_install_missing "${chasles_packages_build[@]}" "${chasles_packages_monitor[@]}" "$@"
+  chasles_install_missing "${chasles_packages_build[@]}" "${chasles_packages_monitor[@]}" \
+    "${chasles_packages_bench[@]}" "$@"
 fi
