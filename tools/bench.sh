@@ -2,7 +2,9 @@
 # Benchmarks chasles against Orocos KDL (tests/bench/dynamics_bench.cpp) on the UR5 and the Panda
 # and prints, per robot and quantity, the median time of each and their ratio, next to the ratio
 # Pinocchio reaches against KDL (the anchor the issue sets); then inverse kinematics, chasles's
-# Ceres solver against KDL's NR_JL on the reference targets (tests/bench/ik_bench.cpp). Installs
+# Ceres solver against KDL's NR_JL on the reference targets (tests/bench/ik_bench.cpp); then contact
+# estimation, chasles's momentum observer and tip wrench against KDL's ChainExternalWrenchEstimator
+# on the same recording, time per update and accuracy (tests/bench/contact_bench.cpp). Installs
 # missing Debian packages, builds a separate Release tree in build-bench/ and only the benchmark
 # targets there.
 #
@@ -13,7 +15,8 @@
 #                                                   override the defaults below)
 #
 # Times are the median of 3 repetitions of at least 0.2 s each, CPU time per call; the whole run
-# takes about half a minute. Benchmark names are "<chasles|kdl>/<robot>/<quantity>".
+# takes about half a minute. Benchmark names are "<chasles|kdl>/<robot>/<quantity>". The IK and
+# contact tables follow; --json leaves them out.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 
@@ -33,7 +36,7 @@ chasles_install_missing "${chasles_packages_build[@]}" "${chasles_packages_bench
 build="$root/build-bench"
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCHASLES_BUILD_BENCHMARKS=ON \
   -DCHASLES_BUILD_TESTS=OFF -DCHASLES_BUILD_TOOLS=OFF -DCHASLES_WERROR=OFF >&2
-cmake --build "$build" --target chasles_bench chasles_ik_bench -j 2 >&2
+cmake --build "$build" --target chasles_bench chasles_ik_bench chasles_contact_bench -j 2 >&2
 
 report=$(mktemp)
 trap 'rm -f "$report"' EXIT
@@ -132,4 +135,14 @@ if [ "$json" = 0 ]; then
   echo
   echo "bench: running chasles_ik_bench (200 targets per robot, cold and warm)" >&2
   "$build/tests/bench/chasles_ik_bench" 2> >(grep -v "KDL does not support a root link" >&2)
+fi
+
+# Contact estimation, chasles against KDL's ChainExternalWrenchEstimator: ns per update (median of 5
+# repetitions, interleaved at random so that drift hits both) and the accuracy of each on the same
+# recording. Table output only, as the IK bench's.
+if [ "$json" = 0 ]; then
+  echo
+  echo "bench: running chasles_contact_bench (about 10 s)" >&2
+  "$build/tests/bench/chasles_contact_bench" --benchmark_min_time=0.2 --benchmark_repetitions=5 \
+    --benchmark_enable_random_interleaving=true --benchmark_display_aggregates_only=true
 fi
