@@ -16,7 +16,7 @@
 //
 // What is timed, per update (one sample), each on its own estimator fed the recording in order:
 // - chasles: MomentumObserver::update (τ̂_ext) + body_jacobian + tip_wrench_from_torque (F̂ in the
-//   tip frame).
+//   tip frame); and each of the three alone, to show where the time goes.
 // - KDL: ChainExternalWrenchEstimator::JntToExtWrench (which computes τ̂_ext and F̂ in the tip
 //   frame) + getEstimatedJntTorque (a copy of τ̂_ext, so the caller has it as chasles's does).
 // Both with the same observer gain K_O = kGain on every joint, KDL's low-pass filter off (filter
@@ -193,6 +193,7 @@ struct Recording {
   // command, which nothing reads), the truth.
   std::vector<Eigen::VectorXd> q, qd, tau, tau_ext;
   std::vector<Vector6d> F_env;  // on the tip, tip frame, (m, f)
+  std::vector<Matrix6Xd> J_b;   // at each sample, for timing tip_wrench_from_torque alone
   std::vector<KDL::JntArray> kq, kqd, ktau;
   double min_singular_value = 0.0;  // of J_b over the recording
   double max_speed = 0.0;           // max |q̇_i|, rad/s
@@ -244,6 +245,7 @@ Recording record(const chasles::RobotModel& model, const Scenario& s) {
     r.q.push_back(q);
     r.qd.push_back(qd);
     r.F_env.push_back(F_env);
+    r.J_b.push_back(J_b);
     r.tau_ext.push_back(J_b.transpose() * F_env);
     r.min_singular_value = std::min(r.min_singular_value, Eigen::JacobiSVD<Matrix6Xd>(J_b).singularValues().minCoeff());
     r.max_speed = std::max(r.max_speed, qd.cwiseAbs().maxCoeff());
@@ -481,11 +483,11 @@ Scores measure_accuracy(Robot& r) {
 
 // --- the benchmarks -----------------------------------------------------------------------------
 
-// "<library>/<robot>/update": each iteration is one update at the next sample; at the end of the
+// "<library>/<robot>/<what>": each iteration is one update at the next sample; at the end of the
 // recording the estimator restarts at its beginning.
 template <class Restart, class Update>
-void add(const char* library, Robot& robot, Restart restart, Update update) {
-  const std::string name = std::string(library) + "/" + robot.scenario.name + "/update";
+void add(const char* library, Robot& robot, const char* what, Restart restart, Update update) {
+  const std::string name = std::string(library) + "/" + robot.scenario.name + "/" + what;
   benchmark::RegisterBenchmark(name.c_str(), [&robot, restart, update](benchmark::State& state) {
     const size_t samples = robot.rec.q.size();
     restart(robot);
@@ -502,18 +504,33 @@ void add(const char* library, Robot& robot, Restart restart, Update update) {
 
 void register_benchmarks(Robot& r) {
   add(
-      "chasles", r, [](Robot& x) { x.restart_chasles(); },
+      "chasles", r, "update", [](Robot& x) { x.restart_chasles(); },
       [](Robot& x, size_t k) {
         x.update_chasles(k);
         benchmark::DoNotOptimize(x.F_hat.data());
         benchmark::DoNotOptimize(x.observer.external_torque().data());
       });
   add(
-      "kdl", r, [](Robot& x) { x.kdl.restart(x.rec); },
+      "kdl", r, "update", [](Robot& x) { x.kdl.restart(x.rec); },
       [](Robot& x, size_t k) {
         x.kdl.update(x.rec, k);
         benchmark::DoNotOptimize(&x.kdl.wrench);
         benchmark::DoNotOptimize(x.kdl.tau_hat.data.data());
+      });
+  // chasles's update in its three parts, to show where its time goes.
+  add(
+      "chasles", r, "observer", [](Robot& x) { x.restart_chasles(); },
+      [](Robot& x, size_t k) {
+        benchmark::DoNotOptimize(x.observer.update(x.rec.q[k], x.rec.qd[k], x.rec.tau[k], kPeriod).data());
+      });
+  add(
+      "chasles", r, "body_jacobian", [](Robot&) {},
+      [](Robot& x, size_t k) { benchmark::DoNotOptimize(chasles::body_jacobian(x.model, x.data, x.rec.q[k]).data()); });
+  add(
+      "chasles", r, "tip_wrench", [](Robot&) {},
+      [](Robot& x, size_t k) {
+        x.F_hat = chasles::tip_wrench_from_torque(x.rec.J_b[k], x.rec.tau_ext[k]);
+        benchmark::DoNotOptimize(x.F_hat.data());
       });
 }
 
@@ -558,17 +575,20 @@ void print_tables(const std::vector<std::unique_ptr<Robot>>& robots, const std::
       "against KDL (ChainExternalWrenchEstimator::JntToExtWrench + getEstimatedJntTorque), K_O = %g/s\n"
       "on every joint, %g Hz, KDL's filter off.\n\n",
       kGain, 1.0 / kPeriod);
-  std::printf("%-6s  %10s  %10s  %11s  %15s  %11s\n", "robot", "chasles ns", "KDL ns", "KDL/chasles", "chasles allocs",
-              "KDL allocs");
+  std::printf("%-6s  %10s  %10s  %11s  %26s  %14s  %10s\n", "robot", "chasles ns", "KDL ns", "KDL/chasles",
+              "chasles: observer, J_b, F", "chasles allocs", "KDL allocs");
   for (size_t i = 0; i < robots.size(); ++i) {
-    const std::string& name = robots[i]->scenario.name;
-    const double c = reporter.ns("chasles/" + name + "/update"), k = reporter.ns("kdl/" + name + "/update");
-    std::printf("%-6s  %10.0f  %10.0f  %11.2f  %15.1f  %11.1f\n", name.c_str(), c, k, k / c,
-                scores[i].chasles.allocations_per_update, scores[i].kdl.allocations_per_update);
+    const std::string c = "chasles/" + robots[i]->scenario.name + "/";
+    const double ours = reporter.ns(c + "update"), kdl = reporter.ns("kdl/" + robots[i]->scenario.name + "/update");
+    std::printf("%-6s  %10.0f  %10.0f  %11.2f  %10.0f %7.0f %7.0f  %14.1f  %10.1f\n", robots[i]->scenario.name.c_str(),
+                ours, kdl, kdl / ours, reporter.ns(c + "observer"), reporter.ns(c + "body_jacobian"),
+                reporter.ns(c + "tip_wrench"), scores[i].chasles.allocations_per_update,
+                scores[i].kdl.allocations_per_update);
   }
   std::printf(
-      "\nns: median CPU time per update (one sample: τ̂_ext and the tip wrench); allocs: heap allocations\n"
-      "per update.\n\n");
+      "\nns: median CPU time per update (one sample: τ̂_ext and the tip wrench in the tip frame); chasles's in\n"
+      "its parts, each timed alone: MomentumObserver::update, body_jacobian, tip_wrench_from_torque.\n"
+      "allocs: heap allocations per update.\n\n");
 
   std::printf(
       "Accuracy on the recording (%g s at %g Hz: two moves, holds, a push ramping to 20 N and 1 N·m from\n"
