@@ -15,6 +15,7 @@
 #include <chasles/controller_status_t.hpp>
 #include <chasles/joint_torque_command_t.hpp>
 #include <chasles/robot_state_t.hpp>
+#include <chasles/sim_truth_t.hpp>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -51,6 +52,7 @@ inline constexpr size_t kStateCount = 8 + 8 + 8;             // utime, seq
 inline constexpr size_t kCommandCount = 8 + 8 + 8 + 8;       // utime, seq, state_seq
 inline constexpr size_t kTargetCount = 8 + 8 + 1;            // utime, mode
 inline constexpr size_t kStatusStringLength = 8 + 8 + 1;     // utime, state
+inline constexpr size_t kTruthCount = 8 + 8 + 8;             // utime, seq
 
 inline std::string truncated(size_t size) { return "truncated: " + std::to_string(size) + " bytes"; }
 
@@ -99,6 +101,13 @@ inline std::string prepare(const void* data, size_t size, controller_status_t& m
   return {};
 }
 
+inline std::string prepare(const void* data, size_t size, sim_truth_t& m) {
+  if (!read_int32(data, size, kTruthCount, m.num_joints)) return truncated(size);
+  if (std::string why = impossible_count(m.num_joints, size); !why.empty()) return why;
+  m.tau_ext.assign(size_t(m.num_joints), 0.0);
+  return {};
+}
+
 inline bool finite(const std::vector<double>& values) {
   for (double x : values) {
     if (!std::isfinite(x)) return false;
@@ -117,6 +126,9 @@ inline const char* non_finite(const robot_state_t& m) {
   return !finite(m.position) ? "position" : !finite(m.velocity) ? "velocity" : !finite(m.effort) ? "effort" : nullptr;
 }
 inline const char* non_finite(const joint_torque_command_t& m) { return finite(m.torque) ? nullptr : "torque"; }
+inline const char* non_finite(const sim_truth_t& m) {
+  return !finite(m.tau_ext) ? "tau_ext" : !finite(m.tip_wrench_ext, 6) ? "tip_wrench_ext" : nullptr;
+}
 inline const char* non_finite(const arm_target_t& m) {
   return !finite(m.joint_position)      ? "joint_position"
          : !finite(m.tip_position, 3)   ? "tip_position"
@@ -125,8 +137,8 @@ inline const char* non_finite(const arm_target_t& m) {
                                         : nullptr;
 }
 
-// Whether a message for `count` joints fits an arm of `arm_joints`: states and commands carry every
-// joint; a target carries all of them (JOINT) or none (HOLD, CARTESIAN), and the controller says
+// Whether a message for `count` joints fits an arm of `arm_joints`: states, commands and truths carry
+// every joint; a target carries all of them (JOINT) or none (HOLD, CARTESIAN), and the controller says
 // which its mode needs.
 template <typename Message>
 bool fits_arm(int32_t count, int arm_joints) {
