@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <iterator>
 #include <limits>
 
 #include "chasles/lcmtypes/checked.hpp"
@@ -111,6 +112,27 @@ int64_t StatePublisher::flush(int64_t now_ns) {
 void StatePublisher::publish(const std::vector<uint8_t>& bytes) {
   // A send that fails is a lost message, as on a real network; the receiver sees the seq gap.
   if (!bus_.publish(channel_, bytes)) ++dropped_;
+}
+
+TruthPublisher::TruthPublisher(Bus& bus, std::string channel, int num_joints)
+    : bus_(bus), channel_(std::move(channel)) {
+  message_.utime = message_.seq = 0;
+  message_.num_joints = num_joints;
+  message_.tau_ext.assign(static_cast<size_t>(num_joints), 0.0);
+  std::fill(std::begin(message_.tip_wrench_ext), std::end(message_.tip_wrench_ext), 0.0);
+  message_.contact = false;
+  bytes_.resize(static_cast<size_t>(message_.getEncodedSize()));
+}
+
+void TruthPublisher::publish(int64_t utime, int64_t seq, const Eigen::VectorXd& tau_ext, const Vector6d& tip_wrench_ext,
+                             bool contact) {
+  message_.utime = utime;
+  message_.seq = seq;
+  for (size_t i = 0; i < message_.tau_ext.size(); ++i) message_.tau_ext[i] = tau_ext[static_cast<Eigen::Index>(i)];
+  for (int i = 0; i < 6; ++i) message_.tip_wrench_ext[i] = tip_wrench_ext[i];
+  message_.contact = contact;
+  message_.encode(bytes_.data(), 0, static_cast<int>(bytes_.size()));
+  if (!bus_.publish(channel_, bytes_)) ++not_sent_;
 }
 
 }  // namespace chasles::plant

@@ -1,11 +1,13 @@
-// The plant's side of the wire: commands in, states out, through the injected faults. Both
-// classes preallocate every buffer on construction; receiving a valid command, encoding and
-// publishing allocate nothing afterwards (a refusal builds its reason).
+// The plant's side of the wire: commands in, states out, through the injected faults, and the
+// truth out beside them, untouched by the faults. Every class preallocates every buffer on
+// construction; receiving a valid command, encoding and publishing allocate nothing afterwards (a
+// refusal builds its reason).
 #pragma once
 
 #include <Eigen/Core>
 #include <chasles/joint_torque_command_t.hpp>
 #include <chasles/robot_state_t.hpp>
+#include <chasles/sim_truth_t.hpp>
 #include <cstdint>
 #include <random>
 #include <string>
@@ -13,6 +15,7 @@
 
 #include "chasles/controller/bus.hpp"
 #include "chasles/controller/clock.hpp"
+#include "chasles/core/lie/types.hpp"
 
 namespace chasles::plant {
 
@@ -129,6 +132,25 @@ class StatePublisher {
   int64_t dropped_ = 0;
   int64_t sends_ = 0;          // states handed to send(), for the spikes
   int64_t spike_end_ns_ = 0;   // the current spike holds states until then
+};
+
+/// Encodes sim_truth_t into a preallocated buffer and publishes it at once: no drop, delay or noise
+/// (the truth is what happened, not what the sensors said).
+class TruthPublisher {
+ public:
+  TruthPublisher(Bus& bus, std::string channel, int num_joints);
+
+  /// Encodes and sends one truth; a send that fails is counted (not_sent()).
+  void publish(int64_t utime, int64_t seq, const Eigen::VectorXd& tau_ext, const Vector6d& tip_wrench_ext,
+               bool contact);
+  int64_t not_sent() const { return not_sent_; }
+
+ private:
+  Bus& bus_;
+  std::string channel_;
+  sim_truth_t message_;
+  std::vector<uint8_t> bytes_;
+  int64_t not_sent_ = 0;
 };
 
 }  // namespace chasles::plant

@@ -27,9 +27,11 @@ Simulation::Simulation(const RobotModel& model, const SimulationOptions& options
       bus_(bus),
       clock_(clock),
       command_channel_(options.prefix + "COMMAND"),
-      plant_(model, q0, damping),
+      plant_(model, q0, damping, 1.0 / options.rate_hz, options.substeps, options.environment),
       inbox_(clock, command_channel_, model.dof()),
       publisher_(bus, options.prefix + "STATE", model.dof(), options.faults, max_in_flight(options)),
+      publish_truth_(options.truth || options.environment.any()),
+      truth_publisher_(bus, options.prefix + "TRUTH", model.dof()),
       dt_(1.0 / options.rate_hz),
       period_ns_(static_cast<int64_t>(std::llround(1e9 / options.rate_hz))),
       brake_time_constant_(std::max(kBrakeTimeConstant, kBrakeStepsPerTimeConstant * dt_)) {
@@ -52,11 +54,18 @@ int64_t Simulation::max_command_lag() const {
   return static_cast<int64_t>(std::ceil(lag_ms * 1e-3 * options_.rate_hz));
 }
 
-void Simulation::start() {
-  const int64_t now = clock_.now_ns();
-  publisher_.encode(clock_.utime_us(), seq_, plant_.q(), plant_.qd(), plant_.effort());
-  publisher_.send(now);
-  last_send_ns_ = now;
+void Simulation::start() { publish_state(clock_.now_ns()); }
+
+// The truth goes out right after the state it belongs to is produced, whatever the faults do to
+// that state: a dropped or delayed state still has its truth, on time.
+void Simulation::publish_state(int64_t now_ns) {
+  const int64_t utime = clock_.utime_us();
+  publisher_.encode(utime, seq_, plant_.q(), plant_.qd(), plant_.effort());
+  publisher_.send(now_ns);
+  last_send_ns_ = now_ns;
+  if (!publish_truth_) return;
+  const Truth& truth = plant_.sample_truth();
+  truth_publisher_.publish(utime, seq_, truth.tau_ext, truth.tip_wrench_ext, truth.contact);
 }
 
 // Lockstep: one step per command that answers the latest state (state_seq == seq), applied at
@@ -74,12 +83,9 @@ void Simulation::on_command(const uint8_t* data, size_t size) {
 }
 
 void Simulation::step_and_publish(const Eigen::Ref<const Eigen::VectorXd>& tau) {
-  plant_.step(tau, dt_, options_.substeps);
+  plant_.step(tau);
   ++seq_;
-  const int64_t now = clock_.now_ns();
-  publisher_.encode(clock_.utime_us(), seq_, plant_.q(), plant_.qd(), plant_.effort());
-  publisher_.send(now);
-  last_send_ns_ = now;
+  publish_state(clock_.now_ns());
 }
 
 void Simulation::step() {
@@ -161,7 +167,7 @@ void Simulation::print_summary() const {
   std::fprintf(stderr,
                "chasles_plant: stopped after %lld steps (%.3f s simulated); late cycles %lld of %lld commanded steps "
                "(%.3f %%), late stops %lld; after the last command %lld late cycles, %lld late stops; early steps not "
-               "judged %lld; commands rejected %lld, stale %lld; states not sent %lld; overruns %lld; brakes %lld\n",
+               "judged %lld; commands rejected %lld, stale %lld; states not sent %lld; overruns %lld; brakes %lld%s\n",
                static_cast<long long>(seq_), static_cast<double>(seq_) * dt_,
                static_cast<long long>(commanded_.late_cycles), static_cast<long long>(steps),
                steps > 0 ? 100.0 * static_cast<double>(commanded_.late_cycles) / static_cast<double>(steps) : 0.0,
@@ -169,7 +175,12 @@ void Simulation::print_summary() const {
                static_cast<long long>(late_stops_ - commanded_.late_stops), static_cast<long long>(unjudged_),
                static_cast<long long>(rejected_commands()), static_cast<long long>(stale_commands()),
                static_cast<long long>(publisher_.dropped()), static_cast<long long>(overruns_),
-               static_cast<long long>(brakes_));
+               static_cast<long long>(brakes_), truth_summary().c_str());
+}
+
+std::string Simulation::truth_summary() const {
+  if (!publish_truth_) return {};
+  return "; truths sent on " + options_.prefix + "TRUTH, not sent " + std::to_string(truth_publisher_.not_sent());
 }
 
 }  // namespace chasles::plant

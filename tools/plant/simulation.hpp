@@ -1,5 +1,6 @@
-// The simulated arm on a bus: dynamics (Plant), zero-order hold of the latest valid command,
-// the watchdog's brake, injected faults on the states it sends, one step at a time on a Clock.
+// The simulated arm on a bus: dynamics (Plant) in its environment, zero-order hold of the latest
+// valid command, the watchdog's brake, injected faults on the states it sends, the truth beside
+// them, one step at a time on a Clock.
 // chasles_plant runs it on the system clock and UDP multicast; the in-process tests run it beside
 // a controller::Node on a SimulatedClock and a memq:// bus.
 #pragma once
@@ -28,20 +29,26 @@ struct SimulationOptions {
   /// Real time: brake after this many late cycles in a row (0: never), as Franka's FCI stops
   /// the arm after 20 (communication_constraints_violation).
   int max_late = 20;
-  std::string prefix = "CHASLES_";  ///< channels PREFIX STATE and PREFIX COMMAND
+  std::string prefix = "CHASLES_";  ///< channels PREFIX STATE, PREFIX COMMAND and PREFIX TRUTH
   Faults faults;
+  /// Pushes, walls, a hidden payload, hidden friction (environment.hpp).
+  EnvironmentOptions environment;
+  /// Publish chasles.sim_truth_t on PREFIX TRUTH after every state even with an empty environment
+  /// (with anything in it, always). Off by default: a fleet of arms pays no extra datagram per step.
+  bool truth = false;
 };
 
 class Simulation {
  public:
   /// Starts at rest at q0 with viscous joint damping `damping`; subscribes to the command channel.
-  /// Keeps references to model, bus and clock.
+  /// Keeps references to model (the nominal model; see Plant), bus and clock. Throws
+  /// std::invalid_argument when options.environment is not valid (checked_environment).
   Simulation(const RobotModel& model, const SimulationOptions& options, const Eigen::VectorXd& q0,
              const Eigen::VectorXd& damping, Bus& bus, const Clock& clock);
   Simulation(const Simulation&) = delete;
   Simulation& operator=(const Simulation&) = delete;
 
-  /// Sends the initial state (seq 0).
+  /// Sends the initial state (seq 0), and its truth.
   void start();
   /// Real time: one step of 1 / rate_hz at the clock's present — the deadline check, the
   /// watchdog, the held command (or the brake), the state sent — and the delayed states that
@@ -72,6 +79,14 @@ class Simulation {
   int64_t rejected_commands() const { return inbox_.rejected(); }
   int64_t stale_commands() const { return stale_ + inbox_.stale(); }
   int64_t states_not_sent() const { return publisher_.dropped(); }
+  /// Whether a sim_truth_t goes out on PREFIX TRUTH right after every state produced (options.truth
+  /// or a non-empty environment).
+  bool publishes_truth() const { return publish_truth_; }
+  /// The truth at the latest state produced (Truth::steps is its seq); steps −1 when the truth is
+  /// not published (it is then not computed either).
+  const Truth& truth() const { return plant_.truth(); }
+  /// Truths whose send failed.
+  int64_t truths_not_sent() const { return truth_publisher_.not_sent(); }
   /// One line on stderr: what the run did.
   void print_summary() const;
 
@@ -80,7 +95,10 @@ class Simulation {
   int64_t max_command_lag() const;
   void on_command(const uint8_t* data, size_t size);
   void step_and_publish(const Eigen::Ref<const Eigen::VectorXd>& tau);
+  /// Sends the latest state produced (through the faults) and its truth (past them).
+  void publish_state(int64_t now_ns);
   void count_late_cycle(int64_t now_ns);
+  std::string truth_summary() const;
   void update_brake(int64_t now_ns);
 
   SimulationOptions options_;
@@ -90,6 +108,8 @@ class Simulation {
   Plant plant_;
   CommandInbox inbox_;
   StatePublisher publisher_;
+  const bool publish_truth_;
+  TruthPublisher truth_publisher_;
   const double dt_;
   const int64_t period_ns_;
   const double brake_time_constant_;

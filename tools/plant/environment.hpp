@@ -1,0 +1,92 @@
+// What the simulated arm meets that its controller does not know: wrenches pushed onto the tip,
+// one-sided walls, a payload at the tip and joint friction, each given as a plain spec
+// (EnvironmentOptions, from chasles_plant's --push, --wall, --payload and --friction or set by an
+// in-process test) and applied by Plant (plant.hpp).
+//
+// Frames: a wrench is (m, f), N·m then N. A push is given and the contact is reported with the
+// base frame's orientation at the tip frame's origin (libfranka's O_F_ext_hat_K, in Modern
+// Robotics' order), the wrench the environment applies to the tip; forward_dynamics wants the
+// opposite (what the tip applies to the environment) in the tip frame, F_tip = −[R_sbᵀ m; R_sbᵀ f].
+#pragma once
+
+#include <Eigen/Core>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "chasles/core/model/model.hpp"
+
+namespace chasles::plant {
+
+/// A wrench the environment applies to the tip over a window of simulated time, ramped linearly in
+/// over `ramp` seconds from `start` and out over `ramp` seconds ending at start + duration.
+struct Push {
+  double start = 0.0;                  ///< s of simulated time since the plant's first step (steps × period)
+  double duration = 0.0;               ///< s, the ramps included; > 0
+  double ramp = 0.0;                   ///< s; 0 ≤ ramp ≤ duration / 2 (0: a step on and off)
+  Vector6d wrench = Vector6d::Zero();  ///< (m, f), N·m and N, base-aligned at the tip origin
+
+  /// The trapezoid's value in [0, 1] at time t: 0 before start and after start + duration, 1 on the
+  /// plateau. With no ramp the window is closed, [start, start + duration].
+  double profile(double t) const;
+};
+
+/// A one-sided plane acting on the tip frame's origin p: penetration δ = −(p − point)·normal; when
+/// δ > 0 the force on the tip is normal · max(0, K δ − D (v·normal)), v the origin's velocity in the
+/// base frame, applied at the origin (no moment about it). It pushes, damps and never pulls.
+struct Wall {
+  Vector3d point = Vector3d::Zero();    ///< a point of the plane, m, base frame
+  Vector3d normal = Vector3d::UnitZ();  ///< towards the free side, base frame; normalised by the plant
+  double stiffness = 10'000.0;          ///< K, N/m; > 0
+  double damping = 100.0;               ///< D, N·s/m; ≥ 0
+};
+
+/// A point mass rigidly attached to the tip, added to the last body of the model the plant
+/// integrates; the controller's model does not have it.
+struct Payload {
+  double mass = 0.0;                   ///< kg; ≥ 0
+  Vector3d centre = Vector3d::Zero();  ///< its position in the tip frame, m
+};
+
+/// Joint friction the controller's model does not have, on top of the known viscous damping:
+/// τ_f = −b q̇ − f_c tanh(q̇ / v_s) per joint (v_s: Plant::friction_velocity()).
+struct Friction {
+  Eigen::VectorXd viscous;  ///< b, N·m·s/rad or N·s/m, one per joint; empty: no friction
+  Eigen::VectorXd coulomb;  ///< f_c, N·m or N, one per joint; empty: no friction
+  bool empty() const { return viscous.size() == 0 && coulomb.size() == 0; }
+};
+
+struct EnvironmentOptions {
+  std::vector<Push> pushes;        ///< they add
+  std::vector<Wall> walls;         ///< they add
+  std::optional<Payload> payload;  ///< none: the model as loaded
+  Friction friction;
+  /// Whether anything is simulated that the nominal model lacks (then the plant publishes its truth).
+  bool any() const { return !pushes.empty() || !walls.empty() || payload.has_value() || !friction.empty(); }
+};
+
+/// The options with every wall's normal made unit, checked: throws std::invalid_argument naming the
+/// item ("push 2: ...", "wall 1: ...", "payload: ...", "friction: joint panda_joint3 ...") when a
+/// number is not finite, a push's duration is not positive or its ramp does not fit in half of it,
+/// a normal is zero, a stiffness is not positive, or a damping, mass or friction coefficient is
+/// negative, or the friction does not have one entry per joint. Plant calls it.
+EnvironmentOptions checked_environment(const EnvironmentOptions& options, const RobotModel& model);
+
+// The command-line forms. Each throws std::invalid_argument with a one-line message that starts
+// with the option and says what to give instead.
+
+/// "START,DURATION,RAMP,mx,my,mz,fx,fy,fz" (--push).
+Push parse_push(const std::string& text);
+/// "PX,PY,PZ,NX,NY,NZ[,K,D]" (--wall); the normal is normalised.
+Wall parse_wall(const std::string& text);
+/// "KG[,CX,CY,CZ]" (--payload).
+Payload parse_payload(const std::string& text);
+/// "VISCOUS,COULOMB" for every joint, or one such pair per joint, root to tip (--friction).
+Friction parse_friction(const std::string& text, const RobotModel& model);
+
+/// The model with the payload's point mass on its last body: at c = T_last_tip · centre in the
+/// last body's frame its spatial inertia is m [[[c]ᵀ[c], [c]], [[c]ᵀ, 1]] (MR eq. 8.32 with
+/// I_b = 0). Allocates: built once, before the plant runs.
+RobotModel with_payload(const RobotModel& model, const Payload& payload);
+
+}  // namespace chasles::plant
