@@ -1,10 +1,13 @@
 // chasles_plant: a simulated arm on LCM. It integrates the arm's forward dynamics under the latest
 // joint_torque_command_t (zero-order hold) and publishes robot_state_t after every step, either
 // in real time or in lockstep with its controller. It keeps itself safe: without a valid command
-// for --timeout-ms it brakes to rest against gravity.
+// for --timeout-ms it brakes to rest against gravity. The arm can be pushed (--push), meet walls
+// (--wall) and carry what its controller does not know (--payload, --friction); the plant then
+// publishes the truth (sim_truth_t) after every state.
 //
 // Errors: one line "chasles_plant: ..." on stderr; exit 2 for a usage error, 1 for bad input
-// (URDF, --q0, --damping) or when LCM cannot start. SIGINT and SIGTERM end it cleanly (exit 0).
+// (URDF, --q0, --damping, the environment's specs) or when LCM cannot start. SIGINT and SIGTERM
+// end it cleanly (exit 0).
 #include <poll.h>
 
 #include <CLI/CLI.hpp>
@@ -43,6 +46,8 @@ struct Options {
   std::string tip;
   std::string damping = "0";
   std::string q0;
+  std::vector<std::string> pushes, walls;
+  std::string payload, friction;
   bool realtime = false;
   std::string lcm_url;
   double seconds = 0.0;
@@ -117,6 +122,20 @@ Eigen::VectorXd joint_damping(const RobotModel& model, const std::string& text) 
     if (damping[i] < 0.0) throw InputError("--damping: joint " + model.joint(i).name + " has negative damping");
   }
   return damping;
+}
+
+// --push, --wall, --payload and --friction, each checked (environment.hpp says what is refused).
+EnvironmentOptions environment(const RobotModel& model, const Options& o) {
+  try {
+    EnvironmentOptions env;
+    for (const std::string& text : o.pushes) env.pushes.push_back(parse_push(text));
+    for (const std::string& text : o.walls) env.walls.push_back(parse_wall(text));
+    if (!o.payload.empty()) env.payload = parse_payload(o.payload);
+    if (!o.friction.empty()) env.friction = parse_friction(o.friction, model);
+    return env;
+  } catch (const std::invalid_argument& e) {
+    throw InputError(e.what());
+  }
 }
 
 // Real time: one step per period on an absolute CLOCK_MONOTONIC schedule, with the latest command
@@ -201,6 +220,27 @@ void add_options(CLI::App& app, Options& o) {
           },
           "PREFIX")
       ->capture_default_str();
+  app.add_option("--push", o.pushes,
+                 "A wrench on the tip, repeatable (pushes add): from START s of simulated time (steps x period) "
+                 "for DURATION s, ramped linearly in and out over RAMP s each (RAMP <= DURATION/2); (m, f) in N*m "
+                 "and N, the base frame's orientation at the tip frame's origin, what the environment applies")
+      ->type_name("START,DURATION,RAMP,mx,my,mz,fx,fy,fz");
+  app.add_option("--wall", o.walls,
+                 "A one-sided plane on the tip frame's origin, repeatable: a point (m) and the normal to the free "
+                 "side (base frame, normalised), stiffness K N/m (default 10000) and damping D N*s/m (default "
+                 "100); force n*max(0, K*depth - D*v.n) while the origin is inside")
+      ->type_name("PX,PY,PZ,NX,NY,NZ[,K,D]");
+  app.add_option("--payload", o.payload,
+                 "A point mass (kg) at (CX,CY,CZ) in the tip frame (m, default the origin), simulated but not in "
+                 "the URDF the controller has")
+      ->type_name("KG[,CX,CY,CZ]");
+  app.add_option("--friction", o.friction,
+                 "Hidden joint friction on top of --damping: tau_f = -b*qd - fc*tanh(qd/v_s), one pair for every "
+                 "joint or a pair per joint (N*m*s/rad, N*m); v_s is set for the RK4 step (see the docs)")
+      ->type_name("B,FC[,B,FC...]");
+  app.add_flag("--truth", o.sim.truth,
+               "Publish chasles.sim_truth_t on PREFIX TRUTH after every state even with none of --push, --wall, "
+               "--payload, --friction (with any of them it is always published)");
   app.add_option("--lcm-url", o.lcm_url, "LCM provider URL (default: $LCM_DEFAULT_URL, else LCM's default)")
       ->type_name("URL");
   app.add_option("--seed", o.sim.faults.seed, "Seed of the injected faults")->capture_default_str();
@@ -241,13 +281,17 @@ int main(int argc, char** argv) {
       "--timeout-ms the arm brakes to rest, tau = g(q) - M(q) qd / T. A command answering a state older\n"
       "than --max-command-lag-ms counts as none (and is reported). A step at which no command answering\n"
       "the previous state has arrived is a late cycle; after --max-late in a row the arm brakes the same\n"
-      "way until a command is on time again.\n"
+      "way until a command is on time again. With --push, --wall, --payload, --friction or --truth it\n"
+      "publishes chasles.sim_truth_t on PREFIX TRUTH right after every state: the external joint torque\n"
+      "and the contact wrench the nominal model (the URDF, --damping) does not contain.\n"
       "Examples:\n"
       "  tools/netns.sh chasles_plant --robot ur5.urdf --tip tool0 \\\n"
       "      --lcm-url 'udpm://239.255.76.67:7667?ttl=0'\n"
       "  chasles_plant --robot panda.urdf --tip panda_hand --lockstep --q0 0,0.5,0,-1.2,0,1,0\n"
       "  chasles_plant --robot panda.urdf --tip panda_hand --seed 7 --drop 0.01 --delay-ms 2 --noise 1e-4\n"
-      "  chasles_plant --robot panda.urdf --tip panda_hand --delay-spike-ms 5 --delay-spike-every 500");
+      "  chasles_plant --robot panda.urdf --tip panda_hand --delay-spike-ms 5 --delay-spike-every 500\n"
+      "  chasles_plant --robot panda.urdf --tip panda_hand --push 1,0.5,0.005,0,0,0,0,0,-30 \\\n"
+      "      --wall 0.5,0,0.2,0,0,1 --payload 1.5,0,0,0.1 --friction 0.1,0.5");
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& e) {  // --help
@@ -266,6 +310,7 @@ int main(int argc, char** argv) {
     }
     const Eigen::VectorXd q0 = initial_position(model, options.q0);
     const Eigen::VectorXd damping = joint_damping(model, options.damping);
+    options.sim.environment = environment(model, options);
 
     // SIGINT and SIGTERM stop the loop. They are blocked while LCM starts its receive thread, which
     // inherits the mask, so they always reach (and interrupt) the simulation thread.
@@ -301,10 +346,11 @@ int main(int argc, char** argv) {
     Simulation simulation(model, options.sim, q0, damping, *bus, clock);
     pthread_sigmask(SIG_UNBLOCK, &stop_signals, nullptr);
 
-    std::fprintf(stderr, "chasles_plant: %s, %d joints to %s, %g Hz %s; state on %sSTATE, commands on %sCOMMAND\n",
+    std::fprintf(stderr, "chasles_plant: %s, %d joints to %s, %g Hz %s; state on %sSTATE, commands on %sCOMMAND%s\n",
                  model.name().c_str(), model.dof(), model.tip_link().c_str(), options.sim.rate_hz,
                  options.sim.lockstep ? "lockstep" : "real time (braked until the first command)",
-                 options.sim.prefix.c_str(), options.sim.prefix.c_str());
+                 options.sim.prefix.c_str(), options.sim.prefix.c_str(),
+                 simulation.publishes_truth() ? (", truth on " + options.sim.prefix + "TRUTH").c_str() : "");
     const int64_t end_ns = options.seconds > 0.0 ? clock.now_ns() + static_cast<int64_t>(options.seconds * 1e9)
                                                  : std::numeric_limits<int64_t>::max();
     simulation.start();
