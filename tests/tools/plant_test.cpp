@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <chasles/joint_torque_command_t.hpp>
 #include <chasles/robot_state_t.hpp>
+#include <chasles/sim_truth_t.hpp>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -18,10 +19,12 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 #include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/model/urdf.hpp"
+#include "chasles/lcmtypes/checked.hpp"
 #include "support/arm.hpp"
 #include "support/process.hpp"
 #include "support/reference.hpp"
@@ -63,6 +66,8 @@ class Controller {
     EXPECT_TRUE(lcm_.good()) << "LCM did not start: is the test running under tools/netns.sh?";
     const std::string channel = std::string(kPrefix) + "STATE";
     lcm_subscribe(lcm_.getUnderlyingLCM(), channel.c_str(), &Controller::on_state, this);
+    const std::string truth_channel = std::string(kPrefix) + "TRUTH";
+    lcm_subscribe(lcm_.getUnderlyingLCM(), truth_channel.c_str(), &Controller::on_truth, this);
   }
 
   /// Waits for a state with seq ≥ min_seq; the latest one received, or nothing on timeout.
@@ -102,6 +107,8 @@ class Controller {
 
   /// Every state received, in order of arrival.
   const std::vector<robot_state_t>& states() const { return states_; }
+  /// Every sim_truth_t received, in order of arrival.
+  const std::vector<sim_truth_t>& truths() const { return truths_; }
 
  private:
   static void on_state(const lcm_recv_buf_t* rbuf, const char*, void* self) {
@@ -113,9 +120,17 @@ class Controller {
     controller.states_.push_back(state);
   }
 
+  static void on_truth(const lcm_recv_buf_t* rbuf, const char*, void* self) {
+    sim_truth_t truth;
+    const std::string why = messages::decode_checked(rbuf->data, rbuf->data_size, truth, 7, messages::Finite::Required);
+    ASSERT_EQ(why, "") << "the plant sent a bad sim_truth_t";
+    static_cast<Controller*>(self)->truths_.push_back(std::move(truth));
+  }
+
   lcm::LCM lcm_;
   std::optional<robot_state_t> latest_;
   std::vector<robot_state_t> states_;
+  std::vector<sim_truth_t> truths_;
   int64_t command_seq_ = 0;
 };
 
@@ -395,6 +410,80 @@ TEST(plant, StopsAfterSecondsAndFailsCleanly) {
   expect_failure({"--robot", data_path("panda.urdf"), "--no-such-option"}, 2, "no-such-option");
   expect_failure({"--robot", data_path("arm_massless_tip.urdf"), "--tip", "tip"}, 1,
                  "cannot simulate this chain: the mass matrix is singular: joint 'j3' moves no inertia");
+}
+
+// TRUTH over the real wire: chasles_plant publishes sim_truth_t on PREFIX TRUTH right after every
+// state, with that state's seq and utime, when asked (--truth, or anything in the environment: here
+// a constant push, which the truth reports exactly as given), and never otherwise.
+TEST(plant, PublishesTruthOnlyWhenAsked) {
+  const RobotModel model = panda();
+  Data data(model);
+  const Eigen::VectorXd q0 = bent_pose();
+  const Eigen::VectorXd g = gravity_torques(model, data, q0);
+  const auto run = [&](const std::vector<std::string>& extra) {
+    std::vector<std::string> args = {"--robot", data_path("panda.urdf"), "--tip", "panda_hand", "--lockstep", "--q0",
+                                     list(q0)};
+    args.insert(args.end(), extra.begin(), extra.end());
+    Controller controller;
+    PlantProcess plant(args);
+    const auto trajectory = drive_lockstep(controller, 20, [&](const robot_state_t&) { return g; });
+    controller.listen(0.05);  // the last truth follows the last state
+    EXPECT_EQ(plant.stop(), 0) << plant.stderr_text();
+    EXPECT_EQ(trajectory.size(), 21u);
+    return std::make_tuple(controller.states(), controller.truths(), plant.stderr_text());
+  };
+
+  const auto [states, truths, err] = run({});
+  EXPECT_GE(states.size(), 21u);
+  EXPECT_TRUE(truths.empty()) << truths.size() << " truths sent unasked";
+  EXPECT_EQ(err.find("TRUTH"), std::string::npos) << err;
+
+  for (const bool push : {false, true}) {
+    SCOPED_TRACE(push ? "--push" : "--truth");
+    const auto [pushed_states, pushed_truths, pushed_err] =
+        run(push ? std::vector<std::string>{"--push", "0,100,0,0.5,0,0,0,0,-10"} : std::vector<std::string>{"--truth"});
+    ASSERT_EQ(pushed_truths.size(), 21u);
+    for (size_t k = 0; k < pushed_truths.size(); ++k) {
+      const sim_truth_t& truth = pushed_truths[k];
+      EXPECT_EQ(truth.seq, static_cast<int64_t>(k));
+      const auto state = std::find_if(pushed_states.begin(), pushed_states.end(),
+                                      [&](const robot_state_t& s) { return s.seq == truth.seq; });
+      ASSERT_NE(state, pushed_states.end());
+      EXPECT_EQ(truth.utime, state->utime);
+      const std::vector<double> wrench(truth.tip_wrench_ext, truth.tip_wrench_ext + 6);
+      const std::vector<double> expected =
+          push ? std::vector<double>{0.5, 0, 0, 0, 0, -10} : std::vector<double>(6, 0.0);
+      EXPECT_EQ(wrench, expected);
+      EXPECT_EQ(truth.contact, push);
+    }
+    EXPECT_NE(pushed_err.find(", truth on TEST_TRUTH"), std::string::npos) << pushed_err;
+    EXPECT_NE(pushed_err.find("; truths sent on TEST_TRUTH, not sent 0"), std::string::npos) << pushed_err;
+  }
+}
+
+// The environment's specs are checked before anything starts: one line naming the option and what
+// is wrong with it, exit 1.
+TEST(plant, RefusesBadEnvironmentSpecs) {
+  const auto expect_refusal = [](const std::vector<std::string>& spec, const std::string& needle) {
+    std::vector<std::string> args = {"--robot", data_path("panda.urdf"), "--tip", "panda_hand", "--seconds", "5"};
+    args.insert(args.end(), spec.begin(), spec.end());
+    PlantProcess plant(args);
+    EXPECT_EQ(plant.wait(), 1);
+    const std::string err = plant.stderr_text();
+    EXPECT_EQ(err.rfind("chasles_plant: ", 0), 0u) << err;
+    EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+    EXPECT_NE(err.find(needle), std::string::npos) << err;
+  };
+  expect_refusal({"--push", "0,1,0.1,0,0,0,0,0"}, "--push takes START,DURATION,RAMP,mx,my,mz,fx,fy,fz (9 numbers");
+  expect_refusal({"--push", "0,1,0.6,0,0,0,0,0,5"}, "--push: RAMP 0.6 s is longer than half of DURATION 1 s");
+  expect_refusal({"--push", "0,1,0,0,0,0,0,0,5", "--push", "0,1,0,nan,0,0,0,0,5"},
+                 "--push: entry 3 ('nan') is not finite");
+  expect_refusal({"--wall", "0.5,0,0.2,0,0,0"}, "--wall: the normal (0, 0, 0) has no direction");
+  expect_refusal({"--wall", "0.5,0,0.2,0,0,1,1e4"}, "--wall takes PX,PY,PZ,NX,NY,NZ[,K,D] (6 or 8 numbers");
+  expect_refusal({"--payload", "-2"}, "--payload: mass -2 kg is negative");
+  expect_refusal({"--payload", "inf"}, "--payload: entry 0 ('inf') is not finite");
+  expect_refusal({"--friction", "0.1,-0.5"}, "--friction: joint panda_joint1: Coulomb friction -0.5 N*m is negative");
+  expect_refusal({"--friction", "0.1,0.5,0.2"}, "--friction takes VISCOUS,COULOMB for every joint or a pair per joint");
 }
 
 }  // namespace
