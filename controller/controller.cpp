@@ -1,6 +1,7 @@
 #include "chasles/controller/controller.hpp"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
@@ -26,6 +27,11 @@ void format_into(char (&buffer)[192], const char* format, va_list args) {
   std::vsnprintf(buffer, sizeof(buffer), format, args);
 }
 
+Config validated(const Config& config, int dof) {
+  config.validate(dof);
+  return config;
+}
+
 }  // namespace
 
 const char* to_string(Mode mode) {
@@ -38,6 +44,8 @@ const char* to_string(Mode mode) {
       return "HOLDING";
     case Mode::kFault:
       return "FAULT";
+    case Mode::kReflex:
+      return "REFLEX";
   }
   return "?";
 }
@@ -69,7 +77,7 @@ void Config::validate(int dof) const {
 
 Controller::Controller(const RobotModel& model, const Config& config)
     : model_(model),
-      config_(config),
+      config_(validated(config, model.dof())),
       data_(model),
       effort_limit_(model.dof()),
       rate_limit_per_tick_(model.dof()),
@@ -82,8 +90,9 @@ Controller::Controller(const RobotModel& model, const Config& config)
       ref_(model.dof()),
       trajectory_(model.dof()),
       path_(model.dof()),
+      contact_(model, config_.contact, config_.damping, config_.period),
+      retract_goal_(Eigen::VectorXd::Zero(model.dof())),
       request_(model.dof()) {
-  config_.validate(model.dof());
   for (int i = 0; i < model.dof(); ++i) {
     const double effort = model.joint(i).limits.effort;
     effort_limit_(i) = effort > 0.0 ? effort : kInf;
@@ -123,12 +132,50 @@ void Controller::stand_down(const char* format, ...) {
 void Controller::hold_at(const Eigen::VectorXd& q) {
   ref_.hold(q);
   mode_ = Mode::kHolding;
-  following_path_ = false;
+  following_path_ = compliant_ = retracting_ = false;
+}
+
+// Every new state, whatever the mode: the observer needs each sample and the torque the arm had
+// over the step before it, ours or the plant's brake.
+void Controller::observe(const JointState& state) {
+  if (state.seq == observed_seq_) return;
+  const int64_t steps = observed_seq_ < 0 ? 0 : state.seq - observed_seq_;
+  observed_seq_ = state.seq;
+  contact_.update(state.q, state.qd, state.effort, steps);
+  const ContactEstimate& e = contact_.estimate();
+  if (e.contact && !in_contact_) ++contacts_;
+  in_contact_ = e.contact;
+  peak_tip_force_ = std::max(peak_tip_force_, e.wrench_base.tail<3>().norm());
+}
+
+void Controller::start_reflex(int64_t now_ns) {
+  hold_at(q_);  // stop: hold here, braked by the position loop and the torque-rate limit
+  switch (contact_.config().reflex) {
+    case Reflex::kStop:
+      break;
+    case Reflex::kCompliant:
+      compliant_ = true;
+      break;
+    case Reflex::kRetract:
+      // From where the arm is and how it moves now, so the reference does not jump.
+      contact_.retract_goal(contact_.config().retract_distance, retract_goal_);
+      ref_.qd = qd_;
+      trajectory_.start(ref_, retract_goal_, contact_.config().retract_duration);
+      motion_start_ns_ = now_ns;
+      retracting_ = true;
+      break;
+  }
+  mode_ = Mode::kReflex;
+  pending_request_ = -1;  // a Cartesian plan in the works is dropped
+  std::snprintf(reflex_reason_, sizeof(reflex_reason_), "%s; reflex %s", contact_.reason(),
+                to_string(contact_.config().reflex));
+  ++reflexes_;
 }
 
 bool Controller::set_target(const Target& target, int64_t now_ns) {
   if (mode_ == Mode::kWaiting) return refuse("no robot state has arrived yet");
   if (mode_ == Mode::kFault) return refuse("the controller is in FAULT (%s)", fault_reason_);
+  if (mode_ == Mode::kReflex) hold_at(q_);  // a new target ends the reflex, from where the arm is
   const int n = model_.dof();
   switch (target.mode) {
     case Target::kHold:
@@ -219,8 +266,13 @@ bool Controller::follow(const JointPath& path, int64_t now_ns) {
 }
 
 void Controller::update_reference(int64_t now_ns) {
-  if (mode_ != Mode::kRunning) return;
   const double t = 1e-9 * static_cast<double>(now_ns - motion_start_ns_);
+  if (mode_ == Mode::kReflex) {
+    if (retracting_) trajectory_.sample(t, ref_);  // holds the goal once there
+    if (compliant_) ref_.hold(q_);                 // the arm goes where it is pushed
+    return;
+  }
+  if (mode_ != Mode::kRunning) return;
   // Both samplers set the goal at rest once t is past the end.
   if (following_path_) {
     path_.sample(t, ref_);
@@ -241,13 +293,14 @@ bool Controller::tick(int64_t now_ns, const JointState* state) {
     }
     return false;
   }
-  if (state->q.size() != model_.dof() || state->qd.size() != model_.dof() || !state->q.allFinite() ||
-      !state->qd.allFinite()) {
+  if (state->q.size() != model_.dof() || state->qd.size() != model_.dof() || state->effort.size() != model_.dof() ||
+      !state->q.allFinite() || !state->qd.allFinite() || !state->effort.allFinite()) {
     fault("a robot state of the wrong size or with non-finite values reached the control law");
     return false;
   }
   q_ = state->q;
   qd_ = state->qd;
+  observe(*state);
 
   if (mode_ == Mode::kWaiting || mode_ == Mode::kFault) {
     // (Re-)entering HOLD where the arm is now. The torque-rate limit starts from g(q), which is
@@ -255,11 +308,18 @@ bool Controller::tick(int64_t now_ns, const JointState* state) {
     hold_at(q_);
     tau_prev_ = gravity_torques(model_, data_, q_);
   }
+  if ((mode_ == Mode::kRunning || mode_ == Mode::kHolding) && contact_.estimate().collision) start_reflex(now_ns);
   update_reference(now_ns);
 
-  // Computed torque (MR eq. 11.35): one RNEA with q̈ = q̈_d + K_d ė + K_p e gives M q̈ + c + g.
   error_ = ref_.q - q_;
-  qdd_ref_ = ref_.qdd + config_.kd.cwiseProduct(ref_.qd - qd_) + config_.kp.cwiseProduct(error_);
+  if (compliant_) {
+    // Gravity and velocity terms compensated, every joint damped as q̈ = −k q̇: nothing holds the
+    // arm in place, so it yields to a push and stops where it is left.
+    qdd_ref_ = -contact_.config().compliant_damping * qd_;
+  } else {
+    // Computed torque (MR eq. 11.35): one RNEA with q̈ = q̈_d + K_d ė + K_p e gives M q̈ + c + g.
+    qdd_ref_ = ref_.qdd + config_.kd.cwiseProduct(ref_.qd - qd_) + config_.kp.cwiseProduct(error_);
+  }
   tau_ = inverse_dynamics(model_, data_, q_, qd_, qdd_ref_);
   if (config_.damping.size() != 0) tau_ += config_.damping.cwiseProduct(ref_.qd);
 

@@ -4,12 +4,16 @@
 //   state age / size / finiteness → reference (hold | quintic joint motion | planned Cartesian path)
 //   → computed torque τ = M(q)(q̈_d + K_d ė + K_p e) + c(q, q̇) + g(q) [+ D q̇_d], by one RNEA call
 //   → non-finite refused → effort limits → torque-rate limit → command
+//
+// Beside it, every new state feeds the contact monitor (contact.hpp): a collision while the arm
+// runs or holds starts the reflex (REFLEX), which only a new target ends.
 #pragma once
 
 #include <Eigen/Core>
 #include <cstdint>
 
 #include "chasles/controller/cartesian.hpp"
+#include "chasles/controller/contact.hpp"
 #include "chasles/controller/trajectory.hpp"
 #include "chasles/core/model/model.hpp"
 
@@ -24,8 +28,11 @@ struct Config {
   /// effort_limit / torque_ramp per joint (infinite where the URDF gives no effort limit).
   double torque_ramp = 0.05;
   /// The joints' viscous damping D (N·m·s/rad or N·s/m), if known: the law adds D q̇_d, the
-  /// torque that feeds it forward. Empty or zero: none.
+  /// torque that feeds it forward, and the contact observer counts it as the model's.
+  /// Empty or zero: none.
   Eigen::VectorXd damping;
+  /// Contact and collision thresholds, the observer's gains and the reflex.
+  ContactConfig contact;
 
   /// K_p = ω², K_d = 2ω (critically damped error dynamics at the natural frequency ω, rad/s).
   static Config critically_damped(int dof, double omega);
@@ -39,7 +46,9 @@ struct JointState {
   int64_t utime = 0;        ///< the sender's timestamp, µs
   int64_t arrival_ns = 0;   ///< CLOCK_MONOTONIC time it arrived here
   Eigen::VectorXd q, qd;
-  explicit JointState(int n = 0) : q(Eigen::VectorXd::Zero(n)), qd(Eigen::VectorXd::Zero(n)) {}
+  Eigen::VectorXd effort;   ///< the torque applied over the step that ended at this state
+  explicit JointState(int n = 0)
+      : q(Eigen::VectorXd::Zero(n)), qd(Eigen::VectorXd::Zero(n)), effort(Eigen::VectorXd::Zero(n)) {}
 };
 
 /// A goal as received (arm_target_t's content); checked by Controller::set_target.
@@ -54,7 +63,7 @@ struct Target {
   explicit Target(int n = 0) : q(Eigen::VectorXd::Zero(n)) {}
 };
 
-enum class Mode : int8_t { kWaiting = 0, kRunning = 1, kHolding = 2, kFault = 3 };
+enum class Mode : int8_t { kWaiting = 0, kRunning = 1, kHolding = 2, kFault = 3, kReflex = 4 };
 const char* to_string(Mode mode);
 
 class Controller {
@@ -89,6 +98,15 @@ class Controller {
   const char* fault_reason() const { return fault_reason_; }
   /// Why the last refused target was refused.
   const char* last_rejection() const { return rejection_; }
+  /// What tripped the latest reflex, naming the joint or the force.
+  const char* reflex_reason() const { return reflex_reason_; }
+  /// The contact monitor's estimate at the latest state.
+  const ContactEstimate& contact() const { return contact_.estimate(); }
+  /// Contacts (each time the contact flag rose) and reflexes since start; the largest estimated
+  /// tip force, N.
+  int64_t contacts() const { return contacts_; }
+  int64_t reflexes() const { return reflexes_; }
+  double peak_tip_force() const { return peak_tip_force_; }
   const Eigen::VectorXd& torque() const { return tau_; }
   const Reference& reference() const { return ref_; }
   /// e = q_d − q at the last commanding tick.
@@ -108,6 +126,8 @@ class Controller {
   bool refuse(const char* format, ...) __attribute__((format(printf, 2, 3)));
   void fault(const char* format, ...) __attribute__((format(printf, 2, 3)));
   void hold_at(const Eigen::VectorXd& q);
+  void observe(const JointState& state);
+  void start_reflex(int64_t now_ns);
   bool request_cartesian(const Target& target);
   /// The reference at now_ns; finishing a motion turns RUNNING into HOLDING.
   void update_reference(int64_t now_ns);
@@ -121,6 +141,12 @@ class Controller {
   QuinticTrajectory trajectory_;
   JointPathSampler path_;
   bool following_path_ = false;
+  ContactMonitor contact_;
+  int64_t observed_seq_ = -1;
+  bool compliant_ = false, retracting_ = false, in_contact_ = false;
+  Eigen::VectorXd retract_goal_;
+  int64_t contacts_ = 0, reflexes_ = 0;
+  double peak_tip_force_ = 0.0;
   CartesianRequest request_;
   bool request_ready_ = false;
   int64_t pending_request_ = -1;  // id of the request whose path is awaited; −1: none
@@ -134,6 +160,7 @@ class Controller {
   // Fixed buffers: the reasons are formatted on the real-time thread, which must not allocate.
   char fault_reason_[192] = {};
   char rejection_[192] = {};
+  char reflex_reason_[192] = {};
   int64_t faults_ = 0, stale_ticks_ = 0, rejected_targets_ = 0;
 };
 

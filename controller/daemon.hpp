@@ -67,6 +67,9 @@ struct Summary {
   int64_t rejected_messages = 0;
   int64_t faults = 0;
   int64_t foreign_commands = 0;  ///< messages heard on the command channel that this process did not send
+  int64_t contacts = 0;          ///< times the contact flag rose
+  int64_t reflexes = 0;          ///< collisions that started the reflex
+  double peak_tip_force = 0.0;   ///< the largest estimated external force at the tip, N
   bool realtime_granted = false;
 };
 

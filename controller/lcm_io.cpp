@@ -37,6 +37,7 @@ std::string StateReceiver::receive(const void* data, size_t size, int64_t arriva
   state.arrival_ns = arrival_ns;
   state.q = Eigen::Map<const Eigen::VectorXd>(message_.position.data(), num_joints_);
   state.qd = Eigen::Map<const Eigen::VectorXd>(message_.velocity.data(), num_joints_);
+  state.effort = Eigen::Map<const Eigen::VectorXd>(message_.effort.data(), num_joints_);
   mailbox_.publish();
   return {};
 }

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -32,8 +33,8 @@ using Json = nlohmann::json;
 std::atomic<bool> g_stop{false};
 void on_signal(int) { g_stop.store(true); }
 
-/// A gain option: one number for every joint or a comma list of n.
-Eigen::VectorXd gains(const std::string& text, int n, const std::string& name) {
+/// A gain option: one number for every joint or a comma list of n; thresholds may be "inf" (none).
+Eigen::VectorXd gains(const std::string& text, int n, const std::string& name, bool infinite_ok = false) {
   std::vector<double> values;
   std::stringstream stream(text);
   std::string item;
@@ -45,8 +46,8 @@ Eigen::VectorXd gains(const std::string& text, int n, const std::string& name) {
     } catch (const std::exception&) {
       used = 0;
     }
-    if (used == 0 || used != item.size() || !std::isfinite(x)) {
-      throw std::invalid_argument(name + ": '" + item + "' is not a finite number");
+    if (used == 0 || used != item.size() || std::isnan(x) || (!infinite_ok && std::isinf(x))) {
+      throw std::invalid_argument(name + ": '" + item + "' is not a " + (infinite_ok ? "number" : "finite number"));
     }
     values.push_back(x);
   }
@@ -74,10 +75,21 @@ struct Flags {
   double rate = 1000.0, stale_ms = 10.0, torque_ramp_ms = 50.0, omega = 20.0;
   std::string kp, kd;
   std::string damping;
+  // Contact: per-joint lists as text until the joint count is known; empty: the defaults.
+  std::string observer_gain, contact_torque, collision_torque;
+  chasles::controller::ContactConfig contact;
+  double retract_mm = 10.0;
 };
 
+// The config file's keys are the flags' names with '_' for '-'.
+std::string flag_of(const std::string& key) {
+  std::string flag = "--" + key;
+  std::replace(flag.begin(), flag.end(), '_', '-');
+  return flag;
+}
+
 /// Settings from a JSON config file ({"kp": .., "kd": .., "rate": .., "stale_ms": ..,
-/// "torque_ramp_ms": ..}); flags given on the command line win.
+/// "torque_ramp_ms": .., the contact settings ..}); flags given on the command line win.
 void apply_config(const std::string& path, Flags& flags, const CLI::App& app) {
   std::ifstream in(path);
   if (!in) throw std::invalid_argument("cannot read config file " + path);
@@ -88,20 +100,43 @@ void apply_config(const std::string& path, Flags& flags, const CLI::App& app) {
     throw std::invalid_argument("config file " + path + " is not valid JSON: " + e.what());
   }
   if (!config.is_object()) throw std::invalid_argument("config file " + path + ": expected a JSON object");
+  static const char* const kKnown =
+      "kp, kd, rate, stale_ms, torque_ramp_ms, observer_gain, contact_torque, collision_torque, contact_force, "
+      "collision_force, contact_moment, collision_moment, reflex, retract_mm";
   for (const auto& [key, value] : config.items()) {
-    const bool given = app.count("--" + key) > 0 || (key == "stale_ms" && app.count("--stale-ms") > 0) ||
-                       (key == "torque_ramp_ms" && app.count("--torque-ramp-ms") > 0);
-    if (given) continue;
+    if (app.count(flag_of(key)) > 0) continue;
     const std::string where = "config file " + path + ": " + key;
+    auto positive = [&]() {
+      if (!value.is_number() || !(value.get<double>() > 0.0)) throw std::invalid_argument(where + ": expected a positive number");
+      return value.get<double>();
+    };
     if (key == "kp") {
       flags.kp = gains_text(value, where);
     } else if (key == "kd") {
       flags.kd = gains_text(value, where);
-    } else if (key == "rate" || key == "stale_ms" || key == "torque_ramp_ms") {
-      if (!value.is_number() || !(value.get<double>() > 0.0)) throw std::invalid_argument(where + ": expected a positive number");
-      (key == "rate" ? flags.rate : key == "stale_ms" ? flags.stale_ms : flags.torque_ramp_ms) = value.get<double>();
+    } else if (key == "observer_gain" || key == "contact_torque" || key == "collision_torque") {
+      (key == "observer_gain" ? flags.observer_gain : key == "contact_torque" ? flags.contact_torque
+                                                                              : flags.collision_torque) =
+          gains_text(value, where);
+    } else if (key == "rate" || key == "stale_ms" || key == "torque_ramp_ms" || key == "retract_mm") {
+      (key == "rate"       ? flags.rate
+       : key == "stale_ms" ? flags.stale_ms
+       : key == "retract_mm" ? flags.retract_mm
+                             : flags.torque_ramp_ms) = positive();
+    } else if (key == "contact_force") {
+      flags.contact.contact_force = positive();
+    } else if (key == "collision_force") {
+      flags.contact.collision_force = positive();
+    } else if (key == "contact_moment") {
+      flags.contact.contact_moment = positive();
+    } else if (key == "collision_moment") {
+      flags.contact.collision_moment = positive();
+    } else if (key == "reflex") {
+      if (!value.is_string() || !chasles::controller::parse_reflex(value.get<std::string>(), flags.contact.reflex)) {
+        throw std::invalid_argument(where + ": expected \"stop\", \"compliant\" or \"retract\"");
+      }
     } else {
-      throw std::invalid_argument(where + ": unknown setting (known: kp, kd, rate, stale_ms, torque_ramp_ms)");
+      throw std::invalid_argument(where + ": unknown setting (known: " + kKnown + ")");
     }
   }
 }
@@ -127,6 +162,9 @@ void write_summary(const std::string& path, const Summary& s) {
                      {"rejected_messages", s.rejected_messages},
                      {"faults", s.faults},
                      {"foreign_commands", s.foreign_commands},
+                     {"contacts", s.contacts},
+                     {"reflexes", s.reflexes},
+                     {"peak_tip_force_n", s.peak_tip_force},
                      {"realtime", s.realtime_granted}};
   const std::string tmp = path + ".tmp." + std::to_string(getpid());
   {
@@ -159,12 +197,43 @@ int main(int argc, char** argv) {
                  "the joints' viscous damping, N·m·s/rad: one number or one per joint; fed forward as D q̇_d");
   app.add_option("--omega", flags.omega, "natural frequency ω of the default gains, rad/s (default 20)")
       ->check(CLI::PositiveNumber);
-  app.add_option("--config", flags.config, "JSON file with kp, kd, rate, stale_ms, torque_ramp_ms (flags win)")
+  app.add_option("--config", flags.config,
+                 "JSON file with any of the settings below, named with '_' for '-' (kp, stale_ms, reflex, ...); "
+                 "flags win")
       ->check(CLI::ExistingFile);
   app.add_option("--stale-ms", flags.stale_ms, "a robot state older than this is a FAULT (default 10)")
       ->check(CLI::PositiveNumber);
   app.add_option("--torque-ramp-ms", flags.torque_ramp_ms,
                  "torque-rate limit: time to ramp through a joint's effort range, ms (default 50)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--observer-gain", flags.observer_gain,
+                 "contact observer bandwidth K_O, 1/s: one number or one per joint; the estimate lags the external "
+                 "torque by 1/K_O (default 200)");
+  app.add_option("--contact-torque", flags.contact_torque,
+                 "contact threshold on each joint's external torque, N·m: one or one per joint, inf for none "
+                 "(default 5 % of the effort limit)");
+  app.add_option("--collision-torque", flags.collision_torque,
+                 "collision threshold on each joint's external torque, N·m (default 15 % of the effort limit)");
+  app.add_option("--contact-force", flags.contact.contact_force, "contact threshold on the tip force, N (default 5)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--collision-force", flags.contact.collision_force,
+                 "collision threshold on the tip force, N (default 15)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--contact-moment", flags.contact.contact_moment,
+                 "contact threshold on the tip moment, N·m (default 2)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--collision-moment", flags.contact.collision_moment,
+                 "collision threshold on the tip moment, N·m (default 6)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--reflex", flags.contact.reflex,
+                 "on a collision: 'stop' (hold where the arm is), 'compliant' (gravity compensation and damping: "
+                 "the arm yields) or 'retract' (back along the tip's path by --retract-mm over 0.3 s); until a "
+                 "new target (default stop)")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, chasles::controller::Reflex>{
+          {"stop", chasles::controller::Reflex::kStop},
+          {"compliant", chasles::controller::Reflex::kCompliant},
+          {"retract", chasles::controller::Reflex::kRetract}}));
+  app.add_option("--retract-mm", flags.retract_mm, "how far the retract reflex backs off, mm (default 10)")
       ->check(CLI::PositiveNumber);
   app.add_flag("--realtime", options.realtime, "SCHED_FIFO, mlockall and --cpu for the loop (warns if refused)");
   app.add_option("--priority", options.priority, "SCHED_FIFO priority with --realtime (default 80)")
@@ -223,6 +292,15 @@ int main(int argc, char** argv) {
     options.control.period = 1.0 / flags.rate;
     options.control.stale_ns = static_cast<int64_t>(flags.stale_ms * 1e6);
     options.control.torque_ramp = flags.torque_ramp_ms * 1e-3;
+    options.control.contact = flags.contact;
+    options.control.contact.retract_distance = flags.retract_mm * 1e-3;
+    if (!flags.observer_gain.empty()) options.control.contact.observer_gain = gains(flags.observer_gain, n, "--observer-gain");
+    if (!flags.contact_torque.empty()) {
+      options.control.contact.contact_torque = gains(flags.contact_torque, n, "--contact-torque", true);
+    }
+    if (!flags.collision_torque.empty()) {
+      options.control.contact.collision_torque = gains(flags.collision_torque, n, "--collision-torque", true);
+    }
 
     // CPU 0 usually takes most interrupts and housekeeping; the last CPU is the conventional one
     // to set aside. Users with an isolated core (isolcpus) name it.

@@ -9,8 +9,11 @@
 namespace chasles::controller {
 
 Node::Snapshot::Snapshot(int n)
-    : q(Eigen::VectorXd::Zero(n)), q_desired(Eigen::VectorXd::Zero(n)), error(Eigen::VectorXd::Zero(n)),
-      torque(Eigen::VectorXd::Zero(n)) {}
+    : q(Eigen::VectorXd::Zero(n)),
+      q_desired(Eigen::VectorXd::Zero(n)),
+      error(Eigen::VectorXd::Zero(n)),
+      torque(Eigen::VectorXd::Zero(n)),
+      tau_ext(Eigen::VectorXd::Zero(n)) {}
 
 void Node::Timing::record(const TickRecord& r) {
   jitter.record(r.jitter_us);
@@ -179,6 +182,15 @@ void Node::publish_snapshot() {
   s.mode = controller_.mode();
   std::memcpy(s.fault, controller_.fault_reason(), sizeof(s.fault));
   std::memcpy(s.rejection, controller_.last_rejection(), sizeof(s.rejection));
+  std::memcpy(s.reflex, controller_.reflex_reason(), sizeof(s.reflex));
+  const ContactEstimate& contact = controller_.contact();
+  s.tau_ext = contact.tau_ext;
+  s.wrench_ext = contact.wrench_base;
+  s.contact = contact.contact;
+  s.collision = contact.collision;
+  s.contacts = controller_.contacts();
+  s.reflexes = controller_.reflexes();
+  s.peak_tip_force = controller_.peak_tip_force();
   s.q_desired = controller_.reference().q;
   s.error = controller_.error();
   s.q = s.q_desired - s.error;
@@ -226,8 +238,8 @@ int64_t Node::report() {
   const Snapshot& s = last_;
   const bool changed = s.mode != reported_mode_;
   if (changed) {
-    std::fprintf(stderr, "chasles_controller: %s%s%s\n", to_string(s.mode), s.mode == Mode::kFault ? ": " : "",
-                 s.mode == Mode::kFault ? s.fault : "");
+    const char* detail = s.mode == Mode::kFault ? s.fault : s.mode == Mode::kReflex ? s.reflex : "";
+    std::fprintf(stderr, "chasles_controller: %s%s%s\n", to_string(s.mode), *detail ? ": " : "", detail);
     reported_mode_ = s.mode;
   }
   if (s.rejected_targets != reported_rejections_) {
@@ -260,12 +272,21 @@ void Node::fill_status() {
   controller_status_t& status = status_;
   status.utime = clock_.utime_us();
   status.state = static_cast<int8_t>(s.mode);
-  status.message = s.mode == Mode::kFault ? s.fault : s.rejected_targets > 0 ? std::string("last target refused: ") + s.rejection : "";
+  status.message = s.mode == Mode::kFault    ? s.fault
+                   : s.mode == Mode::kReflex ? s.reflex
+                   : s.rejected_targets > 0  ? std::string("last target refused: ") + s.rejection
+                                             : "";
   auto copy = [](const Eigen::VectorXd& v) { return std::vector<double>(v.data(), v.data() + v.size()); };
   status.q = copy(s.q);
   status.q_desired = copy(s.q_desired);
   status.tracking_error = copy(s.error);
   status.torque = copy(s.torque);
+  status.tau_ext = copy(s.tau_ext);
+  for (int i = 0; i < 6; ++i) status.tip_wrench_ext[i] = s.wrench_ext(i);
+  status.contact = s.contact;
+  status.collision = s.collision;
+  status.contacts = s.contacts;
+  status.reflexes = s.reflexes;
   const Transform& T = forward_kinematics(model_, data_, s.q);
   const Eigen::Quaterniond quaternion(T.linear());
   for (int i = 0; i < 3; ++i) status.tip_position[i] = T.translation()(i);
@@ -312,6 +333,9 @@ Summary Node::summary(double seconds) {
   summary.rejected_messages = rejections_.count() + s.rejected_targets;
   summary.faults = s.faults;
   summary.foreign_commands = s.foreign_commands;
+  summary.contacts = s.contacts;
+  summary.reflexes = s.reflexes;
+  summary.peak_tip_force = s.peak_tip_force;
   summary.realtime_granted = realtime_granted_;
   return summary;
 }

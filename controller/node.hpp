@@ -101,7 +101,12 @@ class Node {
     Mode mode = Mode::kWaiting;
     char fault[192] = {};
     char rejection[192] = {};
-    Eigen::VectorXd q, q_desired, error, torque;
+    char reflex[192] = {};
+    Eigen::VectorXd q, q_desired, error, torque, tau_ext;
+    Vector6d wrench_ext = Vector6d::Zero();  // base-aligned at the tip
+    bool contact = false, collision = false;
+    int64_t contacts = 0, reflexes = 0;
+    double peak_tip_force = 0.0;
     int ik_iterations = 0;
     double ik_residual = 0.0;
     bool ik_converged = false;

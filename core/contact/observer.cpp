@@ -3,7 +3,6 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <string>
 
 #include "chasles/core/dynamics/dynamics.hpp"
@@ -57,21 +56,27 @@ const Eigen::VectorXd& MomentumObserver::update(const JointVector& q, const Join
 }
 
 Vector6d tip_wrench_from_torque(const Matrix6Xd& J_b, const Eigen::VectorXd& tau, const WrenchDamping& damping) {
-  // J_bᵀ F = τ in the least-squares sense: F = Σ_k v_k (v_kᵀ J_b τ) / (σ_k² + λ_k²) over the
-  // eigenpairs (σ_k², v_k) of J_b J_bᵀ: fixed 6×6, whatever the number of joints.
+  // J_bᵀ F = τ in the least-squares sense, through A = J_b J_bᵀ (6×6 whatever the joints) and
+  // b = J_b τ. Away from singularities F = A⁻¹ b, undamped: that is certified when the smallest
+  // eigenvalue of A, bounded below by 1 / |A⁻¹|_F, is over the damping threshold σ², and costs a
+  // Cholesky factorisation. Otherwise F = Σ_k v_k (v_kᵀ b) / (σ_k² + λ_k²) over A's eigenpairs.
   const Matrix6d A = J_b * J_b.transpose();
   const Vector6d b = J_b * tau;
+  const double threshold_sq = damping.threshold * damping.threshold;
+  const Eigen::LLT<Matrix6d> cholesky(A);
+  if (cholesky.info() == Eigen::Success) {
+    const Matrix6d A_inverse = cholesky.solve(Matrix6d::Identity());
+    if (A_inverse.allFinite() && A_inverse.norm() * threshold_sq < 1.0) return A_inverse * b;
+  }
   const Eigen::SelfAdjointEigenSolver<Matrix6d> eigen(A);
   const Vector6d& sigma_sq = eigen.eigenvalues();
   const Matrix6d& V = eigen.eigenvectors();
-  const double threshold_sq = damping.threshold * damping.threshold;
   const double lambda_max_sq = damping.lambda_max * damping.lambda_max;
-  // Rounding in J_b Jᵀ_b: an eigenvalue this small is a direction the joints do not span.
-  const double zero = 64.0 * std::numeric_limits<double>::epsilon() * std::max(1.0, sigma_sq.maxCoeff());
+  // A direction the joints do not span (σ = 0) has v_kᵀ b = 0 but for rounding, and a damped
+  // denominator: it gets no wrench, with no cut-off to tune.
   Vector6d F = Vector6d::Zero();
   for (int k = 0; k < 6; ++k) {
     const double s = std::max(sigma_sq(k), 0.0);
-    if (s <= zero) continue;
     const double lambda_sq = s < threshold_sq ? lambda_max_sq * (1.0 - s / threshold_sq) : 0.0;
     F += V.col(k) * (V.col(k).dot(b) / (s + lambda_sq));
   }

@@ -481,6 +481,7 @@ TEST_F(ControllerTest, TheTickAllocatesNothing) {
   AllocationCounter counter;
   for (int k = 1; k <= 10'000; ++k) {
     state_.q(1) += 4e-5;
+    state_.seq = k + 1;  // a new state each tick: the contact observer runs (and, with no effort, trips)
     if (controller.tick(k * kMs / 2, fresh(k * kMs / 2))) publisher.encode(k, k, k, controller.torque());
   }
   controller.tick(state_.arrival_ns + 2 * config_.stale_ns, &state_);  // a FAULT formats its reason

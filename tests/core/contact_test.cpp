@@ -219,6 +219,36 @@ TEST(ContactWrench, StaysBoundedAtASingularity) {
   EXPECT_TRUE(F.allFinite());
 }
 
+// Against the damped least squares written with J_b's SVD, J_b = U Σ Vᵀ: F = Σ u_k σ_k (v_kᵀ τ) /
+// (σ_k² + λ²(σ_k)), on configurations from far to very near the stretched-out singularity, so both
+// the certified undamped path and the damped one are taken.
+TEST(ContactWrench, EqualsTheDampedLeastSquaresOfTheSvd) {
+  const RobotModel model = load_urdf_file(testing::data_path("ur5.urdf"), UrdfOptions{"tool0"});
+  Data data(model);
+  const WrenchDamping damping;
+  std::mt19937_64 rng(4);
+  std::normal_distribution<double> normal;
+  int damped = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    Eigen::VectorXd q(model.dof()), tau(model.dof());
+    const double scale = std::pow(10.0, -4.0 * trial / 300.0);  // 1 down to 1e-4 rad from q = 0
+    for (int i = 0; i < model.dof(); ++i) q(i) = scale * normal(rng), tau(i) = normal(rng);
+    const Matrix6Xd J_b = body_jacobian(model, data, q);
+    Eigen::JacobiSVD<Matrix6Xd> svd(J_b, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Vector6d expected = Vector6d::Zero();
+    for (int k = 0; k < svd.singularValues().size(); ++k) {
+      const double sigma = svd.singularValues()(k);
+      const double ratio = sigma / damping.threshold;
+      const double lambda_sq = ratio < 1.0 ? damping.lambda_max * damping.lambda_max * (1.0 - ratio * ratio) : 0.0;
+      damped += lambda_sq > 0.0;
+      expected += svd.matrixU().col(k) * sigma * svd.matrixV().col(k).dot(tau) / (sigma * sigma + lambda_sq);
+    }
+    const Vector6d F = tip_wrench_from_torque(J_b, tau);
+    EXPECT_LT((F - expected).norm(), 1e-7 * (1.0 + expected.norm())) << "trial " << trial << ", scale " << scale;
+  }
+  EXPECT_GT(damped, 10) << "the damped path was not taken";
+}
+
 TEST(ContactObserver, RefusesGainsAndDampingThatCannotMakeAnObserver) {
   const RobotModel model = load_urdf_file(testing::data_path("panda.urdf"), UrdfOptions{"panda_hand"});
   const Eigen::VectorXd ok = Eigen::VectorXd::Constant(model.dof(), 10.0);

@@ -118,6 +118,12 @@ controller_status_t make_status() {
   status.stale_states = 3;
   status.rejected_messages = 5;
   status.faults = 1;
+  status.tau_ext = values(kJoints, 0.5);
+  for (int i = 0; i < 6; ++i) status.tip_wrench_ext[i] = 0.25 * (i - 2);
+  status.contact = true;
+  status.collision = false;
+  status.contacts = 4;
+  status.reflexes = 1;
   return status;
 }
 
@@ -176,13 +182,15 @@ TEST(lcmtypes, ControllerStatusRoundTrips) {
   EXPECT_EQ(controller_status_t::RUNNING, 1);
   EXPECT_EQ(controller_status_t::HOLDING, 2);
   EXPECT_EQ(controller_status_t::FAULT, 3);
+  EXPECT_EQ(controller_status_t::REFLEX, 4);
   const controller_status_t status = make_status();
   const std::vector<uint8_t> buffer = encode(status);
   const size_t string_size = 4 + status.message.size() + 1;  // length (with the NUL), bytes, NUL
   // fingerprint, utime, state, message, num_joints, q, q_desired, tracking_error, tip position
-  // and quaternion, torque, ik (int32, double, boolean), nine timing doubles, five counters
+  // and quaternion, torque, ik (int32, double, boolean), nine timing doubles, five counters,
+  // tau_ext, the tip wrench, contact and collision, two counters
   EXPECT_EQ(buffer.size(), kHash + 8 + 1 + string_size + 4 + 3 * 8 * kJoints + 8 * 3 + 8 * 4 + 8 * kJoints +
-                               (4 + 8 + 1) + 9 * 8 + 5 * 8);
+                               (4 + 8 + 1) + 9 * 8 + 5 * 8 + 8 * kJoints + 6 * 8 + 2 + 2 * 8);
   const auto back = decode<controller_status_t>(buffer);
   EXPECT_EQ(back.utime, status.utime);
   EXPECT_EQ(back.state, controller_status_t::FAULT);
@@ -211,6 +219,12 @@ TEST(lcmtypes, ControllerStatusRoundTrips) {
   EXPECT_EQ(back.stale_states, status.stale_states);
   EXPECT_EQ(back.rejected_messages, status.rejected_messages);
   EXPECT_EQ(back.faults, status.faults);
+  EXPECT_EQ(back.tau_ext, status.tau_ext);
+  for (int i = 0; i < 6; ++i) EXPECT_EQ(back.tip_wrench_ext[i], status.tip_wrench_ext[i]);
+  EXPECT_TRUE(back.contact);
+  EXPECT_FALSE(back.collision);
+  EXPECT_EQ(back.contacts, 4);
+  EXPECT_EQ(back.reflexes, 1);
   expect_damage_refused<controller_status_t>(buffer);
 }
 
@@ -236,7 +250,9 @@ TEST(lcmtypes, FingerprintsArePinned) {
   EXPECT_EQ(static_cast<uint64_t>(robot_state_t::getHash()), 0xc003a166c618d7eeu);
   EXPECT_EQ(static_cast<uint64_t>(joint_torque_command_t::getHash()), 0xd037d1c904e0e80fu);
   EXPECT_EQ(static_cast<uint64_t>(arm_target_t::getHash()), 0x309277be8aae6666u);
-  EXPECT_EQ(static_cast<uint64_t>(controller_status_t::getHash()), 0x9c63136da59a5fd3u);
+  // controller_status_t gained the contact fields at its end ([K]); no field changed meaning, and a
+  // reader built on the old contract refuses the new one by its fingerprint.
+  EXPECT_EQ(static_cast<uint64_t>(controller_status_t::getHash()), 0x12dcd8ff618718ceu);
 }
 
 }  // namespace

@@ -245,6 +245,13 @@ controller_status_t status_message(int k) {
   m.stale_states = k / 7;
   m.rejected_messages = k / 11;
   m.faults = k / 13;
+  m.tau_ext.clear();
+  for (int j = 0; j < 7; ++j) m.tau_ext.push_back(0.01 * j * k - 0.5);
+  for (int i = 0; i < 6; ++i) m.tip_wrench_ext[i] = 0.5 * i - 0.1 * k;
+  m.contact = k % 2 == 1;
+  m.collision = k % 4 == 3;
+  m.contacts = k / 2;
+  m.reflexes = k / 4;
   return m;
 }
 
@@ -328,6 +335,12 @@ TEST(log, ExportGivesBackEveryMessageSent) {
     EXPECT_EQ(number(row, "tip_quaternion[w]"), sent.tip_quaternion[0]);
     EXPECT_EQ(number(row, "tip_quaternion[x]"), sent.tip_quaternion[1]);
     EXPECT_EQ(number(row, "ik_iterations"), sent.ik_iterations);
+    for (int j = 0; j < 7; ++j) EXPECT_EQ(number(row, "tau_ext[j" + std::to_string(j) + "]"), sent.tau_ext[size_t(j)]);
+    EXPECT_EQ(number(row, "tip_wrench_ext[mx]"), sent.tip_wrench_ext[0]);
+    EXPECT_EQ(number(row, "tip_wrench_ext[fz]"), sent.tip_wrench_ext[5]);
+    EXPECT_EQ(row.at("contact"), sent.contact ? "1" : "0");
+    EXPECT_EQ(row.at("collision"), sent.collision ? "1" : "0");
+    EXPECT_EQ(number(row, "reflexes"), sent.reflexes);
     EXPECT_EQ(number(row, "ik_residual"), sent.ik_residual);
     EXPECT_EQ(row.at("ik_converged"), sent.ik_converged ? "1" : "0");
     EXPECT_EQ(number(row, "jitter_max_us"), sent.jitter_max_us);

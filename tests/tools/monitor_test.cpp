@@ -73,13 +73,17 @@ TEST(monitor, OnceShowsTheLiveControllersValues) {
   const char* names[] = {"panda_joint1", "panda_joint2", "panda_joint3", "panda_joint4",
                          "panda_joint5", "panda_joint6", "panda_joint7"};
   for (int j = 0; j < 7; ++j) {
-    const std::string row = std::string("\n") + names[j] + " +(-?[0-9.]+) +(-?[0-9.]+) +(-?[0-9.]+) +(-?[0-9.]+) +([0-9.]+) %";
+    const std::string row =
+        std::string("\n") + names[j] + " +(-?[0-9.]+) +(-?[0-9.]+) +(-?[0-9.]+) +(-?[0-9.]+) +(-?[0-9.]+) +([0-9.]+) %";
     std::smatch match;
     ASSERT_TRUE(std::regex_search(frame, match, std::regex(row))) << names[j] << " in:\n" << frame;
     EXPECT_NEAR(std::stod(match[1].str()), s.q[size_t(j)], 2e-4) << names[j];
     EXPECT_NEAR(std::stod(match[2].str()), s.q_desired[size_t(j)], 2e-4) << names[j];
     EXPECT_NEAR(std::stod(match[4].str()), s.torque[size_t(j)], 0.02 + 0.01 * std::abs(s.torque[size_t(j)])) << names[j];
+    EXPECT_NEAR(std::stod(match[5].str()), s.tau_ext[size_t(j)], 0.02 + 0.01 * std::abs(s.tau_ext[size_t(j)])) << names[j];
   }
+  // The plant's damping is the controller's: nothing external, no contact.
+  EXPECT_NE(frame.find("contact     none; external wrench at the tip (base-aligned)"), std::string::npos) << frame;
   // The Panda's effort limits are 87 N·m for joints 1-4: the last column is |τ| as a share of it.
   std::smatch match;
   ASSERT_TRUE(std::regex_search(frame, match, std::regex("\npanda_joint2 .* ([0-9.]+) %")));

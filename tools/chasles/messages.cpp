@@ -32,6 +32,14 @@ class Row {
       cells_.values.push_back(number_text(values[i]));
     }
   }
+  /// A wrench (m, f): columns name[mx] … name[fz].
+  void wrench(const char* name, const double* values) {
+    static const char* const kLabels[] = {"mx", "my", "mz", "fx", "fy", "fz"};
+    for (size_t i = 0; i < 6; ++i) {
+      cells_.names.push_back(std::string(name) + "[" + kLabels[i] + "]");
+      cells_.values.push_back(number_text(values[i]));
+    }
+  }
 
  private:
   Cells& cells_;
@@ -93,6 +101,12 @@ void lay_out(const controller_status_t& m, Row& row) {
   row.add("stale_states", m.stale_states);
   row.add("rejected_messages", m.rejected_messages);
   row.add("faults", m.faults);
+  row.joints("tau_ext", m.tau_ext);
+  row.wrench("tip_wrench_ext", m.tip_wrench_ext);
+  row.add("contact", int64_t{m.contact ? 1 : 0});
+  row.add("collision", int64_t{m.collision ? 1 : 0});
+  row.add("contacts", m.contacts);
+  row.add("reflexes", m.reflexes);
 }
 
 template <typename Message>

@@ -169,6 +169,7 @@ std::string state_name(int8_t state) {
     case controller_status_t::RUNNING: return "RUNNING";
     case controller_status_t::HOLDING: return "HOLDING";
     case controller_status_t::FAULT: return "FAULT";
+    case controller_status_t::REFLEX: return "REFLEX";
     default: return "state " + std::to_string(int{state});
   }
 }
@@ -192,12 +193,13 @@ void Monitor::joint_table(std::ostream& out) const {
   const char* unit = mixed_units() ? "rad|m" : "rad";
   const char* milli = milli_unit();
   const char* torque = mixed_units() ? "N·m|N" : "N·m";
-  out << printf_text("%-*s %11s %11s %13s %13s%s\n", int(width), "joint", ("q " + std::string(unit)).c_str(),
+  out << printf_text("%-*s %11s %11s %13s %13s %13s%s\n", int(width), "joint", ("q " + std::string(unit)).c_str(),
                      ("q_d " + std::string(unit)).c_str(), ("error " + std::string(milli)).c_str(),
-                     ("torque " + std::string(torque)).c_str(), named ? "   of limit" : "");
+                     ("torque " + std::string(torque)).c_str(), ("external " + std::string(torque)).c_str(),
+                     named ? "   of limit" : "");
   for (size_t i = 0; i < n; ++i) {
-    out << printf_text("%-*s %11.4f %11.4f %13.3f %13.2f", int(width), names[i].c_str(), s.q[i], s.q_desired[i],
-                       1000.0 * s.tracking_error[i], s.torque[i]);
+    out << printf_text("%-*s %11.4f %11.4f %13.3f %13.2f %13.2f", int(width), names[i].c_str(), s.q[i], s.q_desired[i],
+                       1000.0 * s.tracking_error[i], s.torque[i], i < s.tau_ext.size() ? s.tau_ext[i] : 0.0);
     if (named && joints_->effort[i] > 0) out << printf_text("   %6.1f %%", 100.0 * std::abs(s.torque[i]) / joints_->effort[i]);
     out << '\n';
   }
@@ -238,6 +240,11 @@ std::string Monitor::frame(int64_t now_ns) {
                        s.tip_position[0], s.tip_position[1], s.tip_position[2], s.tip_quaternion[0],
                        s.tip_quaternion[1], s.tip_quaternion[2], s.tip_quaternion[3]);
     out << printf_text("tracking    max |e| %.3f %s\n", 1000.0 * worst, milli_unit());
+    const double* w = s.tip_wrench_ext;
+    out << printf_text("contact     %s; external wrench at the tip (base-aligned) m (%.2f, %.2f, %.2f) N·m, "
+                       "f (%.2f, %.2f, %.2f) N; %lld contacts, %lld reflexes\n",
+                       s.collision ? "COLLISION" : s.contact ? "CONTACT" : "none", w[0], w[1], w[2], w[3], w[4], w[5],
+                       static_cast<long long>(s.contacts), static_cast<long long>(s.reflexes));
     out << "\ntiming (us, last status window)      p50       p99       max\n"
         << printf_text("  wake-up jitter              %9.1f %9.1f %9.1f\n", s.jitter_p50_us, s.jitter_p99_us,
                        s.jitter_max_us)

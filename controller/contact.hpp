@@ -1,0 +1,95 @@
+// Contact and collision, as libfranka's two levels: the momentum observer's external torque and
+// the tip wrench that explains it, held against per-joint torque thresholds and tip force and
+// moment thresholds. Crossing a *contact* threshold is reported; crossing a *collision* threshold
+// starts the controller's reflex. One monitor per controller, on the real-time thread:
+// everything is sized when it is built.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+
+#include "chasles/core/contact/observer.hpp"
+#include "chasles/core/model/model.hpp"
+
+namespace chasles::controller {
+
+/// What the controller does on a collision, until a new target.
+enum class Reflex : int8_t {
+  kStop = 0,       ///< hold where the arm is when it trips (the position loop brakes it)
+  kCompliant = 1,  ///< gravity compensation plus damping: the arm yields to whatever pushes it
+  kRetract = 2,    ///< back along the tip's recent path by retract_distance, then hold
+};
+const char* to_string(Reflex reflex);
+/// "stop", "compliant" or "retract"; false for anything else.
+bool parse_reflex(const std::string& text, Reflex& reflex);
+
+struct ContactConfig {
+  /// K_O, 1/s per joint: the estimate follows the external torque with a lag of 1/K_O. Empty: 200.
+  Eigen::VectorXd observer_gain;
+  /// |τ̂_ext,i| thresholds, N·m or N per joint. Empty: 5 % (contact) and 15 % (collision) of the
+  /// joint's effort limit; no limit, no threshold.
+  Eigen::VectorXd contact_torque, collision_torque;
+  double contact_force = 5.0, collision_force = 15.0;  ///< |f̂| at the tip, N (∞: none)
+  double contact_moment = 2.0, collision_moment = 6.0;  ///< |m̂| about the tip's origin, N·m
+  Reflex reflex = Reflex::kStop;
+  double retract_distance = 0.01;  ///< m of the tip's path, for Reflex::kRetract
+  double retract_duration = 0.3;   ///< s
+  /// The rate at which the compliant reflex damps the joints' velocity, 1/s (q̈ = −k q̇ unpushed).
+  double compliant_damping = 10.0;
+
+  /// The empty vectors filled from the model (see above).
+  void fill_defaults(const RobotModel& model);
+  /// Throws ArgumentError naming what is wrong: sizes, non-positive or NaN thresholds, a contact
+  /// threshold above its collision threshold, non-positive gains or retract settings.
+  void validate(int dof) const;
+};
+
+/// The estimate of one tick.
+struct ContactEstimate {
+  Eigen::VectorXd tau_ext;                          ///< τ̂_ext, N·m or N per joint
+  Vector6d wrench_tip = Vector6d::Zero();           ///< F̂_ext on the tip, tip frame, (m, f)
+  Vector6d wrench_base = Vector6d::Zero();          ///< the same, base-aligned at the tip origin
+  Vector3d tip_position = Vector3d::Zero();         ///< p_sb of the state it was computed from, m
+  bool contact = false, collision = false;
+  explicit ContactEstimate(int n = 0) : tau_ext(Eigen::VectorXd::Zero(n)) {}
+};
+
+class ContactMonitor {
+ public:
+  /// `damping` is the known viscous joint damping (empty: none); `period` the state's period, s.
+  /// Keeps a reference to the model. Throws ArgumentError (a bad config) or ObserverError.
+  ContactMonitor(const RobotModel& model, const ContactConfig& config, const Eigen::VectorXd& damping, double period);
+
+  /// Takes a state (q, q̇ and the torque applied over the step that ended at it) that came `steps`
+  /// periods after the previous one; the observer starts again after a gap of more than 10
+  /// periods (or steps ≤ 0), reporting no contact until it has run one. Allocates nothing.
+  void update(const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& effort, int64_t steps);
+  const ContactEstimate& estimate() const { return estimate_; }
+  /// Why the latest collision (or, without one, contact) was flagged, naming the joint or the force.
+  const char* reason() const { return reason_; }
+  const ContactConfig& config() const { return config_; }
+
+  /// The configuration the tip was at `distance` back along its recent path (the oldest kept, about
+  /// two seconds, if it moved less). Allocates nothing.
+  void retract_goal(double distance, Eigen::VectorXd& q) const;
+
+ private:
+  void classify();
+  void remember(const Eigen::VectorXd& q);
+
+  const RobotModel& model_;
+  ContactConfig config_;
+  double period_;
+  MomentumObserver observer_;
+  Data data_;
+  ContactEstimate estimate_;
+  bool started_ = false;
+  char reason_[160] = {};  // room for the reflex to be named after it in 192
+  // The recent path: joint positions and tip positions, a ring of the newest `history_size_`.
+  Eigen::MatrixXd history_q_;
+  Eigen::Matrix3Xd history_tip_;
+  int history_next_ = 0, history_count_ = 0;
+};
+
+}  // namespace chasles::controller

@@ -1,0 +1,241 @@
+// Contact, collision and the reflexes, on the controller alone: hand-made states of an arm held
+// still (or moved slowly) with the torque that holds it, so the external torque the observer must
+// find is known exactly, and its lag (1 − e^{−K t}) says at which sample each threshold is crossed.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "chasles/controller/contact.hpp"
+#include "chasles/controller/controller.hpp"
+#include "chasles/core/dynamics/dynamics.hpp"
+#include "chasles/core/model/urdf.hpp"
+#include "support/allocation_counter.hpp"
+#include "support/reference.hpp"
+
+namespace chasles::controller {
+namespace {
+
+using Eigen::VectorXd;
+using testing::matrices_near;
+
+constexpr int64_t kMs = 1'000'000;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+class Reflexes : public ::testing::Test {
+ protected:
+  Reflexes() : model_(load()), data_(model_), state_(7) {
+    config_ = Config::critically_damped(7, 20.0);
+    q0_ << 0.1, 0.5, -0.2, -1.2, 0.1, 1.0, 0.3;
+  }
+  static RobotModel load() {
+    UrdfOptions options;
+    options.tip_link = "panda_hand_tcp";
+    return load_urdf_file(testing::data_path("panda.urdf"), options);
+  }
+
+  // The joint torque of a wrench on the tip given base-aligned at the tip's origin, (m, f).
+  VectorXd torque_of(const VectorXd& q, const Vector6d& F_base) {
+    const Matrix6Xd& J_b = body_jacobian(model_, data_, q);
+    const Matrix3d R = data_.T_sb.linear();
+    Vector6d F_tip;
+    F_tip << R.transpose() * F_base.head<3>(), R.transpose() * F_base.tail<3>();
+    return J_b.transpose() * F_tip;
+  }
+
+  // State k of an arm at rest at q, held by its actuators against gravity and against τ_ext:
+  // effort = g(q) − τ_ext. Arrives at k ms.
+  const JointState* still(int64_t k, const VectorXd& q, const VectorXd& tau_ext) {
+    state_.seq = k;
+    state_.arrival_ns = k * kMs;
+    state_.q = q;
+    state_.qd.setZero();
+    state_.effort = gravity_torques(model_, data_, q) - tau_ext;
+    return &state_;
+  }
+
+  RobotModel model_;
+  Data data_;
+  Config config_;
+  JointState state_;
+  VectorXd q0_ = VectorXd(7);
+};
+
+// A 20 N step of force at the tip: the estimate is 20 (1 − e^{−K t}) N at sample t, so with
+// K = 200 /s and 1 ms samples it passes 5 N (contact) at the 2nd sample and 15 N (collision) at
+// the 7th: ln(4/3)/0.2 = 1.44 and ln 4/0.2 = 6.93.
+TEST_F(Reflexes, ThresholdsAreCrossedWhenTheLagOfAForceStepSaysAndTheReasonNamesTheForce) {
+  ContactConfig config;
+  config.contact_torque = config.collision_torque = VectorXd::Constant(7, kInf);  // the force alone
+  ContactMonitor monitor(model_, config, VectorXd(), 1e-3);
+  Vector6d F = Vector6d::Zero();
+  F.tail<3>() << 0.0, 20.0, 0.0;
+  const VectorXd tau_ext = torque_of(q0_, F);
+  const JointState* s = still(0, q0_, VectorXd::Zero(7));
+  monitor.update(s->q, s->qd, s->effort, 0);
+  for (int k = 1; k <= 20; ++k) {
+    s = still(k, q0_, tau_ext);
+    monitor.update(s->q, s->qd, s->effort, 1);
+    const ContactEstimate& e = monitor.estimate();
+    const double expected = 20.0 * (1.0 - std::exp(-0.2 * k));
+    EXPECT_NEAR(e.wrench_base(4), expected, 1e-9) << "sample " << k;
+    EXPECT_NEAR(e.wrench_base.head<3>().norm() + std::abs(e.wrench_base(3)) + std::abs(e.wrench_base(5)), 0.0, 1e-9);
+    EXPECT_TRUE(matrices_near(e.tau_ext, (1.0 - std::exp(-0.2 * k)) * tau_ext, 1e-9));
+    EXPECT_EQ(e.contact, k >= 2) << "sample " << k;
+    EXPECT_EQ(e.collision, k >= 7) << "sample " << k;
+    if (k == 7) {
+      char expected_reason[160];
+      std::snprintf(expected_reason, sizeof(expected_reason), "collision: tip force %.3g N over 15", expected);
+      EXPECT_STREQ(monitor.reason(), expected_reason);
+    }
+  }
+}
+
+TEST_F(Reflexes, AJointOverItsThresholdIsNamed) {
+  ContactConfig config;
+  config.contact_force = config.collision_force = config.contact_moment = config.collision_moment = kInf;
+  ContactMonitor monitor(model_, config, VectorXd(), 1e-3);
+  // Default thresholds: 5 % and 15 % of the effort limit; the Panda's fifth joint has 12 N·m.
+  EXPECT_DOUBLE_EQ(monitor.config().collision_torque(4), 0.15 * model_.joint(4).limits.effort);
+  VectorXd tau_ext = VectorXd::Zero(7);
+  tau_ext(4) = -4.0;
+  for (int k = 0; k <= 50; ++k) {
+    const JointState* s = still(k, q0_, k == 0 ? VectorXd::Zero(7) : tau_ext);
+    monitor.update(s->q, s->qd, s->effort, k == 0 ? 0 : 1);
+  }
+  EXPECT_TRUE(monitor.estimate().collision);
+  EXPECT_EQ(std::string(monitor.reason()).rfind("collision: joint " + model_.joint(4).name + " external torque 4 over 1.8",
+                                                0),
+            0u)
+      << monitor.reason();
+}
+
+TEST_F(Reflexes, ConfigsThatCannotDetectAreRefused) {
+  ContactConfig config;
+  config.contact_force = 20.0;  // above the collision threshold
+  EXPECT_THROW(ContactMonitor(model_, config, VectorXd(), 1e-3), ArgumentError);
+  config = ContactConfig();
+  config.collision_torque = VectorXd::Constant(3, 10.0);
+  EXPECT_THROW(ContactMonitor(model_, config, VectorXd(), 1e-3), ArgumentError);
+  config = ContactConfig();
+  config.contact_moment = std::nan("");
+  EXPECT_THROW(ContactMonitor(model_, config, VectorXd(), 1e-3), ArgumentError);
+  config = ContactConfig();
+  config.observer_gain = VectorXd::Constant(7, -1.0);
+  EXPECT_THROW(ContactMonitor(model_, config, VectorXd(), 1e-3), ArgumentError);
+  config = ContactConfig();
+  config.retract_distance = 0.0;
+  EXPECT_THROW(ContactMonitor(model_, config, VectorXd(), 1e-3), ArgumentError);
+}
+
+// Holding, pushed: REFLEX at the 7th sample, the message naming the force; the stop reflex holds
+// where the arm was; only a new target ends it.
+TEST_F(Reflexes, ACollisionStopsTheArmUntilANewTarget) {
+  config_.contact.contact_torque = config_.contact.collision_torque = VectorXd::Constant(7, kInf);
+  Controller controller(model_, config_);
+  ASSERT_TRUE(controller.tick(0, still(0, q0_, VectorXd::Zero(7))));
+  ASSERT_EQ(controller.mode(), Mode::kHolding);
+  Vector6d F = Vector6d::Zero();
+  F(5) = -20.0;
+  const VectorXd tau_ext = torque_of(q0_, F);
+  for (int k = 1; k <= 6; ++k) {
+    ASSERT_TRUE(controller.tick(k * kMs, still(k, q0_, tau_ext)));
+    EXPECT_EQ(controller.mode(), Mode::kHolding) << k;
+  }
+  ASSERT_TRUE(controller.tick(7 * kMs, still(7, q0_, tau_ext)));
+  EXPECT_EQ(controller.mode(), Mode::kReflex);
+  EXPECT_EQ(controller.reflexes(), 1);
+  EXPECT_EQ(controller.contacts(), 1);
+  EXPECT_EQ(std::string(controller.reflex_reason()).rfind("collision: tip force 15.1 N over 15; reflex stop", 0), 0u)
+      << controller.reflex_reason();
+  EXPECT_TRUE(matrices_near(controller.reference().q, q0_, 0.0));
+  // Still pushed: still REFLEX, once.
+  for (int k = 8; k <= 30; ++k) ASSERT_TRUE(controller.tick(k * kMs, still(k, q0_, tau_ext)));
+  EXPECT_EQ(controller.mode(), Mode::kReflex);
+  EXPECT_EQ(controller.reflexes(), 1);
+  EXPECT_NEAR(controller.peak_tip_force(), 20.0 * (1.0 - std::exp(-0.2 * 30)), 1e-9);
+
+  // The push ends; a HOLD target ends the reflex, holding where the arm is.
+  for (int k = 31; k <= 80; ++k) ASSERT_TRUE(controller.tick(k * kMs, still(k, q0_, VectorXd::Zero(7))));
+  EXPECT_FALSE(controller.contact().contact);
+  Target hold(7);
+  hold.mode = Target::kHold;
+  ASSERT_TRUE(controller.set_target(hold, 80 * kMs));
+  EXPECT_EQ(controller.mode(), Mode::kHolding);
+}
+
+TEST_F(Reflexes, TheCompliantReflexCompensatesGravityAndDampsTheJoints) {
+  config_.contact.reflex = Reflex::kCompliant;
+  config_.torque_ramp = 1e-9;  // no rate limit: this test is about the law
+  Controller controller(model_, config_);
+  VectorXd tau_ext = VectorXd::Zero(7);
+  tau_ext(1) = 30.0;  // over the 13 N·m of joint 2's default collision threshold
+  ASSERT_TRUE(controller.tick(0, still(0, q0_, VectorXd::Zero(7))));
+  int64_t k = 1;
+  while (controller.mode() != Mode::kReflex && k < 100) controller.tick(k * kMs, still(k, q0_, tau_ext)), ++k;
+  ASSERT_EQ(controller.mode(), Mode::kReflex);
+  // Pushed away, moving: τ = M(q)(−k q̇) + c(q, q̇) + g(q).
+  JointState moving = *still(k, q0_ + VectorXd::Constant(7, 0.01), tau_ext);
+  moving.qd = VectorXd::LinSpaced(7, -0.4, 0.4);
+  ASSERT_TRUE(controller.tick(k * kMs, &moving));
+  const VectorXd expected = mass_matrix(model_, data_, moving.q) * (-10.0 * moving.qd) +
+                            velocity_product(model_, data_, moving.q, moving.qd) +
+                            gravity_torques(model_, data_, moving.q);
+  EXPECT_TRUE(matrices_near(controller.torque(), expected, 1e-9));
+  EXPECT_TRUE(matrices_near(controller.reference().q, moving.q, 0.0)) << "no position to return to";
+}
+
+// The tip moved 20 mm along an arc (joint 1 turning); the retract reflex goes back to where the
+// tip was 10 mm before, in retract_duration.
+TEST_F(Reflexes, TheRetractReflexGoesBackAlongTheTipsPath) {
+  config_.contact.reflex = Reflex::kRetract;
+  Controller controller(model_, config_);
+  VectorXd q = q0_;
+  VectorXd g_before = gravity_torques(model_, data_, q);
+  ASSERT_TRUE(controller.tick(0, still(0, q, VectorXd::Zero(7))));
+  std::vector<VectorXd> path{q};
+  std::vector<Vector3d> tips{forward_kinematics(model_, data_, q).translation()};
+  // Quasi-static steps: q̇ = 0 in each sample, the effort the trapezoid of g, so no external torque.
+  for (int k = 1; k <= 40; ++k) {
+    q(0) += 0.0008;
+    JointState s = *still(k, q, VectorXd::Zero(7));
+    const VectorXd g_now = s.effort;
+    s.effort = 0.5 * (g_before + g_now);
+    g_before = g_now;
+    ASSERT_TRUE(controller.tick(k * kMs, &s));
+    ASSERT_FALSE(controller.contact().contact) << k;
+    path.push_back(q);
+    tips.push_back(forward_kinematics(model_, data_, q).translation());
+  }
+  // The newest sample at least 10 mm back along the tip's path.
+  size_t back = path.size() - 1;
+  while (back > 0 && (tips[back] - tips.back()).norm() < 0.01) --back;
+  ASSERT_GT(back, 0u);
+  VectorXd tau_ext = VectorXd::Zero(7);
+  tau_ext(3) = 40.0;
+  int64_t k = 41;
+  for (; controller.mode() != Mode::kReflex && k < 100; ++k) ASSERT_TRUE(controller.tick(k * kMs, still(k, q, tau_ext)));
+  ASSERT_EQ(controller.mode(), Mode::kReflex);
+  const int64_t start = (k - 1) * kMs;
+  ASSERT_TRUE(controller.tick(start + 300 * kMs, still(k + 300, q, tau_ext)));
+  EXPECT_TRUE(matrices_near(controller.reference().q, path[back], 1e-12));
+  EXPECT_GE((tips.back() - forward_kinematics(model_, data_, controller.reference().q).translation()).norm(), 0.01);
+  EXPECT_EQ(controller.mode(), Mode::kReflex) << "holds there until a new target";
+}
+
+TEST_F(Reflexes, ObservingAndReflexesAllocateNothing) {
+  config_.contact.reflex = Reflex::kRetract;
+  Controller controller(model_, config_);
+  ASSERT_TRUE(controller.tick(0, still(0, q0_, VectorXd::Zero(7))));
+  VectorXd tau_ext = VectorXd::Zero(7);
+  tau_ext(1) = 30.0;
+  testing::AllocationCounter counter;
+  for (int k = 1; k <= 100; ++k) controller.tick(k * kMs, still(k, q0_, tau_ext));
+  EXPECT_EQ(counter.count(), 0);
+  EXPECT_EQ(controller.mode(), Mode::kReflex);
+}
+
+}  // namespace
+}  // namespace chasles::controller
