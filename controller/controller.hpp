@@ -102,6 +102,8 @@ class Controller {
   const char* reflex_reason() const { return reflex_reason_; }
   /// The contact monitor's estimate at the latest state.
   const ContactEstimate& contact() const { return contact_.estimate(); }
+  /// The thresholds and reflex in force (the defaults filled in from the model).
+  const ContactConfig& contact_config() const { return contact_.config(); }
   /// Contacts (each time the contact flag rose) and reflexes since start; the largest estimated
   /// tip force, N.
   int64_t contacts() const { return contacts_; }

@@ -54,7 +54,8 @@ int64_t Recorder::commands_after(int64_t index) const {
   return std::count_if(commands_.begin(), commands_.end(), [index](const HeardCommand& c) { return c.index > index; });
 }
 
-World::World() : bus_("memq://"), recorder_(std::make_unique<Recorder>(bus_, clock_)) {}
+World::World(const RobotModel& model)
+    : model_(model), bus_("memq://"), recorder_(std::make_unique<Recorder>(bus_, clock_)) {}
 
 World::~World() {
   controllers_.clear();  // their subscriptions before the bus
@@ -64,7 +65,7 @@ World::~World() {
 
 plant::Simulation& World::start_plant(const Eigen::VectorXd& q0, const plant::SimulationOptions& options) {
   plant_.reset();
-  plant_ = std::make_unique<plant::Simulation>(panda(), options, q0, Eigen::VectorXd::Constant(q0.size(), 0.5), bus_,
+  plant_ = std::make_unique<plant::Simulation>(model_, options, q0, Eigen::VectorXd::Constant(q0.size(), 0.5), bus_,
                                                clock_);
   plant_->start();
   plant_next_ = now() + plant_->period_ns();
@@ -78,7 +79,7 @@ void World::kill_plant() { plant_.reset(); }
 int World::add_controller(const controller::DaemonOptions& options, int64_t phase_ns) {
   auto c = std::make_unique<Controller>();
   c->options = options;
-  c->node = std::make_unique<controller::Node>(panda(), c->options, clock_,
+  c->node = std::make_unique<controller::Node>(model_, c->options, clock_,
                                                controller::Buses{bus_, bus_, bus_});
   c->next = c->node->first_tick() + phase_ns;
   controllers_.push_back(std::move(c));

@@ -79,8 +79,10 @@ class World {
  public:
   static constexpr int64_t kMs = 1'000'000;
 
-  /// The model is the Panda to its TCP (checks.hpp's panda()).
-  World();
+  /// The arm of both the plant and the controllers: the Panda to its TCP (checks.hpp's panda())
+  /// unless given. Keeps a reference to it.
+  explicit World(const RobotModel& model = panda());
+  const RobotModel& model() const { return model_; }
   ~World();
 
   Recorder& recorder() { return *recorder_; }
@@ -120,6 +122,7 @@ class World {
   void run_tick(Controller& c);
   void answer_states();
 
+  const RobotModel& model_;
   SimulatedClock clock_;
   Bus bus_;
   std::unique_ptr<Recorder> recorder_;
