@@ -22,7 +22,9 @@
 
 #include "chasles/controller/daemon.hpp"
 #include "chasles/core/dynamics/dynamics.hpp"
+#include "chasles/core/model/payload.hpp"
 #include "chasles/core/model/urdf.hpp"
+#include "chasles/tools/number_list.hpp"
 
 namespace {
 
@@ -79,6 +81,7 @@ struct Flags {
   std::string observer_gain, contact_torque, collision_torque;
   chasles::controller::ContactConfig contact;
   double retract_mm = 10.0;
+  std::string payload;
 };
 
 // The config file's keys are the flags' names with '_' for '-'.
@@ -233,6 +236,9 @@ int main(int argc, char** argv) {
           {"stop", chasles::controller::Reflex::kStop},
           {"compliant", chasles::controller::Reflex::kCompliant},
           {"retract", chasles::controller::Reflex::kRetract}}));
+  app.add_option("--payload", flags.payload,
+                 "a known load at the tip, KG[,CX,CY,CZ] (kg; its centre in the tip frame, m): the model carries it, "
+                 "so gravity, dynamics and the contact estimate account for it");
   app.add_option("--retract-mm", flags.retract_mm, "how far the retract reflex backs off, mm (default 10)")
       ->check(CLI::PositiveNumber);
   app.add_flag("--realtime", options.realtime, "SCHED_FIFO, mlockall and --cpu for the loop (warns if refused)");
@@ -264,7 +270,10 @@ int main(int argc, char** argv) {
     if (!flags.config.empty()) apply_config(flags.config, flags, app);
     chasles::UrdfOptions urdf;
     urdf.tip_link = flags.tip;
-    const chasles::RobotModel model = chasles::load_urdf_file(flags.robot, urdf);
+    const chasles::RobotModel loaded = chasles::load_urdf_file(flags.robot, urdf);
+    const chasles::RobotModel model =
+        flags.payload.empty() ? loaded
+                              : chasles::with_payload(loaded, chasles::tools::parse_payload(flags.payload, "--payload"));
     for (const std::string& warning : model.warnings()) {
       std::fprintf(stderr, "chasles_controller: warning: %s: %s\n", flags.robot.c_str(), warning.c_str());
     }

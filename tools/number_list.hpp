@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "chasles/core/model/payload.hpp"
+
 namespace chasles::tools {
 
 /// The numbers of `text`; `option` names it in messages ("--q0: entry 2 ('x') is not a number").
@@ -33,6 +35,23 @@ inline std::vector<double> parse_number_list(const std::string& text, const std:
     if (end == std::string::npos) return values;
     start = end + 1;
   }
+}
+
+/// "KG[,CX,CY,CZ]": a point mass at the tip, kg, and its position in the tip frame, m (--payload
+/// of chasles_plant and chasles_controller). Throws std::invalid_argument naming `option`.
+inline Payload parse_payload(const std::string& text, const std::string& option) {
+  const std::vector<double> v = parse_number_list(text, option);
+  if (v.size() != 1 && v.size() != 4) {
+    throw std::invalid_argument(option + " takes KG[,CX,CY,CZ] (1 or 4 numbers: kg, m in the tip frame); got " +
+                                std::to_string(v.size()));
+  }
+  Payload payload;
+  payload.mass = v[0];
+  if (v.size() == 4) payload.centre = Vector3d(v[1], v[2], v[3]);
+  if (const std::string problem = payload_problem(payload); !problem.empty()) {
+    throw std::invalid_argument(option + ": " + problem);
+  }
+  return payload;
 }
 
 }  // namespace chasles::tools

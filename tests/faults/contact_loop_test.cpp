@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "chasles/core/kinematics/kinematics.hpp"
+#include "chasles/core/model/payload.hpp"
 #include "chasles/core/model/urdf.hpp"
 #include "support/reference.hpp"
 #include "world.hpp"
@@ -159,6 +160,37 @@ TEST(contact, CollisionsAreDetectedWithin10Ms) {
               "%.1f ms (max)\n",
               latency_ms.front(), percentile(latency_ms, 0.5), p99, latency_ms.back());
   EXPECT_LE(p99, 10.0);
+}
+
+// A 1.5 kg payload the plant hides is external torque to a controller that does not know it, exactly
+// as the truth says; told of it (--payload), the controller's estimate drops to its noise floor.
+TEST(contact, AHiddenPayloadIsExternalUntilTheControllerIsToldOfIt) {
+  const RobotModel& model = panda();
+  Payload payload;
+  payload.mass = 1.5;
+  payload.centre = Vector3d(0.0, 0.0, 0.05);
+  const RobotModel told = with_payload(model, payload);
+  for (const bool known : {false, true}) {
+    World world;
+    plant::SimulationOptions plant;
+    plant.environment.payload = payload;
+    plant.faults.noise = 1e-5;
+    world.start_plant(configurations(model)[1], plant);
+    DaemonOptions o = options_for(model, 40.0);
+    blind(o, model.dof());
+    world.add_controller(o, World::kMs / 2, known ? &told : nullptr);
+    world.run_for(1.5);
+    const VectorXd& estimate = world.controller().controller().contact().tau_ext;
+    const VectorXd& truth = world.plant()->truth().tau_ext;
+    std::printf("[ payload ] %s: |τ̂| %.4f N·m, |τ_true| %.4f N·m, |τ̂ − τ_true| %.2e N·m\n",
+                known ? "told of it" : "hidden", estimate.norm(), truth.norm(), (estimate - truth).norm());
+    if (known) {
+      EXPECT_LT(estimate.cwiseAbs().maxCoeff(), 0.01);
+    } else {
+      EXPECT_GT(truth.norm(), 5.0);
+      EXPECT_LT((estimate - truth).cwiseAbs().maxCoeff(), 0.01 * truth.cwiseAbs().maxCoeff() + 0.05);
+    }
+  }
 }
 
 // The demo's poses (tools/demo.sh: home, then every joint towards the middle of its range), as in

@@ -76,10 +76,10 @@ plant::Simulation& World::start_plant(const Eigen::VectorXd& q0, const plant::Si
 
 void World::kill_plant() { plant_.reset(); }
 
-int World::add_controller(const controller::DaemonOptions& options, int64_t phase_ns) {
+int World::add_controller(const controller::DaemonOptions& options, int64_t phase_ns, const RobotModel* model) {
   auto c = std::make_unique<Controller>();
   c->options = options;
-  c->node = std::make_unique<controller::Node>(model_, c->options, clock_,
+  c->node = std::make_unique<controller::Node>(model ? *model : model_, c->options, clock_,
                                                controller::Buses{bus_, bus_, bus_});
   c->next = c->node->first_tick() + phase_ns;
   controllers_.push_back(std::move(c));

@@ -97,7 +97,9 @@ class World {
   /// A controller whose first tick comes one period plus `phase_ns` from now (state-driven: its
   /// first watchdog tick, unless a state comes first); it has been listening since it was
   /// added. Returns its index.
-  int add_controller(const controller::DaemonOptions& options, int64_t phase_ns = kMs / 2);
+  /// `model`: the controller's own, when it differs from the plant's (a payload it is told of).
+  int add_controller(const controller::DaemonOptions& options, int64_t phase_ns = kMs / 2,
+                     const RobotModel* model = nullptr);
   controller::Node& controller(int i = 0) { return *controllers_.at(size_t(i))->node; }
   /// Whether controller i ticks (a controller that is only listening, as a daemon does before its
   /// loop starts, does not).

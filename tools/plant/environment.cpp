@@ -140,14 +140,7 @@ Wall parse_wall(const std::string& text) {
 }
 
 Payload parse_payload(const std::string& text) {
-  const std::vector<double> v = numbers(text, "--payload");
-  if (v.size() != 1 && v.size() != 4) {
-    throw std::invalid_argument(
-        count_error("--payload takes KG[,CX,CY,CZ]", "1 or 4 numbers: kg, m in the tip frame", v.size()));
-  }
-  Payload payload;
-  payload.mass = v[0];
-  if (v.size() == 4) payload.centre = Vector3d(v[1], v[2], v[3]);
+  Payload payload = tools::parse_payload(text, "--payload");
   check_payload(payload, "--payload");
   return payload;
 }
@@ -170,16 +163,6 @@ Friction parse_friction(const std::string& text, const RobotModel& model) {
   }
   check_friction(friction, model, "--friction");
   return friction;
-}
-
-RobotModel with_payload(const RobotModel& model, const Payload& payload) {
-  ChainDescription description = model.description();
-  const Vector3d c = description.T_last_tip * payload.centre;  // in the last body's frame
-  const Matrix3d C = hat3(c);
-  Matrix6d G;
-  G << C.transpose() * C, C, C.transpose(), Matrix3d::Identity();
-  description.inertia.back() += payload.mass * G;
-  return RobotModel(std::move(description));
 }
 
 }  // namespace chasles::plant

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "chasles/core/model/model.hpp"
+#include "chasles/core/model/payload.hpp"
 
 namespace chasles::plant {
 
@@ -41,12 +42,10 @@ struct Wall {
   double damping = 100.0;               ///< D, N·s/m; ≥ 0
 };
 
-/// A point mass rigidly attached to the tip, added to the last body of the model the plant
-/// integrates; the controller's model does not have it.
-struct Payload {
-  double mass = 0.0;                   ///< kg; ≥ 0
-  Vector3d centre = Vector3d::Zero();  ///< its position in the tip frame, m
-};
+/// A load rigidly attached to the tip (core/model/payload.hpp), added to the last body of the model
+/// the plant integrates; the controller's model does not have it. --payload gives a point mass.
+using chasles::Payload;
+using chasles::with_payload;
 
 /// Joint friction the controller's model does not have, on top of the known viscous damping:
 /// τ_f = −b q̇ − f_c tanh(q̇ / v_s) per joint (v_s: Plant::friction_velocity()).
@@ -84,9 +83,5 @@ Payload parse_payload(const std::string& text);
 /// "VISCOUS,COULOMB" for every joint, or one such pair per joint, root to tip (--friction).
 Friction parse_friction(const std::string& text, const RobotModel& model);
 
-/// The model with the payload's point mass on its last body: at c = T_last_tip · centre in the
-/// last body's frame its spatial inertia is m [[[c]ᵀ[c], [c]], [[c]ᵀ, 1]] (MR eq. 8.32 with
-/// I_b = 0). Allocates: built once, before the plant runs.
-RobotModel with_payload(const RobotModel& model, const Payload& payload);
 
 }  // namespace chasles::plant

@@ -1,0 +1,44 @@
+#include "chasles/core/model/payload.hpp"
+
+#include <cmath>
+#include <cstdio>
+
+#include "chasles/core/lie/so3.hpp"
+#include "chasles/core/model/inertia.hpp"
+
+namespace chasles {
+
+std::string payload_problem(const Payload& payload) {
+  if (!std::isfinite(payload.mass) || !payload.centre.allFinite() || !payload.inertia.allFinite()) {
+    return "a number is not finite";
+  }
+  if (payload.mass < 0.0) {
+    char text[64];
+    std::snprintf(text, sizeof(text), "mass %g kg is negative", payload.mass);
+    return text;
+  }
+  if (!payload.inertia.isApprox(payload.inertia.transpose(), 1e-12) &&
+      (payload.inertia - payload.inertia.transpose()).norm() > 1e-15) {
+    return "the inertia is not symmetric";
+  }
+  if (payload.inertia.isZero(0.0)) return {};  // a point mass
+  const InertiaCheck check = check_inertia(payload.mass, payload.inertia);
+  return check.problem;
+}
+
+RobotModel with_payload(const RobotModel& model, const Payload& payload) {
+  if (const std::string problem = payload_problem(payload); !problem.empty()) {
+    throw ModelError("payload: " + problem);
+  }
+  ChainDescription description = model.description();
+  const Matrix3d& R = description.T_last_tip.linear();
+  const Vector3d c = description.T_last_tip * payload.centre;  // in the last body's frame
+  const Matrix3d C = hat3(c);
+  Matrix6d G;
+  G << R * payload.inertia * R.transpose() + payload.mass * C.transpose() * C, payload.mass * C,
+      payload.mass * C.transpose(), payload.mass * Matrix3d::Identity();
+  description.inertia.back() += G;
+  return RobotModel(std::move(description));
+}
+
+}  // namespace chasles
