@@ -169,14 +169,19 @@ PY
   )
 
   # The programme, as fractions of the run: for 10 s, moves of 1.8 s starting at 1, 3, 5 and 7 s.
-  local move t_hold t_a t_b t_cart t_home t_hold2
+  local move t_hold t_a t_b t_cart t_home t_hold2 t_push push_s t_release push
   move=$(awk -v n="$seconds" 'BEGIN { d = 0.18 * n; printf "%g", (d > 2 ? 2 : d) }')
-  read -r t_hold t_a t_b t_cart t_home t_hold2 < <(awk -v n="$seconds" \
-    'BEGIN { printf "%g %g %g %g %g %g\n", 0.05 * n, 0.1 * n, 0.3 * n, 0.5 * n, 0.7 * n, 0.9 * n }')
+  read -r t_hold t_a t_b t_cart t_home t_hold2 t_push push_s t_release < <(awk -v n="$seconds" \
+    'BEGIN { printf "%g %g %g %g %g %g %g %g %g\n", 0.05 * n, 0.1 * n, 0.3 * n, 0.5 * n, 0.7 * n, 0.9 * n, 0.91 * n,
+             0.03 * n, 0.97 * n }')
+  # The plant pushes the resting arm's tip with 30 N along the base's x axis, ramped in and out over
+  # 10 ms (from the plant's start, which comes first): the controller's estimate crosses the
+  # collision threshold and the stop reflex holds the arm until the next target.
+  push="$t_push,$push_s,0.01,0,0,0,30,0,0"
 
   start lcm-logger lcm-logger --lcm-url="$lcm_url" --force "$dir/chasles.lcmlog"
   start chasles_plant "$DEMO_BUILD/tools/chasles_plant" "${model[@]}" --realtime --rate 1000 --damping 0.5 --q0 "$home" \
-    --lcm-url "$lcm_url"
+    --push "$push" --lcm-url "$lcm_url"
   # The controller knows the plant's joint damping and feeds it forward (--damping).
   start chasles_controller "$DEMO_BUILD/controller/chasles_controller" "${model[@]}" --realtime --damping 0.5 \
     --lcm-url "$lcm_url" \
@@ -199,6 +204,9 @@ PY
   send "JOINT move home to [$home]" "${model[@]}" --joint "$home" --duration "$move"
   wait_until "$t_hold2"
   send "hold" --hold
+  echo "  the plant pushes the tip: 30 N along x from ${t_push} s for ${push_s} s (chasles_plant --push $push)"
+  wait_until "$t_release"
+  send "hold (a new target ends the reflex)" --hold
   wait_until "$seconds"
 
   # The controller first: its summary covers a run in which the plant never stopped answering.
@@ -255,9 +263,11 @@ print(f"  tracking error      rms {track['rms']:.3g}  max {track['max']:.3g} {un
 print(f"  stale states        {s['stale_states']}")
 print(f"  rejected messages   {s['rejected_messages']}")
 print(f"  faults              {s['faults']}")
+print(f"  contact             {s.get('contacts', 0)} contacts, {s.get('reflexes', 0)} reflexes; peak estimated tip force "
+      f"{f(s.get('peak_tip_force_n'), 1)} N (the plant pushed 30 N)")
 # What the controller said about refusals and faults, and the plant's own account.
 notes = [line.rstrip() for line in open(os.path.join(d, "chasles_controller.err"))
-         if any(w in line for w in ("warning", "refused", "FAULT", "rejected"))]
+         if any(w in line for w in ("warning", "refused", "FAULT", "rejected", "REFLEX"))]
 for line in notes[:6]:
     print(f"  {line}")
 if len(notes) > 6:
