@@ -139,7 +139,10 @@ void Controller::hold_at(const Eigen::VectorXd& q) {
 // over the step before it, ours or the plant's brake.
 void Controller::observe(const JointState& state) {
   if (state.seq == observed_seq_) return;
-  const int64_t steps = observed_seq_ < 0 ? 0 : state.seq - observed_seq_;
+  // Steps since the last state observed; a first state, a sender that restarted its count or a seq
+  // that does not fit (it comes off the wire) restarts the observer.
+  int64_t steps = 0;
+  if (observed_seq_ < 0 || __builtin_sub_overflow(state.seq, observed_seq_, &steps)) steps = 0;
   observed_seq_ = state.seq;
   contact_.update(state.q, state.qd, state.effort, steps);
   const ContactEstimate& e = contact_.estimate();

@@ -591,5 +591,42 @@ TEST(log, PlotsOfARecordedRun) {
   ::rmdir(dir.c_str());
 }
 
+// A run with a push: the plant's truth is in the log, and the plot holds the controller's estimate
+// against it.
+TEST(log, PlotsTheEstimatedForceAgainstTheTruth) {
+  Recording recording("push.lcmlog");
+  const std::string urdf = data_path("panda.urdf");
+  const std::vector<std::string> model{"--robot", urdf, "--tip", kTip, "--lcm-url", kLcmUrl};
+  StatusListener status(kLcmUrl);
+  ChildProcess plant(concat({CHASLES_PLANT, "--q0", "0,0,0,-1.5,0,1.5,0", "--damping", "0.5", "--push",
+                             "0.5,100,0.05,0,0,0,0,10,0"},
+                            model));
+  ChildProcess controller(concat({CHASLES_CONTROLLER, "--damping", "0.5"}, model));
+  // Held under the 10 N push (a contact, under the collision threshold) for a second of ticks.
+  ASSERT_TRUE(status.wait_until([](const controller_status_t& s) {
+    return s.state == controller_status_t::HOLDING && s.contact && s.ticks >= 1500;
+  }, 10.0)) << controller.stderr_text();
+  EXPECT_EQ(controller.stop(SIGTERM), 0) << controller.stderr_text();
+  EXPECT_EQ(plant.stop(SIGTERM), 0) << plant.stderr_text();
+  recording.finish();
+
+  const std::string dir = temp_path("push_plots");
+  const RunResult r = chasles(concat({"log", "plot", recording.path, "--out", dir}, panda()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto answer = nlohmann::json::parse(r.out);
+  EXPECT_GT(answer["truth_messages"].get<int>(), 1000);
+  ASSERT_EQ(answer["plots"].size(), 6u);
+  EXPECT_EQ(answer["plots"].back(), dir + "/external_force.png");
+  const std::string png = read_file(dir + "/external_force.png");
+  EXPECT_EQ(png_size(png), std::make_pair(1200u, 800u));
+  EXPECT_GT(png.size(), 20'000u);
+  const std::string artifacts = std::string(CHASLES_ARTIFACTS) + "/plots";
+  ::mkdir(CHASLES_ARTIFACTS, 0777);
+  ::mkdir(artifacts.c_str(), 0777);
+  std::ofstream(artifacts + "/external_force.png", std::ios::binary) << png;
+  for (const auto& path : answer["plots"]) std::remove(path.get<std::string>().c_str());
+  EXPECT_EQ(::rmdir(dir.c_str()), 0) << "plot left files behind in " << dir;
+}
+
 }  // namespace
 }  // namespace chasles::testing

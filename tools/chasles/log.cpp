@@ -247,6 +247,8 @@ struct PlotData {
   int joints = 0;
   Series status;    ///< q[n], q_desired[n], tracking_error[n], jitter p50/p99/max, compute p50/p99/max
   Series commands;  ///< torque[n]
+  Series wrench;    ///< the controller's estimated tip wrench (status), then the plant's truth at that time
+  Series truth;     ///< the plant's contact wrench (TRUTH): (m, f) base-aligned at the tip
   std::vector<int64_t> command_utimes;
   std::vector<TargetMark> targets;
   std::vector<std::string> problems;
@@ -264,7 +266,7 @@ std::string mode_name(int8_t mode) {
 
 PlotData collect(const LogOptions& options) {
   const std::string status_channel = options.prefix + "STATUS", command_channel = options.prefix + "COMMAND",
-                    target_channel = options.prefix + "TARGET";
+                    target_channel = options.prefix + "TARGET", truth_channel = options.prefix + "TRUTH";
   PlotData data;
   LogReader reader(options.log);
   LogEvent event;
@@ -299,6 +301,8 @@ PlotData collect(const LogOptions& options) {
                              m.compute_max_us});
       data.status.t.push_back(t);
       data.status.rows.push_back(std::move(row));
+      data.wrench.t.push_back(t);
+      data.wrench.rows.emplace_back(m.tip_wrench_ext, m.tip_wrench_ext + 6);
     } else if (event.channel == command_channel) {
       joint_torque_command_t m;
       if (std::string why = decode_checked(event.data.data(), event.data.size(), m); !why.empty()) {
@@ -309,6 +313,14 @@ PlotData collect(const LogOptions& options) {
       data.commands.t.push_back(t);
       data.commands.rows.push_back(m.torque);
       data.command_utimes.push_back(m.utime);
+    } else if (event.channel == truth_channel) {
+      sim_truth_t m;
+      if (std::string why = decode_checked(event.data.data(), event.data.size(), m); !why.empty()) {
+        skip(why);
+        continue;
+      }
+      data.truth.t.push_back(t);
+      data.truth.rows.emplace_back(m.tip_wrench_ext, m.tip_wrench_ext + 6);
     } else if (event.channel == target_channel) {
       arm_target_t m;
       if (std::string why = decode_checked(event.data.data(), event.data.size(), m); !why.empty()) {
@@ -463,6 +475,9 @@ Json run_plot(const LogOptions& options) {
                     period_file = scratch.file("period.dat");
   write_series(status_file, data.status);
   write_series(command_file, data.commands);
+  const std::string wrench_file = scratch.file("wrench.dat"), truth_file = scratch.file("truth.dat");
+  write_series(wrench_file, data.wrench);
+  write_series(truth_file, data.truth);
 
   // The spread of the tick period: consecutive commands' utime (stamped by the controller as it
   // computes each) differ by the period plus the difference of two ticks' wake-up and compute
@@ -616,6 +631,25 @@ Json run_plot(const LogOptions& options) {
        << "unset logscale y\nset autoscale\nset key outside right top box opaque\n";
   }
 
+  if (!data.truth.t.empty() && !data.wrench.t.empty()) {
+    // Columns of wrench.dat and truth.dat: 1 t, then (m_x, m_y, m_z, f_x, f_y, f_z).
+    output("external_force.png");
+    gp << unmark << "set title "
+       << quoted("External force on the tip (base-aligned): estimate on " + options.prefix +
+                 "STATUS (solid), truth on " + options.prefix + "TRUTH (dashed)")
+       << "\n" << time_axis << "set ylabel \"force (N)\"\n" << marks << "plot ";
+    const char* axes[] = {"x", "y", "z"};
+    for (int k = 0; k < 3; ++k) {
+      gp << (k ? ", " : "") << quoted(wrench_file) << " using 1:" << 5 + k << " with lines lt " << k + 1
+         << " lw 2.5 title " << quoted(std::string("f_") + axes[k] + " estimated");
+    }
+    for (int k = 0; k < 3; ++k) {
+      gp << ", " << quoted(truth_file) << " using 1:" << 5 + k << " with lines lt " << k + 1 << " lw 1.5 dt (4,4) title "
+         << quoted(std::string("f_") + axes[k] + " true");
+    }
+    gp << "\n";
+  }
+
   gp << "unset output\n";
   const std::string script = scratch.file("plots.gp");
   {
@@ -643,6 +677,7 @@ Json run_plot(const LogOptions& options) {
   answer["status_messages"] = data.status.t.size();
   answer["command_messages"] = data.commands.t.size();
   answer["targets"] = data.targets.size();
+  answer["truth_messages"] = data.truth.t.size();
   return answer;
 }
 
