@@ -249,7 +249,10 @@ TEST(spy, ShowsTheChaslesChannelsDecoded) {
   EXPECT_EQ(target.exit_code, 0) << target.err;
   EXPECT_TRUE(listener.wait_for(controller_status_t::RUNNING, 5.0));
 
-  // The message, field by field, under its type name.
+  // The message, field by field, under its type name. lcm-spy may lay its window out again when the
+  // first messages fill it, undoing the size given above: give it again.
+  display.run({XDOTOOL, "search", "--name", "^CHASLES_STATUS$", "windowmove", "%@", "0", "116", "windowsize", "%@",
+               "1024", "652"});
   const bool fields = wait_for_text(display, shot, "700x440+0+116",
                                     {"controller_status_t", "utime", "num_joints", "q_desired[6]", "tracking_error[0]"},
                                     15.0, words);
