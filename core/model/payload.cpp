@@ -1,5 +1,6 @@
 #include "chasles/core/model/payload.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -17,10 +18,8 @@ std::string payload_problem(const Payload& payload) {
     std::snprintf(text, sizeof(text), "mass %g kg is negative", payload.mass);
     return text;
   }
-  if (!payload.inertia.isApprox(payload.inertia.transpose(), 1e-12) &&
-      (payload.inertia - payload.inertia.transpose()).norm() > 1e-15) {
-    return "the inertia is not symmetric";
-  }
+  const double asymmetry = (payload.inertia - payload.inertia.transpose()).norm();
+  if (asymmetry > std::max(1e-12 * payload.inertia.norm(), 1e-15)) return "the inertia is not symmetric";
   if (payload.inertia.isZero(0.0)) return {};  // a point mass
   const InertiaCheck check = check_inertia(payload.mass, payload.inertia);
   return check.problem;

@@ -53,8 +53,7 @@ void check_wall(Wall& wall, const std::string& what) {
 }
 
 void check_payload(const Payload& payload, const std::string& what) {
-  if (!std::isfinite(payload.mass) || !finite(payload.centre)) refuse(what, "a number is not finite");
-  if (payload.mass < 0.0) refuse(what, "mass " + number(payload.mass) + " kg is negative");
+  if (const std::string problem = payload_problem(payload); !problem.empty()) refuse(what, problem);
 }
 
 void check_friction(const Friction& friction, const RobotModel& model, const std::string& what) {
@@ -139,11 +138,7 @@ Wall parse_wall(const std::string& text) {
   return wall;
 }
 
-Payload parse_payload(const std::string& text) {
-  Payload payload = tools::parse_payload(text, "--payload");
-  check_payload(payload, "--payload");
-  return payload;
-}
+Payload parse_payload(const std::string& text) { return tools::parse_payload(text, "--payload"); }
 
 Friction parse_friction(const std::string& text, const RobotModel& model) {
   const std::vector<double> v = numbers(text, "--friction");
