@@ -138,12 +138,13 @@ void Controller::hold_at(const Eigen::VectorXd& q) {
 // Every new state, whatever the mode: the observer needs each sample and the torque the arm had
 // over the step before it, ours or the plant's brake.
 void Controller::observe(const JointState& state) {
-  if (state.seq == observed_seq_) return;
+  if (observed_any_ && state.seq == observed_seq_) return;
   // Steps since the last state observed; a first state, a sender that restarted its count or a seq
-  // that does not fit (it comes off the wire) restarts the observer.
+  // that does not fit (it comes off the wire) restarts the observer (steps ≤ 0).
   int64_t steps = 0;
-  if (observed_seq_ < 0 || __builtin_sub_overflow(state.seq, observed_seq_, &steps)) steps = 0;
+  if (!observed_any_ || __builtin_sub_overflow(state.seq, observed_seq_, &steps)) steps = 0;
   observed_seq_ = state.seq;
+  observed_any_ = true;
   contact_.update(state.q, state.qd, state.effort, steps);
   const ContactEstimate& e = contact_.estimate();
   if (e.contact && !in_contact_) ++contacts_;

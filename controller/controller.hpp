@@ -144,7 +144,8 @@ class Controller {
   JointPathSampler path_;
   bool following_path_ = false;
   ContactMonitor contact_;
-  int64_t observed_seq_ = -1;
+  int64_t observed_seq_ = 0;  // of the last state the contact monitor took, once observed_any_
+  bool observed_any_ = false;
   bool compliant_ = false, retracting_ = false, in_contact_ = false;
   Eigen::VectorXd retract_goal_;
   int64_t contacts_ = 0, reflexes_ = 0;
