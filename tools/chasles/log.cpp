@@ -245,9 +245,9 @@ struct TargetMark {
 // What the figures are drawn from, collected in one pass over the log.
 struct PlotData {
   int joints = 0;
-  Series status;    ///< q[n], q_desired[n], tracking_error[n], jitter p50/p99/max, compute p50/p99/max
+  Series status;    ///< q[n], q_desired[n], tracking_error[n], jitter p50/p99/max, compute p50/p99/max,
+                    ///< tip_wrench_ext (m, f)
   Series commands;  ///< torque[n]
-  Series wrench;    ///< the controller's estimated tip wrench (status), then the plant's truth at that time
   Series truth;     ///< the plant's contact wrench (TRUTH): (m, f) base-aligned at the tip
   std::vector<int64_t> command_utimes;
   std::vector<TargetMark> targets;
@@ -299,10 +299,9 @@ PlotData collect(const LogOptions& options) {
       for (const auto* v : {&m.q, &m.q_desired, &m.tracking_error}) row.insert(row.end(), v->begin(), v->end());
       row.insert(row.end(), {m.jitter_p50_us, m.jitter_p99_us, m.jitter_max_us, m.compute_p50_us, m.compute_p99_us,
                              m.compute_max_us});
+      row.insert(row.end(), m.tip_wrench_ext, m.tip_wrench_ext + 6);
       data.status.t.push_back(t);
       data.status.rows.push_back(std::move(row));
-      data.wrench.t.push_back(t);
-      data.wrench.rows.emplace_back(m.tip_wrench_ext, m.tip_wrench_ext + 6);
     } else if (event.channel == command_channel) {
       joint_torque_command_t m;
       if (std::string why = decode_checked(event.data.data(), event.data.size(), m); !why.empty()) {
@@ -475,8 +474,7 @@ Json run_plot(const LogOptions& options) {
                     period_file = scratch.file("period.dat");
   write_series(status_file, data.status);
   write_series(command_file, data.commands);
-  const std::string wrench_file = scratch.file("wrench.dat"), truth_file = scratch.file("truth.dat");
-  write_series(wrench_file, data.wrench);
+  const std::string truth_file = scratch.file("truth.dat");
   write_series(truth_file, data.truth);
 
   // The spread of the tick period: consecutive commands' utime (stamped by the controller as it
@@ -631,8 +629,10 @@ Json run_plot(const LogOptions& options) {
        << "unset logscale y\nset autoscale\nset key outside right top box opaque\n";
   }
 
-  if (!data.truth.t.empty() && !data.wrench.t.empty()) {
-    // Columns of wrench.dat and truth.dat: 1 t, then (m_x, m_y, m_z, f_x, f_y, f_z).
+  if (!data.truth.t.empty() && !data.status.t.empty()) {
+    // Columns: truth.dat 1 t, then (m_x, m_y, m_z, f_x, f_y, f_z); status.dat's estimate after its
+    // timing, f_x at 2 + 3n + 6 + 3.
+    const int estimate_f0 = 2 + 3 * n + 6 + 3;
     output("external_force.png");
     gp << unmark << "set title "
        << quoted("External force on the tip (base-aligned): estimate on " + options.prefix +
@@ -640,7 +640,7 @@ Json run_plot(const LogOptions& options) {
        << "\n" << time_axis << "set ylabel \"force (N)\"\n" << marks << "plot ";
     const char* axes[] = {"x", "y", "z"};
     for (int k = 0; k < 3; ++k) {
-      gp << (k ? ", " : "") << quoted(wrench_file) << " using 1:" << 5 + k << " with lines lt " << k + 1
+      gp << (k ? ", " : "") << quoted(status_file) << " using 1:" << estimate_f0 + k << " with lines lt " << k + 1
          << " lw 2.5 title " << quoted(std::string("f_") + axes[k] + " estimated");
     }
     for (int k = 0; k < 3; ++k) {
