@@ -31,7 +31,8 @@ void plan_cartesian_path(IkSolver& solver, const CartesianRequest& request, Join
   path.ik_residual = path.ik_rot_residual = 0.0;
   path.count = std::clamp(static_cast<int>(std::ceil(request.duration / JointPath::kMinSpacing)) + 1, 2,
                           JointPath::kMaxWaypoints);
-  path.dt = request.duration / (path.count - 1);
+  path.dt = request.duration / (path.count - 1);  // A duration of 0 (an impedance law's step of its equilibrium): the goal alone, no speed to check.
+  const bool step = request.duration == 0.0;
 
   Data data(model);
   const Transform T_start = forward_kinematics(model, data, request.q_start);
@@ -61,6 +62,7 @@ void plan_cartesian_path(IkSolver& solver, const CartesianRequest& request, Join
       if (model.joint(i).type == JointType::Continuous) {
         result.q(i) = previous(i) + wrap_angle(result.q(i) - previous(i));
       }
+      if (step) continue;
       const double speed = std::abs(result.q(i) - previous(i)) / path.dt;
       // The path's own speed peaks at 1.875× its average; a jump well past the joint's limit is
       // an IK branch flip or a singularity, not motion the arm can make.
@@ -79,6 +81,10 @@ void plan_cartesian_path(IkSolver& solver, const CartesianRequest& request, Join
 
 void JointPathSampler::sample(double t, Reference& out) const {
   const int last = path_.count - 1;
+  if (t >= duration()) {  // at rest at the goal; also the whole of a path of duration 0
+    out.hold(path_.q.col(last));
+    return;
+  }
   const double h = path_.dt;
   const double x = std::clamp(t / h, 0.0, static_cast<double>(last));
   const int k = std::min(static_cast<int>(x), last - 1);
@@ -96,10 +102,6 @@ void JointPathSampler::sample(double t, Reference& out) const {
     out.q(i) = (2 * u3 - 3 * u2 + 1) * p0 + (u3 - 2 * u2 + u) * m0 + (-2 * u3 + 3 * u2) * p1 + (u3 - u2) * m1;
     out.qd(i) = ((6 * u2 - 6 * u) * p0 + (3 * u2 - 4 * u + 1) * m0 + (-6 * u2 + 6 * u) * p1 + (3 * u2 - 2 * u) * m1) / h;
     out.qdd(i) = ((12 * u - 6) * p0 + (6 * u - 4) * m0 + (-12 * u + 6) * p1 + (6 * u - 2) * m1) / (h * h);
-  }
-  if (t >= duration()) {
-    out.qd.setZero();
-    out.qdd.setZero();
   }
 }
 

@@ -113,7 +113,7 @@ ContactConfig filled(ContactConfig config, const RobotModel& model) {
 
 ContactMonitor::ContactMonitor(const RobotModel& model, const ContactConfig& config, const Eigen::VectorXd& damping,
                                double period)
-    : model_(model),
+    : model_(&model),
       config_(filled(config, model)),
       period_(period),
       observer_(model, config_.observer_gain, damping),
@@ -122,9 +122,15 @@ ContactMonitor::ContactMonitor(const RobotModel& model, const ContactConfig& con
       history_q_(Eigen::MatrixXd::Zero(model.dof(), static_cast<Eigen::Index>(std::ceil(kHistorySeconds / period)))),
       history_tip_(Eigen::Matrix3Xd::Zero(3, history_q_.cols())) {}
 
+void ContactMonitor::set_model(const RobotModel& model) {
+  model_ = &model;
+  observer_.set_model(model);
+  started_ = false;
+}
+
 void ContactMonitor::update(const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& effort,
                             int64_t steps) {
-  const Matrix6Xd& J_b = body_jacobian(model_, data_, q);
+  const Matrix6Xd& J_b = body_jacobian(*model_, data_, q);
   estimate_.tip_position = data_.T_sb.translation();
   remember(q);
   if (!started_ || steps <= 0 || steps > kMaxGapSteps) {
@@ -154,7 +160,7 @@ void ContactMonitor::classify() {
     if (value / collision_limit > collision.ratio) collision = {value / collision_limit, value, collision_limit, joint, what};
     if (value / contact_limit > contact.ratio) contact = {value / contact_limit, value, contact_limit, joint, what};
   };
-  for (int i = 0; i < model_.dof(); ++i) {
+  for (int i = 0; i < model_->dof(); ++i) {
     consider(std::abs(estimate_.tau_ext(i)), config_.contact_torque(i), config_.collision_torque(i), i, "torque");
   }
   consider(estimate_.wrench_base.tail<3>().norm(), config_.contact_force, config_.collision_force, -1, "force");
@@ -166,7 +172,7 @@ void ContactMonitor::classify() {
   const char* level = estimate_.collision ? "collision" : "contact";
   if (e.joint >= 0) {
     std::snprintf(reason_, sizeof(reason_), "%s: joint %s external torque %.3g over %.3g", level,
-                  model_.joint(e.joint).name.c_str(), e.value, e.limit);
+                  model_->joint(e.joint).name.c_str(), e.value, e.limit);
   } else {
     std::snprintf(reason_, sizeof(reason_), "%s: tip %s %.3g %s over %.3g", level, e.what, e.value,
                   e.what[0] == 'f' ? "N" : "N*m", e.limit);

@@ -66,6 +66,9 @@ class ContactMonitor {
   /// periods (or steps ≤ 0), reporting no contact until it has run one. Allocates nothing.
   void update(const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& effort, int64_t steps);
   const ContactEstimate& estimate() const { return estimate_; }
+  /// Estimates with `model` from now on (the same chain, another payload); the observer starts
+  /// again at the next state. Keeps a reference; allocates nothing.
+  void set_model(const RobotModel& model);
   /// Why the latest collision (or, without one, contact) was flagged, naming the joint or the force.
   const char* reason() const { return reason_; }
   const ContactConfig& config() const { return config_; }
@@ -78,7 +81,7 @@ class ContactMonitor {
   void classify();
   void remember(const Eigen::VectorXd& q);
 
-  const RobotModel& model_;
+  const RobotModel* model_;
   ContactConfig config_;
   double period_;
   MomentumObserver observer_;

@@ -19,6 +19,14 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 // Peak speed of a rest-to-rest quintic over distance d in time T (at s = 1/2).
 constexpr double kQuinticPeakSpeed = 1.875;
 
+// The largest step of the equilibrium an impedance law takes at once (a target of duration 0):
+// per joint, rad or m, and of the tip, m and rad. Beyond it the law would pull with K times a
+// distance the operator did not mean to be sudden; a duration makes it a motion instead.
+constexpr double kMaxJointStep = 0.2;
+constexpr double kMaxTipStep = 0.05, kMaxTipRotationStep = 0.3;
+
+bool is_impedance(Law law) { return law == Law::kJointImpedance || law == Law::kCartesianImpedance; }
+
 // A quaternion typed or computed in single precision is off unit norm by far less; one further
 // off is a mistake (a missing component, (x, y, z, w) order), refused rather than normalised.
 constexpr double kQuaternionNormTolerance = 1e-3;
@@ -76,9 +84,12 @@ void Config::validate(int dof) const {
 }
 
 Controller::Controller(const RobotModel& model, const Config& config)
-    : model_(model),
+    : model_(&model),
       config_(validated(config, model.dof())),
       data_(model),
+      law_(model.dof()),
+      work_(model.dof()),
+      switch_offset_(Eigen::VectorXd::Zero(model.dof())),
       effort_limit_(model.dof()),
       rate_limit_per_tick_(model.dof()),
       q_(Eigen::VectorXd::Zero(model.dof())),
@@ -127,6 +138,31 @@ void Controller::stand_down(const char* format, ...) {
   ++faults_;  // a fault of its own, even while another is on
   mode_ = Mode::kFault;
   stood_down_ = true;
+}
+
+bool Controller::set_law(const LawSettings& settings, int64_t now_ns) {
+  auto refuse_mode = [this](const char* why) {
+    std::snprintf(mode_rejection_, sizeof(mode_rejection_), "%s", why);
+    ++rejected_modes_;
+    return false;
+  };
+  if (mode_ == Mode::kWaiting) return refuse_mode("no robot state has arrived yet");
+  if (mode_ == Mode::kFault) return refuse_mode("the controller is in FAULT");
+  char why[192];
+  if (const char* problem = law_problem(*model_, settings, why)) return refuse_mode(problem);
+  law_ = settings;
+  switch_pending_ = true;
+  switch_start_ns_ = now_ns;
+  // A new law ends a reflex where the arm is; free drive follows no reference, so a motion ends.
+  if (mode_ == Mode::kReflex || law_.law == Law::kFreeDrive) hold_at(q_);
+  return true;
+}
+
+void Controller::set_model(const RobotModel& model) {
+  if (model.dof() != model_->dof() || &model == model_) return;
+  model_ = &model;
+  contact_.set_model(model);
+  observed_any_ = false;
 }
 
 void Controller::hold_at(const Eigen::VectorXd& q) {
@@ -180,7 +216,10 @@ bool Controller::set_target(const Target& target, int64_t now_ns) {
   if (mode_ == Mode::kWaiting) return refuse("no robot state has arrived yet");
   if (mode_ == Mode::kFault) return refuse("the controller is in FAULT (%s)", fault_reason_);
   if (mode_ == Mode::kReflex) hold_at(q_);  // a new target ends the reflex, from where the arm is
-  const int n = model_.dof();
+  const int n = model_->dof();
+  if (law_.law == Law::kFreeDrive && target.mode != Target::kHold) {
+    return refuse("free drive follows no target: the arm goes where it is moved (send a control mode first)");
+  }
   switch (target.mode) {
     case Target::kHold:
       hold_at(q_);
@@ -193,17 +232,27 @@ bool Controller::set_target(const Target& target, int64_t now_ns) {
       return refuse("unknown target mode %d", target.mode);
   }
   if (target.num_joints != n) return refuse("a joint target for %d joints; the arm has %d", target.num_joints, n);
-  if (!(target.duration > 0.0) || !std::isfinite(target.duration)) {
-    return refuse("a joint target needs a positive, finite duration (got %g s)", target.duration);
+  // Under an impedance law a duration of 0 steps the equilibrium: the impedance shapes the motion.
+  const bool step = target.duration == 0.0 && is_impedance(law_.law);
+  if (!step && (!(target.duration > 0.0) || !std::isfinite(target.duration))) {
+    return refuse("a joint target needs a positive, finite duration (got %g s; 0 steps the equilibrium of an "
+                  "impedance law)", target.duration);
   }
   for (int i = 0; i < n; ++i) {
-    const Joint& joint = model_.joint(i);
+    const Joint& joint = model_->joint(i);
     const double goal = target.q(i);
     if (!std::isfinite(goal)) return refuse("joint %s: target %g is not finite", joint.name.c_str(), goal);
     // Continuous joints wrap, so any finite angle is a position they can take.
     if (joint.type != JointType::Continuous && (goal < joint.limits.lower || goal > joint.limits.upper)) {
       return refuse("joint %s: target %g is outside its limits [%g, %g]", joint.name.c_str(), goal,
                     joint.limits.lower, joint.limits.upper);
+    }
+    if (step) {
+      if (std::abs(goal - ref_.q(i)) > kMaxJointStep) {
+        return refuse("joint %s: a step of %g to %g is over %g; give a duration", joint.name.c_str(),
+                      std::abs(goal - ref_.q(i)), goal, kMaxJointStep);
+      }
+      continue;
     }
     const double speed = kQuinticPeakSpeed * std::abs(goal - ref_.q(i)) / target.duration;
     if (speed > joint.limits.velocity) {
@@ -212,11 +261,15 @@ bool Controller::set_target(const Target& target, int64_t now_ns) {
                     target.duration * speed / joint.limits.velocity);
     }
   }
+  pending_request_ = -1;  // a Cartesian plan still in the works is superseded
+  if (step) {
+    hold_at(target.q);
+    return true;
+  }
   trajectory_.start(ref_, target.q, target.duration);
   motion_start_ns_ = now_ns;
   mode_ = Mode::kRunning;
   following_path_ = false;
-  pending_request_ = -1;  // a Cartesian plan still in the works is superseded
   return true;
 }
 
@@ -231,11 +284,22 @@ bool Controller::request_cartesian(const Target& target) {
   if (std::abs(norm - 1.0) > kQuaternionNormTolerance) {
     return refuse("a Cartesian target whose quaternion (w, x, y, z) has norm %g, not 1", norm);
   }
-  if (!(target.duration > 0.0) || !std::isfinite(target.duration)) {
-    return refuse("a Cartesian target needs a positive, finite duration (got %g s)", target.duration);
+  const bool step = target.duration == 0.0 && is_impedance(law_.law);
+  if (!step && (!(target.duration > 0.0) || !std::isfinite(target.duration))) {
+    return refuse("a Cartesian target needs a positive, finite duration (got %g s; 0 steps the equilibrium of an "
+                  "impedance law)", target.duration);
   }
   const Eigen::Quaterniond rotation(target.quaternion(0), target.quaternion(1), target.quaternion(2),
                                     target.quaternion(3));
+  if (step) {
+    const Transform& T_sb = forward_kinematics(*model_, data_, ref_.q);
+    const double distance = (target.position - T_sb.translation()).norm();
+    const double angle = Eigen::AngleAxisd(rotation.normalized().toRotationMatrix() * T_sb.linear().transpose()).angle();
+    if (distance > kMaxTipStep || angle > kMaxTipRotationStep) {
+      return refuse("a step of the tip by %g m and %g rad is over %g m or %g rad; give a duration", distance, angle,
+                    kMaxTipStep, kMaxTipRotationStep);
+    }
+  }
   request_.id = ++next_request_id_;
   request_.q_start = ref_.q;
   request_.T_goal = Transform(rotation.normalized().toRotationMatrix(), target.position);
@@ -276,6 +340,10 @@ void Controller::update_reference(int64_t now_ns) {
     if (compliant_) ref_.hold(q_);                 // the arm goes where it is pushed
     return;
   }
+  if (law_.law == Law::kFreeDrive) {
+    ref_.hold(q_);  // the arm goes where it is moved; a law after this one starts from there
+    return;
+  }
   if (mode_ != Mode::kRunning) return;
   // Both samplers set the goal at rest once t is past the end.
   if (following_path_) {
@@ -297,7 +365,7 @@ bool Controller::tick(int64_t now_ns, const JointState* state) {
     }
     return false;
   }
-  if (state->q.size() != model_.dof() || state->qd.size() != model_.dof() || state->effort.size() != model_.dof() ||
+  if (state->q.size() != model_->dof() || state->qd.size() != model_->dof() || state->effort.size() != model_->dof() ||
       !state->q.allFinite() || !state->qd.allFinite() || !state->effort.allFinite()) {
     fault("a robot state of the wrong size or with non-finite values reached the control law");
     return false;
@@ -310,22 +378,14 @@ bool Controller::tick(int64_t now_ns, const JointState* state) {
     // (Re-)entering HOLD where the arm is now. The torque-rate limit starts from g(q), which is
     // what a plant applies while it brakes or waits, so the first commands do not jump.
     hold_at(q_);
-    tau_prev_ = gravity_torques(model_, data_, q_);
+    tau_prev_ = gravity_torques(*model_, data_, q_);
+    switch_offset_.setZero();
   }
   if ((mode_ == Mode::kRunning || mode_ == Mode::kHolding) && contact_.estimate().collision) start_reflex(now_ns);
   update_reference(now_ns);
 
   error_ = ref_.q - q_;
-  if (compliant_) {
-    // Gravity and velocity terms compensated, every joint damped as q̈ = −k q̇: nothing holds the
-    // arm in place, so it yields to a push and stops where it is left.
-    qdd_ref_ = -contact_.config().compliant_damping * qd_;
-  } else {
-    // Computed torque (MR eq. 11.35): one RNEA with q̈ = q̈_d + K_d ė + K_p e gives M q̈ + c + g.
-    qdd_ref_ = ref_.qdd + config_.kd.cwiseProduct(ref_.qd - qd_) + config_.kp.cwiseProduct(error_);
-  }
-  tau_ = inverse_dynamics(model_, data_, q_, qd_, qdd_ref_);
-  if (config_.damping.size() != 0) tau_ += config_.damping.cwiseProduct(ref_.qd);
+  apply_law(now_ns);
 
   if (!tau_.allFinite()) {
     fault("the control law produced a non-finite torque");
@@ -335,6 +395,38 @@ bool Controller::tick(int64_t now_ns, const JointState* state) {
   tau_ = tau_.cwiseMax(tau_prev_ - rate_limit_per_tick_).cwiseMin(tau_prev_ + rate_limit_per_tick_);
   tau_prev_ = tau_;
   return true;
+}
+
+void Controller::apply_law(int64_t now_ns) {
+  if (compliant_) {
+    // Gravity and velocity terms compensated, every joint damped as q̈ = −k q̇: nothing holds the
+    // arm in place, so it yields to a push and stops where it is left.
+    qdd_ref_ = -contact_.config().compliant_damping * qd_;
+    tau_ = inverse_dynamics(*model_, data_, q_, qd_, qdd_ref_);
+  } else {
+    switch (law_.law) {
+      case Law::kComputedTorque:
+        computed_torque(*model_, data_, config_.kp, config_.kd, ref_, q_, qd_, qdd_ref_, tau_);
+        break;
+      case Law::kJointImpedance:
+        joint_impedance(*model_, data_, work_, law_, ref_, q_, qd_, tau_);
+        break;
+      case Law::kCartesianImpedance:
+        cartesian_impedance(*model_, data_, work_, law_, ref_, q_, qd_, tau_);
+        break;
+      case Law::kFreeDrive:
+        free_drive(*model_, data_, work_, law_, q_, qd_, tau_);
+        break;
+    }
+  }
+  if (config_.damping.size() != 0) tau_ += config_.damping.cwiseProduct(ref_.qd);
+  if (switch_pending_) {
+    switch_offset_ = tau_prev_ - tau_;
+    switch_pending_ = false;
+    switch_start_ns_ = now_ns;
+  }
+  const double fade = 1.0 - 1e-9 * static_cast<double>(now_ns - switch_start_ns_) / config_.torque_ramp;
+  if (fade > 0.0) tau_ += fade * switch_offset_;
 }
 
 }  // namespace chasles::controller

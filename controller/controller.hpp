@@ -1,12 +1,18 @@
 // The control logic of one tick, free of threads, clocks and transport so that it can be tested
-// directly: validated state and targets in, joint torques out, through one safety pipeline.
+// directly: validated state, targets and laws in, joint torques out, through one safety pipeline.
 //
 //   state age / size / finiteness → reference (hold | quintic joint motion | planned Cartesian path)
-//   → computed torque τ = M(q)(q̈_d + K_d ė + K_p e) + c(q, q̇) + g(q) [+ D q̇_d], by one RNEA call
-//   → non-finite refused → effort limits → torque-rate limit → command
+//   → the law in force (law.hpp: computed torque, joint impedance, Cartesian impedance, free
+//     drive) [+ D q̇_d] → a switch's offset, fading → non-finite refused → effort limits →
+//     torque-rate limit → command
 //
 // Beside it, every new state feeds the contact monitor (contact.hpp): a collision while the arm
-// runs or holds starts the reflex (REFLEX), which only a new target ends.
+// runs or holds starts the reflex (REFLEX), in every law, which a new target or law ends.
+//
+// A new law takes over without a torque jump: at its first tick the difference between the torque
+// last commanded and the new law's is kept as an offset that fades linearly to zero over the
+// torque-ramp time, the time the rate limit allows to cross the effort range, so a switch between
+// laws whose torques differ by less than that range never meets the rate limit.
 #pragma once
 
 #include <Eigen/Core>
@@ -14,6 +20,7 @@
 
 #include "chasles/controller/cartesian.hpp"
 #include "chasles/controller/contact.hpp"
+#include "chasles/controller/law.hpp"
 #include "chasles/controller/trajectory.hpp"
 #include "chasles/core/model/model.hpp"
 
@@ -26,6 +33,7 @@ struct Config {
   int64_t stale_ns = 10'000'000;  ///< a state older than this stops the commands: FAULT
   /// Time to ramp through a joint's full effort range, s: the torque-rate limit is
   /// effort_limit / torque_ramp per joint (infinite where the URDF gives no effort limit).
+  /// The same time is the fade of a switch between laws.
   double torque_ramp = 0.05;
   /// The joints' viscous damping D (N·m·s/rad or N·s/m), if known: the law adds D q̇_d, the
   /// torque that feeds it forward, and the contact observer counts it as the model's.
@@ -71,6 +79,19 @@ class Controller {
   /// Keeps a reference to `model`. Throws ArgumentError for a bad config.
   Controller(const RobotModel& model, const Config& config);
 
+  /// Takes a new control law (blended in from the next tick) or refuses it (returns false, counts
+  /// it in rejected_modes(), says why in mode_rejection()) and keeps the law in force. A law is
+  /// refused before the first state and in FAULT, like a target. Taking one ends a REFLEX (the arm
+  /// holds where it is); free drive also ends a motion, since it follows no reference.
+  /// Allocates nothing.
+  bool set_law(const LawSettings& settings, int64_t now_ns);
+  const LawSettings& law() const { return law_; }
+  /// Controls with `model` from the next tick: the same chain with another payload (a model of
+  /// another size is ignored). Keeps a reference; the caller keeps it alive until the next
+  /// set_model. The contact observer starts again with it. Allocates nothing.
+  void set_model(const RobotModel& model);
+  const RobotModel& model() const { return *model_; }
+
   /// Takes a new goal, or refuses it (returns false, counts it, says why in last_rejection()) and
   /// keeps the current one. A goal arriving before the first state is refused too. A CARTESIAN
   /// goal that passes the checks becomes a request for the IK worker (take_request()); the arm
@@ -98,6 +119,9 @@ class Controller {
   const char* fault_reason() const { return fault_reason_; }
   /// Why the last refused target was refused.
   const char* last_rejection() const { return rejection_; }
+  /// Why the last refused control law was refused.
+  const char* mode_rejection() const { return mode_rejection_; }
+  int64_t rejected_modes() const { return rejected_modes_; }
   /// What tripped the latest reflex, naming the joint or the force.
   const char* reflex_reason() const { return reflex_reason_; }
   /// The contact monitor's estimate at the latest state.
@@ -134,9 +158,17 @@ class Controller {
   /// The reference at now_ns; finishing a motion turns RUNNING into HOLDING.
   void update_reference(int64_t now_ns);
 
-  const RobotModel& model_;
+  /// The law's torque at this tick into tau_ (before the switch's offset and the safety pipeline).
+  void apply_law(int64_t now_ns);
+
+  const RobotModel* model_;
   Config config_;
   Data data_;
+  LawSettings law_;
+  LawWorkspace work_;
+  Eigen::VectorXd switch_offset_;  // what the torque last commanded differed from the new law's
+  bool switch_pending_ = false;    // a new law: take the offset at the next commanding tick
+  int64_t switch_start_ns_ = 0;
   Eigen::VectorXd effort_limit_, rate_limit_per_tick_;
   Eigen::VectorXd q_, qd_, qdd_ref_, error_, tau_, tau_prev_;
   Reference ref_;
@@ -164,7 +196,8 @@ class Controller {
   char fault_reason_[192] = {};
   char rejection_[192] = {};
   char reflex_reason_[192] = {};
-  int64_t faults_ = 0, stale_ticks_ = 0, rejected_targets_ = 0;
+  char mode_rejection_[192] = {};
+  int64_t faults_ = 0, stale_ticks_ = 0, rejected_targets_ = 0, rejected_modes_ = 0;
 };
 
 }  // namespace chasles::controller

@@ -17,11 +17,13 @@
 
 #include <atomic>
 #include <memory>
+#include <optional>
 #include <cstdint>
 #include <string>
 
 #include "chasles/controller/controller.hpp"
 #include "chasles/controller/statistics.hpp"
+#include "chasles/core/model/payload.hpp"
 
 namespace chasles::controller {
 
@@ -33,6 +35,9 @@ enum class TickSource {
 
 struct DaemonOptions {
   Config control;
+  /// A load known at the tip from the start, on the model the daemon is given (which carries none);
+  /// a payload_t received at run time replaces it.
+  std::optional<Payload> payload;
   std::string lcm_url;  ///< empty: LCM's default (or $LCM_DEFAULT_URL)
   std::string channel_prefix = "CHASLES_";
   bool realtime = false;  ///< SCHED_FIFO, mlockall, CPU affinity for the loop (warn if refused)

@@ -1,6 +1,8 @@
 #include "chasles/controller/lcm_io.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
+#include <cmath>
 
 #include "chasles/lcmtypes/checked.hpp"
 
@@ -58,6 +60,88 @@ std::string TargetReceiver::receive(const void* data, size_t size) {
   target_.quaternion = Eigen::Map<const Eigen::Vector4d>(message_.tip_quaternion);
   target_.duration = message_.duration;
   if (!queue_.push(target_)) return "not taken: the controller has not caught up with the targets before it";
+  return {};
+}
+
+std::string law_from_message(const control_mode_t& m, int n, LawSettings& s) {
+  switch (m.law) {
+    case control_mode_t::COMPUTED_TORQUE:
+      s.law = Law::kComputedTorque;
+      break;
+    case control_mode_t::JOINT_IMPEDANCE:
+      s.law = Law::kJointImpedance;
+      break;
+    case control_mode_t::CARTESIAN_IMPEDANCE:
+      s.law = Law::kCartesianImpedance;
+      break;
+    case control_mode_t::FREE_DRIVE:
+      s.law = Law::kFreeDrive;
+      break;
+    default:
+      return "unknown law " + std::to_string(m.law) + " (0 computed torque, 1 joint impedance, 2 Cartesian impedance, "
+             "3 free drive)";
+  }
+  if (s.law == Law::kJointImpedance && m.num_joints != n) {
+    return "a joint impedance needs joint_stiffness for each of the " + std::to_string(n) + " joints";
+  }
+  s.joint_stiffness.setZero();
+  s.joint_damping.setZero();
+  for (int i = 0; i < m.num_joints; ++i) {
+    s.joint_stiffness(i) = m.joint_stiffness[size_t(i)];
+    s.joint_damping(i) = m.joint_damping[size_t(i)];
+  }
+  s.damping_from_ratio = m.num_joints == 0 || s.joint_damping.isZero(0.0);
+  s.damping_ratio = m.damping_ratio;
+  for (int r = 0; r < 6; ++r) {
+    for (int c = 0; c < 6; ++c) s.cartesian_stiffness(r, c) = m.cartesian_stiffness[r][c];
+  }
+  const Eigen::Vector4d wxyz = Eigen::Map<const Eigen::Vector4d>(m.stiffness_frame_quaternion);
+  if (s.law == Law::kCartesianImpedance && std::abs(wxyz.norm() - 1.0) > 1e-3) {
+    return "stiffness_frame_quaternion (w, x, y, z) has norm " + std::to_string(wxyz.norm()) + ", not 1";
+  }
+  const Eigen::Quaterniond q(wxyz(0), wxyz(1), wxyz(2), wxyz(3));
+  s.T_tip_frame = Transform(wxyz.norm() > 0.0 ? q.normalized().toRotationMatrix() : Matrix3d::Identity(),
+                            Eigen::Map<const Eigen::Vector3d>(m.stiffness_frame_position));
+  s.fixed_posture = m.num_posture == n && n > 0;
+  s.nullspace_posture.setZero();
+  for (int i = 0; i < m.num_posture; ++i) s.nullspace_posture(i) = m.nullspace_posture[size_t(i)];
+  s.nullspace_stiffness = m.nullspace_stiffness;
+  return {};
+}
+
+ModeReceiver::ModeReceiver(int num_joints, SpscRing<LawSettings>& queue)
+    : num_joints_(num_joints), settings_(num_joints), queue_(queue) {
+  for (auto* v : {&message_.joint_stiffness, &message_.joint_damping, &message_.nullspace_posture}) {
+    v->reserve(size_t(num_joints));
+  }
+}
+
+std::string ModeReceiver::receive(const void* data, size_t size) {
+  if (std::string why = messages::decode_checked(data, size, message_, num_joints_, messages::Finite::Required);
+      !why.empty()) {
+    return why;
+  }
+  if (std::string why = law_from_message(message_, num_joints_, settings_); !why.empty()) return why;
+  if (!queue_.push(settings_)) return "not taken: the controller has not caught up with the modes before it";
+  return {};
+}
+
+PayloadReceiver::PayloadReceiver(Mailbox<Payload>& mailbox, Doorbell& bell) : mailbox_(mailbox), bell_(bell) {}
+
+std::string PayloadReceiver::receive(const void* data, size_t size) {
+  if (std::string why = messages::decode_checked(data, size, message_, messages::kAnyArm, messages::Finite::Required);
+      !why.empty()) {
+    return why;
+  }
+  Payload payload;
+  payload.mass = message_.mass;
+  payload.centre = Eigen::Map<const Eigen::Vector3d>(message_.centre_of_mass);
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) payload.inertia(r, c) = message_.inertia[r][c];
+  }
+  if (std::string why = payload_problem(payload); !why.empty()) return why;
+  mailbox_.write(payload);
+  bell_.ring();
   return {};
 }
 

@@ -10,22 +10,32 @@
 #include <array>
 #include <atomic>
 #include <chasles/arm_target_t.hpp>
+#include <chasles/control_mode_t.hpp>
 #include <chasles/joint_torque_command_t.hpp>
+#include <chasles/payload_t.hpp>
 #include <chasles/robot_state_t.hpp>
 #include <cstdint>
 #include <string>
 #include <vector>
 
 #include "chasles/controller/controller.hpp"
+#include "chasles/controller/law.hpp"
 #include "chasles/controller/mailbox.hpp"
+#include "chasles/controller/realtime.hpp"
+#include "chasles/core/model/payload.hpp"
 
 namespace chasles::controller {
 
 /// Channel names: a configurable prefix, so several arms can share one network.
 struct Channels {
-  std::string state, command, target, status;
+  std::string state, command, target, status, mode, payload;
   explicit Channels(const std::string& prefix = "CHASLES_")
-      : state(prefix + "STATE"), command(prefix + "COMMAND"), target(prefix + "TARGET"), status(prefix + "STATUS") {}
+      : state(prefix + "STATE"),
+        command(prefix + "COMMAND"),
+        target(prefix + "TARGET"),
+        status(prefix + "STATUS"),
+        mode(prefix + "MODE"),
+        payload(prefix + "PAYLOAD") {}
 };
 
 /// Counts rejected messages and keeps the latest reason, for the status report. Lock-free: with
@@ -80,6 +90,42 @@ class TargetReceiver {
   arm_target_t message_;
   Target target_;
   SpscRing<Target>& queue_;
+};
+
+/// A decoded control_mode_t (counts already checked against the arm: 0 or n) as LawSettings sized for
+/// n joints: an empty string, or why its structure cannot be a law (an unknown law, a quaternion not
+/// of unit norm, a joint impedance without stiffness). What the numbers mean — bounds, positive
+/// definiteness, limits — is law_problem's, which the controller and `chasles mode` both apply.
+std::string law_from_message(const control_mode_t& message, int num_joints, LawSettings& settings);
+
+/// control_mode_t → LawSettings in `queue` (structure checked here, meaning by Controller::set_law).
+class ModeReceiver {
+ public:
+  ModeReceiver(int num_joints, SpscRing<LawSettings>& queue);
+  ModeReceiver(const ModeReceiver&) = delete;
+  ModeReceiver& operator=(const ModeReceiver&) = delete;
+  std::string receive(const void* data, size_t size);
+
+ private:
+  int num_joints_;
+  control_mode_t message_;
+  LawSettings settings_;
+  SpscRing<LawSettings>& queue_;
+};
+
+/// payload_t → a checked Payload in `mailbox` (the newest wins: each replaces the one before);
+/// `bell` is rung for whoever builds the model that carries it.
+class PayloadReceiver {
+ public:
+  PayloadReceiver(Mailbox<Payload>& mailbox, Doorbell& bell);
+  PayloadReceiver(const PayloadReceiver&) = delete;
+  PayloadReceiver& operator=(const PayloadReceiver&) = delete;
+  std::string receive(const void* data, size_t size);
+
+ private:
+  payload_t message_;
+  Mailbox<Payload>& mailbox_;
+  Doorbell& bell_;
 };
 
 /// The commands this process has sent, by (seq, utime), so that whoever hears the command channel

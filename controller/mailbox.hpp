@@ -34,11 +34,19 @@ class Mailbox {
   /// Consumer side: true and `out` set to the newest value if one was published since the last
   /// read, else false and `out` untouched.
   bool read(T& out) {
-    if ((middle_.load(std::memory_order_relaxed) & kFresh) == 0) return false;
-    front_ = middle_.exchange(front_, std::memory_order_acq_rel) & kIndex;
+    if (!take()) return false;
     out = slots_[front_];
     return true;
   }
+  /// Consumer side, without a copy: whether a value was published since the last look, which
+  /// front() then is. front() stays the consumer's, untouched by the producer, until the next
+  /// take() or read().
+  bool take() {
+    if ((middle_.load(std::memory_order_relaxed) & kFresh) == 0) return false;
+    front_ = middle_.exchange(front_, std::memory_order_acq_rel) & kIndex;
+    return true;
+  }
+  const T& front() const { return slots_[front_]; }
 
  private:
   static constexpr uint8_t kIndex = 3, kFresh = 4;

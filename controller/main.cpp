@@ -238,7 +238,8 @@ int main(int argc, char** argv) {
           {"retract", chasles::controller::Reflex::kRetract}}));
   app.add_option("--payload", flags.payload,
                  "a known load at the tip, KG[,CX,CY,CZ] (kg; its centre in the tip frame, m): the model carries it, "
-                 "so gravity, dynamics and the contact estimate account for it");
+                 "so gravity, dynamics and the contact estimate account for it; a payload_t on PREFIX PAYLOAD "
+                 "(chasles payload) replaces it at run time");
   app.add_option("--retract-mm", flags.retract_mm, "how far the retract reflex backs off, mm (default 10)")
       ->check(CLI::PositiveNumber);
   app.add_flag("--realtime", options.realtime, "SCHED_FIFO, mlockall and --cpu for the loop (warns if refused)");
@@ -270,16 +271,17 @@ int main(int argc, char** argv) {
     if (!flags.config.empty()) apply_config(flags.config, flags, app);
     chasles::UrdfOptions urdf;
     urdf.tip_link = flags.tip;
-    const chasles::RobotModel loaded = chasles::load_urdf_file(flags.robot, urdf);
-    const chasles::RobotModel model =
-        flags.payload.empty() ? loaded
-                              : chasles::with_payload(loaded, chasles::tools::parse_payload(flags.payload, "--payload"));
+    // The daemon is given the model as loaded and the payload apart, so that a payload_t received
+    // at run time replaces the payload rather than adds to it.
+    const chasles::RobotModel model = chasles::load_urdf_file(flags.robot, urdf);
+    if (!flags.payload.empty()) options.payload = chasles::tools::parse_payload(flags.payload, "--payload");
+    const chasles::RobotModel carried = options.payload ? chasles::with_payload(model, *options.payload) : model;
     for (const std::string& warning : model.warnings()) {
       std::fprintf(stderr, "chasles_controller: warning: %s: %s\n", flags.robot.c_str(), warning.c_str());
     }
     // The computed-torque law needs no M⁻¹, but the arm it drives does: a model whose M is singular
     // cannot describe a real arm's motion, and every model-based estimate built on it would be wrong.
-    if (const std::string defect = chasles::mass_matrix_defect(model); !defect.empty()) {
+    if (const std::string defect = chasles::mass_matrix_defect(carried); !defect.empty()) {
       throw std::runtime_error(flags.robot + ": cannot control this chain: " + defect);
     }
     const int n = model.dof();

@@ -36,6 +36,11 @@ void Node::Timing::reset() {
   publish.reset();
 }
 
+Node::LoadedModel Node::loaded(const RobotModel& model, const std::optional<Payload>& payload) {
+  if (!payload) return {model, 0.0};
+  return {with_payload(model, *payload), payload->mass};
+}
+
 Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& clock, Buses buses)
     : model_(model),
       options_(options),
@@ -44,6 +49,9 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
       n_(model.dof()),
       period_ns_(static_cast<int64_t>(std::llround(options.control.period * 1e9))),
       channels_(options.channel_prefix),
+      models_(loaded(model, options.payload)),
+      payloads_(Payload{}),
+      modes_(8, LawSettings(n_)),
       states_(JointState(n_)),
       targets_(16, Target(n_)),
       snapshots_(Snapshot(n_)),
@@ -51,11 +59,15 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
       paths_(2, JointPath(n_)),
       state_receiver_(n_, states_),
       target_receiver_(n_, targets_),
+      mode_receiver_(n_, modes_),
+      payload_receiver_(payloads_, planner_bell_),
       command_watch_(sent_commands_),
       command_encoder_(n_),
-      controller_(model, options.control),
+      controller_(models_.front().model, options.control),
       state_(n_),
       target_(n_),
+      mode_(n_),
+      payload_mass_(models_.front().payload_mass),
       request_(n_),
       path_(n_),
       solver_(model),
@@ -70,6 +82,12 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
   }));
   subscriptions_.push_back(buses.receive.subscribe(channels_.target, [this](const uint8_t* data, size_t size) {
     if (const std::string why = target_receiver_.receive(data, size); !why.empty()) rejections_.add("target " + why);
+  }));
+  subscriptions_.push_back(buses.receive.subscribe(channels_.mode, [this](const uint8_t* data, size_t size) {
+    if (const std::string why = mode_receiver_.receive(data, size); !why.empty()) rejections_.add("control mode " + why);
+  }));
+  subscriptions_.push_back(buses.receive.subscribe(channels_.payload, [this](const uint8_t* data, size_t size) {
+    if (const std::string why = payload_receiver_.receive(data, size); !why.empty()) rejections_.add("payload " + why);
   }));
   subscriptions_.push_back(buses.receive.subscribe(
       channels_.command, [this](const uint8_t* data, size_t size) { command_watch_.receive(data, size); }));
@@ -106,6 +124,12 @@ int64_t Node::tick(int64_t scheduled) {
   const int64_t trigger = state_driven && fresh ? state_.arrival_ns : scheduled;
   record.jitter_us = 1e-3 * static_cast<double>(wake - trigger);
   if (command_watch_.foreign() > 0 && !controller_.stood_down()) stand_down();
+  if (models_.take()) {  // a payload built by the worker, between two ticks
+    controller_.set_model(models_.front().model);
+    payload_mass_ = models_.front().payload_mass;
+  }
+  // Modes before targets: a target sent after a law is meant for it.
+  while (modes_.pop(mode_)) controller_.set_law(mode_, wake);
   while (targets_.pop(target_)) controller_.set_target(target_, wake);
   if (controller_.take_request(request_)) {
     requests_.write(request_);
@@ -154,7 +178,8 @@ int64_t Node::tick(int64_t scheduled) {
   if (!records_.push(record)) ++counters_.lost_records;
   publish_snapshot();
   // The status goes out at once on what an operator must hear about now.
-  const int64_t rejected = controller_.rejected_targets(), foreign = command_watch_.foreign();
+  const int64_t rejected = controller_.rejected_targets() + controller_.rejected_modes(),
+                foreign = command_watch_.foreign();
   if (controller_.mode() != mode_before || rejected != noticed_rejections_ || foreign != noticed_foreign_) {
     noticed_rejections_ = rejected;
     noticed_foreign_ = foreign;
@@ -199,6 +224,16 @@ void Node::publish_snapshot() {
   s.faults = controller_.faults();
   s.foreign_commands = command_watch_.foreign();
   s.rejected_targets = controller_.rejected_targets();
+  s.law = controller_.law().law;
+  s.payload_mass = payload_mass_;
+  std::memcpy(s.mode_rejection, controller_.mode_rejection(), sizeof(s.mode_rejection));
+  // Which refusal is the newer, for the status message (targets are judged after modes in a tick).
+  if (controller_.rejected_modes() != modes_seen_) mode_refused_last_ = true;
+  if (controller_.rejected_targets() != targets_seen_) mode_refused_last_ = false;
+  modes_seen_ = controller_.rejected_modes();
+  targets_seen_ = controller_.rejected_targets();
+  s.mode_refused_last = mode_refused_last_;
+  s.rejected_modes = controller_.rejected_modes();
   s.ik_iterations = controller_.ik_iterations();
   s.ik_residual = controller_.ik_residual();
   s.ik_converged = controller_.ik_converged();
@@ -208,6 +243,14 @@ void Node::publish_snapshot() {
 // Ceres allocates and takes milliseconds: never on the loop, which only hands over requests and
 // paths without waiting.
 bool Node::plan() {
+  if (payloads_.read(payload_)) {
+    // Checked by the receiver (payload_problem), so with_payload does not throw here.
+    LoadedModel& next = models_.back();
+    next.model = with_payload(model_, payload_);
+    next.payload_mass = payload_.mass;
+    models_.publish();
+    return true;
+  }
   if (!ik_path_waiting_) {
     if (!requests_.read(ik_request_)) return false;
     plan_cartesian_path(solver_, ik_request_, ik_path_);
@@ -251,6 +294,10 @@ int64_t Node::report() {
     }
     reported_rejections_ = s.rejected_targets;
   }
+  if (s.rejected_modes != reported_modes_) {
+    std::fprintf(stderr, "chasles_controller: control mode refused: %s\n", s.mode_rejection);
+    reported_modes_ = s.rejected_modes;
+  }
   if (rejections_.count() != reported_wire_) {
     std::fprintf(stderr, "chasles_controller: rejected %lld message(s), last: %s\n",
                  static_cast<long long>(rejections_.count() - reported_wire_), rejections_.last());
@@ -274,6 +321,7 @@ void Node::fill_status() {
   status.state = static_cast<int8_t>(s.mode);
   status.message = s.mode == Mode::kFault    ? s.fault
                    : s.mode == Mode::kReflex ? s.reflex
+                   : s.mode_refused_last     ? std::string("last control mode refused: ") + s.mode_rejection
                    : s.rejected_targets > 0  ? std::string("last target refused: ") + s.rejection
                                              : "";
   auto copy = [](const Eigen::VectorXd& v) { return std::vector<double>(v.data(), v.data() + v.size()); };
@@ -287,6 +335,8 @@ void Node::fill_status() {
   status.collision = s.collision;
   status.contacts = s.contacts;
   status.reflexes = s.reflexes;
+  status.law = static_cast<int8_t>(s.law);
+  status.payload_mass = s.payload_mass;
   const Transform& T = forward_kinematics(model_, data_, s.q);
   const Eigen::Quaterniond quaternion(T.linear());
   for (int i = 0; i < 3; ++i) status.tip_position[i] = T.translation()(i);
@@ -304,7 +354,7 @@ void Node::fill_status() {
   status.ticks = s.loop.ticks;
   status.overruns = s.loop.overruns;
   status.stale_states = s.stale;
-  status.rejected_messages = rejections_.count() + s.rejected_targets;
+  status.rejected_messages = rejections_.count() + s.rejected_targets + s.rejected_modes;
   status.faults = s.faults;
 }
 
@@ -330,7 +380,7 @@ Summary Node::summary(double seconds) {
   summary.tracking_max = error_max_;
   summary.commands = s.loop.commands;
   summary.stale_states = s.stale;
-  summary.rejected_messages = rejections_.count() + s.rejected_targets;
+  summary.rejected_messages = rejections_.count() + s.rejected_targets + s.rejected_modes;
   summary.faults = s.faults;
   summary.foreign_commands = s.foreign_commands;
   summary.contacts = s.contacts;

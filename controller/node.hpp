@@ -7,7 +7,8 @@
 //             preallocated buffer → a timing record queued. Allocates nothing. State-driven,
 //             it runs as soon as a state has been handled (state_waiting()), and on the clock
 //             only as the watchdog when states stop.
-//   plan()    the IK worker's: one Cartesian goal planned into a joint path with Ceres
+//   plan()    the IK worker's: one Cartesian goal planned into a joint path with Ceres, or a
+//             payload built into the model the loop swaps in at its next tick
 //   report()  the status thread's: timing records into histograms, changes on stderr,
 //             controller_status_t at status_hz (at once on a change of mode)
 //
@@ -18,6 +19,7 @@
 
 #include <chasles/controller_status_t.hpp>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -63,8 +65,10 @@ class Node {
   ///   state-driven: a tick that reads a new state is timed from that state's arrival, and the
   ///     next is due 1.5 periods after it — the watchdog's tick, if no state comes first.
   int64_t tick(int64_t scheduled);
-  /// Plans the newest Cartesian request, if any, into a joint path for the loop; whether a path
-  /// was handed over (false: nothing to do, or the path waits for room — wait for the bell).
+  /// Builds the model for the newest payload received, if any (the loop takes it at its next
+  /// tick), then plans the newest Cartesian request, if any, into a joint path for the loop;
+  /// whether anything was handed over (false: nothing to do, or the path waits for room — wait
+  /// for the bell).
   bool plan();
   /// Drains the timing records, reports changes on stderr and publishes a status when one is due
   /// (or the mode changed); returns when the next is due.
@@ -74,7 +78,8 @@ class Node {
 
   void set_realtime_granted(bool granted) { realtime_granted_ = granted; }
   const Controller& controller() const { return controller_; }
-  /// Rung by the loop when plan() has work: a Cartesian request, or room for a waiting path.
+  /// Rung when plan() has work: a Cartesian request or room for a waiting path (by the loop), a
+  /// payload (by the bus's handler).
   Doorbell& planner_bell() { return planner_bell_; }
   /// Rung by the loop when report() must run before the status is due: a change of mode, a
   /// refused target, a foreign command.
@@ -112,6 +117,11 @@ class Node {
     bool ik_converged = false;
     LoopCounters loop;
     int64_t stale = 0, faults = 0, rejected_targets = 0, foreign_commands = 0;
+    Law law = Law::kComputedTorque;
+    double payload_mass = 0.0;
+    char mode_rejection[192] = {};
+    int64_t rejected_modes = 0;
+    bool mode_refused_last = false;  // the newer of the two refusals is the law's
     explicit Snapshot(int n = 0);
   };
   // Timing figures of the status window and of the whole run.
@@ -121,6 +131,13 @@ class Node {
     void merge(const Timing& other);
     void reset();
   };
+
+  // The model the loop controls with, and the payload it carries.
+  struct LoadedModel {
+    RobotModel model;
+    double payload_mass = 0.0;
+  };
+  static LoadedModel loaded(const RobotModel& model, const std::optional<Payload>& payload);
 
   void stand_down();
   int64_t arrival_ns(const Bus& bus) const;
@@ -136,6 +153,12 @@ class Node {
   const int64_t period_ns_;
   Channels channels_;
   Rejections rejections_;
+  Doorbell planner_bell_, reporter_bell_;
+  // Built by the worker from model_ and a payload, swapped in by the loop between ticks; the
+  // controller drives the mailbox's front, which the worker never writes.
+  Mailbox<LoadedModel> models_;
+  Mailbox<Payload> payloads_;
+  SpscRing<LawSettings> modes_;
   Mailbox<JointState> states_;
   SpscRing<Target> targets_;
   Mailbox<Snapshot> snapshots_;
@@ -144,17 +167,22 @@ class Node {
   SpscRing<JointPath> paths_;           // IK → loop
   StateReceiver state_receiver_;
   TargetReceiver target_receiver_;
+  ModeReceiver mode_receiver_;
+  PayloadReceiver payload_receiver_;
   SentCommands sent_commands_;
   CommandWatch command_watch_;
   CommandEncoder command_encoder_;
   Controller controller_;
   std::vector<Bus::Subscription> subscriptions_;  // after what they feed: ended first
   bool realtime_granted_ = false;
-  Doorbell planner_bell_, reporter_bell_;
 
   // The loop's side.
   JointState state_;
   Target target_;
+  LawSettings mode_;
+  double payload_mass_ = 0.0;
+  int64_t modes_seen_ = 0, targets_seen_ = 0;  // refused, to tell which refusal came last
+  bool mode_refused_last_ = false;
   CartesianRequest request_;
   JointPath path_;
   LoopCounters counters_;
@@ -163,6 +191,7 @@ class Node {
   int64_t noticed_rejections_ = 0, noticed_foreign_ = 0;  // what the reporter was last rung for
 
   // The IK worker's side.
+  Payload payload_;
   IkSolver solver_;
   CartesianRequest ik_request_;
   JointPath ik_path_;
@@ -178,7 +207,7 @@ class Node {
   controller_status_t status_;
   std::vector<uint8_t> status_bytes_;
   Mode reported_mode_ = Mode::kWaiting;
-  int64_t reported_rejections_ = 0, reported_wire_ = 0;
+  int64_t reported_rejections_ = 0, reported_wire_ = 0, reported_modes_ = 0;
   int64_t last_status_ns_ = INT64_MIN / 2;
 };
 

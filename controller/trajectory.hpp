@@ -12,7 +12,7 @@ struct Reference {
   Eigen::VectorXd q, qd, qdd;
   explicit Reference(int n = 0) : q(Eigen::VectorXd::Zero(n)), qd(Eigen::VectorXd::Zero(n)), qdd(Eigen::VectorXd::Zero(n)) {}
   /// At rest at q.
-  void hold(const Eigen::VectorXd& position) {
+  void hold(const Eigen::Ref<const Eigen::VectorXd>& position) {
     q = position;
     qd.setZero();
     qdd.setZero();

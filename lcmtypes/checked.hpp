@@ -12,8 +12,10 @@
 #include <lcm/lcm_coretypes.h>
 
 #include <chasles/arm_target_t.hpp>
+#include <chasles/control_mode_t.hpp>
 #include <chasles/controller_status_t.hpp>
 #include <chasles/joint_torque_command_t.hpp>
+#include <chasles/payload_t.hpp>
 #include <chasles/robot_state_t.hpp>
 #include <chasles/sim_truth_t.hpp>
 #include <cmath>
@@ -53,6 +55,9 @@ inline constexpr size_t kCommandCount = 8 + 8 + 8 + 8;       // utime, seq, stat
 inline constexpr size_t kTargetCount = 8 + 8 + 1;            // utime, mode
 inline constexpr size_t kStatusStringLength = 8 + 8 + 1;     // utime, state
 inline constexpr size_t kTruthCount = 8 + 8 + 8;             // utime, seq
+inline constexpr size_t kModeCount = 8 + 8 + 1;              // utime, law
+// control_mode_t's num_posture follows its two joint arrays and 8 + 36 + 3 + 4 doubles.
+inline constexpr size_t kModePostureAfterJoints = 8 * (1 + 36 + 3 + 4);
 
 inline std::string truncated(size_t size) { return "truncated: " + std::to_string(size) + " bytes"; }
 
@@ -108,6 +113,22 @@ inline std::string prepare(const void* data, size_t size, sim_truth_t& m) {
   return {};
 }
 
+inline std::string prepare(const void* data, size_t size, control_mode_t& m) {
+  if (!read_int32(data, size, kModeCount, m.num_joints)) return truncated(size);
+  if (std::string why = impossible_count(m.num_joints, size); !why.empty()) return why;
+  const size_t posture = kModeCount + 4 + 16 * size_t(m.num_joints) + kModePostureAfterJoints;
+  if (!read_int32(data, size, posture, m.num_posture)) return truncated(size);
+  if (m.num_posture < 0 || uint64_t(m.num_posture) * 8 > size) {
+    return "num_posture " + std::to_string(m.num_posture) + " in a message of " + std::to_string(size) + " bytes";
+  }
+  m.joint_stiffness.assign(size_t(m.num_joints), 0.0);
+  m.joint_damping.assign(size_t(m.num_joints), 0.0);
+  m.nullspace_posture.assign(size_t(m.num_posture), 0.0);
+  return {};
+}
+
+inline std::string prepare(const void*, size_t, payload_t&) { return {}; }  // no counts: fixed size
+
 inline bool finite(const std::vector<double>& values) {
   for (double x : values) {
     if (!std::isfinite(x)) return false;
@@ -129,6 +150,23 @@ inline const char* non_finite(const joint_torque_command_t& m) { return finite(m
 inline const char* non_finite(const sim_truth_t& m) {
   return !finite(m.tau_ext) ? "tau_ext" : !finite(m.tip_wrench_ext, 6) ? "tip_wrench_ext" : nullptr;
 }
+inline const char* non_finite(const control_mode_t& m) {
+  return !finite(m.joint_stiffness)                                   ? "joint_stiffness"
+         : !finite(m.joint_damping)                                   ? "joint_damping"
+         : !std::isfinite(m.damping_ratio)                            ? "damping_ratio"
+         : !finite(&m.cartesian_stiffness[0][0], 36)                  ? "cartesian_stiffness"
+         : !finite(m.stiffness_frame_position, 3)                     ? "stiffness_frame_position"
+         : !finite(m.stiffness_frame_quaternion, 4)                   ? "stiffness_frame_quaternion"
+         : !finite(m.nullspace_posture)                               ? "nullspace_posture"
+         : !std::isfinite(m.nullspace_stiffness)                      ? "nullspace_stiffness"
+                                                                      : nullptr;
+}
+inline const char* non_finite(const payload_t& m) {
+  return !std::isfinite(m.mass)                  ? "mass"
+         : !finite(m.centre_of_mass, 3)          ? "centre_of_mass"
+         : !finite(&m.inertia[0][0], 9)          ? "inertia"
+                                                 : nullptr;
+}
 inline const char* non_finite(const arm_target_t& m) {
   return !finite(m.joint_position)      ? "joint_position"
          : !finite(m.tip_position, 3)   ? "tip_position"
@@ -144,6 +182,15 @@ template <typename Message>
 bool fits_arm(int32_t count, int arm_joints) {
   if constexpr (std::is_same_v<Message, arm_target_t>) return count <= arm_joints;
   return count == arm_joints;
+}
+// A control mode carries all of the arm's joints or none, in each of its two counts.
+inline bool fits_arm(const control_mode_t& m, int arm_joints) {
+  return (m.num_joints == 0 || m.num_joints == arm_joints) && (m.num_posture == 0 || m.num_posture == arm_joints);
+}
+template <typename Message>
+bool fits_arm(const Message& m, int arm_joints) {
+  if constexpr (std::is_same_v<Message, payload_t>) return true;
+  else return fits_arm<Message>(m.num_joints, arm_joints);
 }
 
 }  // namespace detail
@@ -168,13 +215,23 @@ std::string decode_checked(const void* data, size_t size, Message& message, int 
   }
   if (size > size_t(INT32_MAX)) return "of " + std::to_string(size) + " bytes, too large";
   if (std::string why = detail::prepare(data, size, message); !why.empty()) return why;
-  if (arm_joints != kAnyArm && !detail::fits_arm<Message>(message.num_joints, arm_joints)) {
-    return "for " + std::to_string(message.num_joints) + " joints; the arm has " + std::to_string(arm_joints);
+  if (arm_joints != kAnyArm && !detail::fits_arm(message, arm_joints)) {
+    if constexpr (std::is_same_v<Message, control_mode_t>) {
+      return "for " + std::to_string(message.num_joints) + " joints and a posture of " +
+             std::to_string(message.num_posture) + "; the arm has " + std::to_string(arm_joints) + " (give 0 or " +
+             std::to_string(arm_joints) + " in each)";
+    } else if constexpr (!std::is_same_v<Message, payload_t>) {
+      return "for " + std::to_string(message.num_joints) + " joints; the arm has " + std::to_string(arm_joints);
+    }
   }
   const int expected = message.getEncodedSize();
   if (size_t(expected) != size) {
-    return "of " + std::to_string(size) + " bytes; expected " + std::to_string(expected) + " for " +
-           std::to_string(message.num_joints) + " joints";
+    if constexpr (std::is_same_v<Message, payload_t>) {
+      return "of " + std::to_string(size) + " bytes; expected " + std::to_string(expected);
+    } else {
+      return "of " + std::to_string(size) + " bytes; expected " + std::to_string(expected) + " for " +
+             std::to_string(message.num_joints) + " joints";
+    }
   }
   if (message.decode(data, 0, static_cast<int>(size)) != expected) return "does not decode";
   if constexpr (!std::is_same_v<Message, controller_status_t>) {

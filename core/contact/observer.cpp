@@ -10,7 +10,7 @@
 namespace chasles {
 
 MomentumObserver::MomentumObserver(const RobotModel& model, const Eigen::VectorXd& gain, const Eigen::VectorXd& damping)
-    : model_(model), data_(model), gain_(gain), damping_(damping) {
+    : model_(&model), data_(model), gain_(gain), damping_(damping) {
   const int n = model.dof();
   if (gain_.size() != n) {
     throw ObserverError("the observer has " + std::to_string(gain_.size()) + " gains; the arm has " + std::to_string(n) +
@@ -28,8 +28,14 @@ MomentumObserver::MomentumObserver(const RobotModel& model, const Eigen::VectorX
 
 void MomentumObserver::momentum_balance(const JointVector& q, const JointVector& qd, Eigen::VectorXd& p,
                                         Eigen::VectorXd& gamma) {
-  p = momentum_terms(model_, data_, q, qd);
+  p = momentum_terms(*model_, data_, q, qd);
   gamma = data_.ct_qd - data_.g - damping_.cwiseProduct(qd);
+}
+
+void MomentumObserver::set_model(const RobotModel& model) {
+  if (model.dof() != model_->dof()) throw ObserverError("set_model: a model of another size");
+  model_ = &model;
+  started_ = false;
 }
 
 void MomentumObserver::reset(const JointVector& q, const JointVector& qd) {

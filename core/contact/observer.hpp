@@ -37,6 +37,11 @@ class MomentumObserver {
   /// known viscous joint damping D, N·m·s/rad or N·s/m (empty: none). Throws ObserverError.
   MomentumObserver(const RobotModel& model, const Eigen::VectorXd& gain, const Eigen::VectorXd& damping = {});
 
+  /// Observes with `model` from now on: the same chain with other inertias (a payload taken or
+  /// dropped), whose Data this observer's fits. The momentum of the new model is not the old one's,
+  /// so the observer starts again at the next sample. Keeps a reference; allocates nothing.
+  void set_model(const RobotModel& model);
+
   /// Starts (again) from the sample (q, q̇) with r = 0: the first update() integrates from here.
   void reset(const JointVector& q, const JointVector& qd);
   bool started() const { return started_; }
@@ -53,7 +58,7 @@ class MomentumObserver {
   // γ = Cᵀq̇ − g − D q̇ and p at a sample, into gamma and p.
   void momentum_balance(const JointVector& q, const JointVector& qd, Eigen::VectorXd& p, Eigen::VectorXd& gamma);
 
-  const RobotModel& model_;
+  const RobotModel* model_;
   Data data_;
   Eigen::VectorXd gain_, damping_;
   Eigen::VectorXd r_, p_, gamma_, p_prev_, gamma_prev_, mean_;

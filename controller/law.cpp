@@ -1,0 +1,254 @@
+#include "chasles/controller/law.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+
+#include "chasles/core/dynamics/dynamics.hpp"
+#include "chasles/core/kinematics/kinematics.hpp"
+#include "chasles/core/lie/se3.hpp"
+
+namespace chasles::controller {
+namespace {
+
+// A rotation matrix off orthonormal by more than this did not come from a unit quaternion.
+constexpr double kRotationTolerance = 1e-6;
+// K_c's off-diagonal blocks must match their transposes to this relative precision.
+constexpr double kSymmetryTolerance = 1e-9;
+
+const char* say(char (&why)[192], const char* format, ...) __attribute__((format(printf, 2, 3)));
+const char* say(char (&why)[192], const char* format, ...) {
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(why, sizeof(why), format, args);
+  va_end(args);
+  return why;
+}
+
+// The eigenvalues of a symmetric 3×3 block, ascending.
+Vector3d block_eigenvalues(const Matrix3d& block) {
+  return Eigen::SelfAdjointEigenSolver<Matrix3d>(block, Eigen::EigenvaluesOnly).eigenvalues();
+}
+
+// c + g at (q, q̇), and the diagonal of M(q) with its Cholesky factor when the law needs them.
+void common_terms(const RobotModel& model, Data& data, LawWorkspace& work, const Eigen::VectorXd& q,
+                  const Eigen::VectorXd& qd, bool factor) {
+  work.c_plus_g = inverse_dynamics(model, data, q, qd, work.zero);
+  const Eigen::MatrixXd& M = mass_matrix(model, data, q);
+  work.diag_M = M.diagonal();
+  if (factor) work.M_llt.compute(M);
+}
+
+}  // namespace
+
+const char* to_string(Law law) {
+  switch (law) {
+    case Law::kComputedTorque:
+      return "computed-torque";
+    case Law::kJointImpedance:
+      return "joint-impedance";
+    case Law::kCartesianImpedance:
+      return "cartesian-impedance";
+    case Law::kFreeDrive:
+      return "free-drive";
+  }
+  return "?";
+}
+
+bool parse_law(const std::string& text, Law& law) {
+  for (Law l : {Law::kComputedTorque, Law::kJointImpedance, Law::kCartesianImpedance, Law::kFreeDrive}) {
+    if (text == to_string(l)) {
+      law = l;
+      return true;
+    }
+  }
+  return false;
+}
+
+LawSettings::LawSettings(int n)
+    : joint_stiffness(Eigen::VectorXd::Zero(n)),
+      joint_damping(Eigen::VectorXd::Zero(n)),
+      nullspace_posture(Eigen::VectorXd::Zero(n)) {
+  cartesian_stiffness.diagonal() << 50.0, 50.0, 50.0, 1000.0, 1000.0, 1000.0;
+}
+
+LawWorkspace::LawWorkspace(int n)
+    : J_c(Matrix6Xd::Zero(6, n)),
+      Minv_JcT(Eigen::MatrixXd::Zero(n, 6)),
+      M_llt(n),
+      zero(Eigen::VectorXd::Zero(n)),
+      null_torque(Eigen::VectorXd::Zero(n)),
+      c_plus_g(Eigen::VectorXd::Zero(n)),
+      diag_M(Eigen::VectorXd::Zero(n)) {}
+
+const char* law_problem(const RobotModel& model, const LawSettings& s, char (&why)[192]) {
+  const int n = model.dof();
+  if (s.joint_stiffness.size() != n || s.joint_damping.size() != n || s.nullspace_posture.size() != n) {
+    return say(why, "settings sized for another arm (the arm has %d joints)", n);
+  }
+  if (!(s.damping_ratio >= LawBounds::kMinDampingRatio && s.damping_ratio <= LawBounds::kMaxDampingRatio)) {
+    return say(why, "damping ratio %g is outside [%g, %g]", s.damping_ratio, LawBounds::kMinDampingRatio,
+               LawBounds::kMaxDampingRatio);
+  }
+  switch (s.law) {
+    case Law::kComputedTorque:
+      return nullptr;
+    case Law::kJointImpedance:
+      for (int i = 0; i < n; ++i) {
+        const double k = s.joint_stiffness(i), d = s.joint_damping(i);
+        if (!(k > 0.0 && k <= LawBounds::kMaxJointStiffness)) {
+          return say(why, "joint %s: stiffness %g is not in (0, %g]", model.joint(i).name.c_str(), k,
+                     LawBounds::kMaxJointStiffness);
+        }
+        if (!s.damping_from_ratio && !(d >= 0.0 && std::isfinite(d))) {
+          return say(why, "joint %s: damping %g is not finite and non-negative", model.joint(i).name.c_str(), d);
+        }
+      }
+      return nullptr;
+    case Law::kFreeDrive:
+      for (int i = 0; i < n && !s.damping_from_ratio; ++i) {
+        const double d = s.joint_damping(i);
+        if (!(d > 0.0 && std::isfinite(d))) {
+          return say(why, "joint %s: free-drive damping %g must be positive and finite (0 would let the arm drift)",
+                     model.joint(i).name.c_str(), d);
+        }
+      }
+      return nullptr;
+    case Law::kCartesianImpedance:
+      break;
+    default:
+      return say(why, "unknown law %d", static_cast<int>(s.law));
+  }
+  const Matrix6d& K = s.cartesian_stiffness;
+  if (!K.allFinite()) return say(why, "the Cartesian stiffness is not finite");
+  if (!((K - K.transpose()).cwiseAbs().maxCoeff() <= kSymmetryTolerance * K.cwiseAbs().maxCoeff())) {
+    return say(why, "the Cartesian stiffness is not symmetric");
+  }
+  const Vector3d rotational = block_eigenvalues(K.topLeftCorner<3, 3>());
+  const Vector3d translational = block_eigenvalues(K.bottomRightCorner<3, 3>());
+  if (!(rotational(0) > 0.0) || !(translational(0) > 0.0) || Eigen::LLT<Matrix6d>(K).info() != Eigen::Success) {
+    return say(why, "the Cartesian stiffness is not positive definite (eigenvalues of its rotational block from %g, "
+               "of its translational block from %g)", rotational(0), translational(0));
+  }
+  if (rotational(2) > LawBounds::kMaxRotationalStiffness) {
+    return say(why, "the Cartesian rotational stiffness reaches %g N*m/rad, over %g", rotational(2),
+               LawBounds::kMaxRotationalStiffness);
+  }
+  if (translational(2) > LawBounds::kMaxTranslationalStiffness) {
+    return say(why, "the Cartesian translational stiffness reaches %g N/m, over %g", translational(2),
+               LawBounds::kMaxTranslationalStiffness);
+  }
+  const Matrix3d& R = s.T_tip_frame.linear();
+  if (!R.allFinite() || !s.T_tip_frame.translation().allFinite() ||
+      (R.transpose() * R - Matrix3d::Identity()).cwiseAbs().maxCoeff() > kRotationTolerance ||
+      std::abs(R.determinant() - 1.0) > kRotationTolerance) {
+    return say(why, "the stiffness frame is not a rigid transform");
+  }
+  if (!(s.T_tip_frame.translation().norm() <= LawBounds::kMaxFrameOffset)) {
+    return say(why, "the stiffness frame is %g m from the tip, over %g", s.T_tip_frame.translation().norm(),
+               LawBounds::kMaxFrameOffset);
+  }
+  if (!(s.nullspace_stiffness >= 0.0 && s.nullspace_stiffness <= LawBounds::kMaxNullspaceStiffness)) {
+    return say(why, "nullspace stiffness %g is not in [0, %g]", s.nullspace_stiffness,
+               LawBounds::kMaxNullspaceStiffness);
+  }
+  for (int i = 0; i < n && s.fixed_posture; ++i) {
+    const Joint& joint = model.joint(i);
+    const double x = s.nullspace_posture(i);
+    if (!std::isfinite(x) ||
+        (joint.type != JointType::Continuous && (x < joint.limits.lower || x > joint.limits.upper))) {
+      return say(why, "joint %s: nullspace posture %g is outside its limits [%g, %g]", joint.name.c_str(), x,
+                 joint.limits.lower, joint.limits.upper);
+    }
+  }
+  return nullptr;
+}
+
+Matrix6d modal_damping(const Matrix6d& Lambda, const Matrix6d& K, double zeta) {
+  const Eigen::LLT<Matrix6d> llt(Lambda);
+  const Matrix6d L = llt.matrixL();
+  // A = L⁻¹ K L⁻ᵀ by two triangular solves.
+  Matrix6d A = llt.matrixL().solve(K);
+  A = llt.matrixL().solve(A.transpose()).eval();
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> eigen(0.5 * (A + A.transpose()));
+  const Matrix6d Q = L * eigen.eigenvectors();
+  const Vector6d modal = 2.0 * zeta * eigen.eigenvalues().cwiseMax(0.0).cwiseSqrt();
+  return Q * modal.asDiagonal() * Q.transpose();
+}
+
+void computed_torque(const RobotModel& model, Data& data, const Eigen::VectorXd& kp, const Eigen::VectorXd& kd,
+                     const Reference& ref, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                     Eigen::VectorXd& qdd_scratch, Eigen::VectorXd& tau) {
+  // One RNEA with q̈ = q̈_d + K_d ė + K_p e gives M q̈ + c + g.
+  qdd_scratch = ref.qdd + kd.cwiseProduct(ref.qd - qd) + kp.cwiseProduct(ref.q - q);
+  tau = inverse_dynamics(model, data, q, qd, qdd_scratch);
+}
+
+void joint_impedance(const RobotModel& model, Data& data, LawWorkspace& work, const LawSettings& s,
+                     const Reference& ref, const Eigen::VectorXd& q, const Eigen::VectorXd& qd, Eigen::VectorXd& tau) {
+  const Eigen::VectorXd& K = s.joint_stiffness;
+  if (s.damping_from_ratio) {
+    work.diag_M = mass_matrix(model, data, q).diagonal();
+    work.null_torque = 2.0 * s.damping_ratio * (K.cwiseProduct(work.diag_M)).cwiseSqrt();
+  } else {
+    work.null_torque = s.joint_damping;
+  }
+  tau = inverse_dynamics(model, data, q, qd, ref.qdd);  // M q̈_d + c + g
+  tau += K.cwiseProduct(ref.q - q) + work.null_torque.cwiseProduct(ref.qd - qd);
+}
+
+void cartesian_impedance(const RobotModel& model, Data& data, LawWorkspace& work, const LawSettings& s,
+                         const Reference& ref, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                         Eigen::VectorXd& tau) {
+  const Transform& T_bc = s.T_tip_frame;
+  // Frame c at the reference: its pose and its body twist.
+  const Matrix6Xd& J_b_d = body_jacobian(model, data, ref.q);
+  const Transform T_sd = data.T_sb * T_bc;
+  const Vector6d V_d = adjoint_inverse_times(T_bc, J_b_d * ref.qd);
+  // Frame c where the arm is.
+  const Matrix6Xd& J_b = body_jacobian(model, data, q);
+  const Transform T_sc = data.T_sb * T_bc;
+  for (int i = 0; i < model.dof(); ++i) work.J_c.col(i) = adjoint_inverse_times(T_bc, J_b.col(i));
+  const Vector6d V_c = work.J_c * qd;
+  // The error as the twist that carries c to d in unit time, in frame c (MR eq. 11.16), and its
+  // rate with the desired twist moved into frame c (MR eq. 11.18).
+  const Transform T_cd = inverse(T_sc) * T_sd;
+  work.xi = log6(T_cd);
+  work.xi_dot = adjoint_times(T_cd, V_d) - V_c;
+
+  common_terms(model, data, work, q, qd, true);
+  // Λ⁻¹ = J_c M⁻¹ J_cᵀ, inverted on its eigenvectors with each eigenvalue of Λ bounded.
+  work.Minv_JcT = work.J_c.transpose();
+  work.M_llt.solveInPlace(work.Minv_JcT);
+  const Matrix6d Lambda_inv = work.J_c * work.Minv_JcT;
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> eigen(0.5 * (Lambda_inv + Lambda_inv.transpose()));
+  const Vector6d inertia = eigen.eigenvalues().cwiseMax(1.0 / kMaxCartesianInertia).cwiseInverse();
+  work.Lambda = eigen.eigenvectors() * inertia.asDiagonal() * eigen.eigenvectors().transpose();
+
+  const Matrix6d D = modal_damping(work.Lambda, s.cartesian_stiffness, s.damping_ratio);
+  work.wrench = s.cartesian_stiffness * work.xi + D * work.xi_dot;
+  tau.noalias() = work.J_c.transpose() * work.wrench;
+
+  // The posture torque, each joint damped critically against its own inertia, minus what of it
+  // would move frame c: N = I − J_cᵀ Λ J_c M⁻¹ (J_c M⁻¹ = (M⁻¹ J_cᵀ)ᵀ).
+  const Eigen::VectorXd& posture = s.fixed_posture ? s.nullspace_posture : ref.q;
+  const double k_n = s.nullspace_stiffness;
+  work.null_torque = k_n * (posture - q) -
+                     (2.0 * s.damping_ratio * (k_n * work.diag_M).cwiseSqrt()).cwiseProduct(qd);
+  const Vector6d moving_c = work.Lambda * (work.Minv_JcT.transpose() * work.null_torque);
+  work.null_torque.noalias() -= work.J_c.transpose() * moving_c;
+  tau += work.null_torque + work.c_plus_g;
+}
+
+void free_drive(const RobotModel& model, Data& data, LawWorkspace& work, const LawSettings& s,
+                const Eigen::VectorXd& q, const Eigen::VectorXd& qd, Eigen::VectorXd& tau) {
+  common_terms(model, data, work, q, qd, false);
+  if (s.damping_from_ratio) {
+    tau = work.c_plus_g - LawSettings::kFreeDriveRate * work.diag_M.cwiseProduct(qd);
+  } else {
+    tau = work.c_plus_g - s.joint_damping.cwiseProduct(qd);
+  }
+}
+
+}  // namespace chasles::controller
