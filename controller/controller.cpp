@@ -335,13 +335,13 @@ bool Controller::follow(const JointPath& path, int64_t now_ns) {
 
 void Controller::update_reference(int64_t now_ns) {
   const double t = 1e-9 * static_cast<double>(now_ns - motion_start_ns_);
+  if (law_.law == Law::kFreeDrive) {
+    ref_.hold(q_);  // the arm goes where it is moved; a law after this one starts from there
+    return;
+  }
   if (mode_ == Mode::kReflex) {
     if (retracting_) trajectory_.sample(t, ref_);  // holds the goal once there
     if (compliant_) ref_.hold(q_);                 // the arm goes where it is pushed
-    return;
-  }
-  if (law_.law == Law::kFreeDrive) {
-    ref_.hold(q_);  // the arm goes where it is moved; a law after this one starts from there
     return;
   }
   if (mode_ != Mode::kRunning) return;

@@ -1,0 +1,318 @@
+// Compliance in the whole loop in simulated time (world.hpp): the laws of [L] against the plant,
+// with the plant's truth (its wall, its push, its hidden payload) as the reference. Every law and
+// payload reaches the controller as an lcm-gen encoded control_mode_t or payload_t on the bus.
+//   - stiffness: pressing on a wall 1 cm behind its surface, the steady force is the series spring
+//     of the commanded stiffness and the wall's, within 2 %, and the tip does not drift sideways
+//   - damping: a 5 mm step of the Cartesian target does not overshoot by more than 5 % for ζ = 1
+//   - free drive: the arm yields to a push and comes to rest where it is left
+//   - payload at run time: the hold error and the external torque drop once it is given
+//   - switching: every switch between the four laws mid-motion stays within the rate limit
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <chasles/arm_target_t.hpp>
+#include <chasles/control_mode_t.hpp>
+#include <chasles/payload_t.hpp>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <vector>
+
+#include "chasles/core/kinematics/kinematics.hpp"
+#include "world.hpp"
+
+namespace chasles::faults {
+namespace {
+
+using Eigen::VectorXd;
+using controller::DaemonOptions;
+using controller::Law;
+using controller::Mode;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+DaemonOptions options_for(const RobotModel& model) {
+  DaemonOptions o;
+  o.control = controller::Config::critically_damped(model.dof(), 20.0);
+  o.control.damping = VectorXd::Constant(model.dof(), 0.5);  // the World plant's, known
+  o.status_hz = 100.0;
+  return o;
+}
+
+// Contact is expected here: no threshold starts a reflex.
+void no_reflex(DaemonOptions& o, int n) {
+  auto& c = o.control.contact;
+  c.collision_torque = VectorXd::Constant(n, kInf);
+  c.contact_torque = VectorXd::Constant(n, kInf);
+  c.contact_force = c.collision_force = c.contact_moment = c.collision_moment = kInf;
+}
+
+control_mode_t mode_message(Law law, int n) {
+  control_mode_t m{};
+  m.law = static_cast<int8_t>(law);
+  m.num_joints = 0;
+  m.damping_ratio = 1.0;
+  for (int i = 0; i < 6; ++i) m.cartesian_stiffness[i][i] = i < 3 ? 50.0 : 1000.0;
+  m.stiffness_frame_quaternion[0] = 1.0;
+  m.num_posture = 0;
+  m.nullspace_stiffness = 10.0;
+  if (law == Law::kJointImpedance) {
+    const double k[7] = {600, 600, 600, 600, 250, 150, 50};  // franka_ros's example stiffness
+    m.num_joints = n;
+    for (int i = 0; i < n; ++i) m.joint_stiffness.push_back(k[std::min(i, 6)]);
+    m.joint_damping.assign(size_t(n), 0.0);
+  }
+  return m;
+}
+
+control_mode_t cartesian_mode(double translational, double rotational = 50.0) {
+  control_mode_t m = mode_message(Law::kCartesianImpedance, 0);
+  for (int i = 0; i < 6; ++i) m.cartesian_stiffness[i][i] = i < 3 ? rotational : translational;
+  return m;
+}
+
+arm_target_t cartesian_target(const Transform& T, double duration) {
+  arm_target_t t{};
+  t.mode = arm_target_t::CARTESIAN;
+  const Eigen::Quaterniond r(T.linear());
+  for (int i = 0; i < 3; ++i) t.tip_position[i] = T.translation()(i);
+  t.tip_quaternion[0] = r.w(), t.tip_quaternion[1] = r.x(), t.tip_quaternion[2] = r.y(), t.tip_quaternion[3] = r.z();
+  t.duration = duration;
+  return t;
+}
+
+// Five Panda configurations away from singularities and joint limits.
+std::vector<VectorXd> configurations() {
+  std::vector<VectorXd> qs;
+  for (int k = 0; k < 5; ++k) {
+    VectorXd q(7);
+    q << 0.1, 0.5, -0.2, -1.9, 0.1, 2.0, 0.3;
+    for (int i = 0; i < 7; ++i) q(i) += 0.2 * std::sin(1.3 * k + 0.7 * i) * (k > 0);
+    qs.push_back(q);
+  }
+  return qs;
+}
+
+Vector3d tip_position(const RobotModel& model, World& world) {
+  Data data(model);
+  return forward_kinematics(model, data, world.plant()->plant().q()).translation();
+}
+
+// A wall under the tip, the Cartesian target 1 cm behind its surface: the spring of stiffness k
+// and the wall's K in series press with F = k K / (k + K) · 1 cm.
+TEST(compliance, TheWallIsPressedWithTheSeriesSpringOfTheCommandedStiffness) {
+  const RobotModel& model = panda();
+  Data data(model);
+  const VectorXd q0 = configurations()[0];
+  const Transform T0 = forward_kinematics(model, data, q0);
+  for (const double k : {500.0, 1000.0, 2000.0}) {
+    plant::Wall wall;
+    wall.normal = Vector3d::UnitZ();
+    wall.point = T0.translation() - 0.005 * wall.normal;  // 5 mm below the tip
+    World world;
+    plant::SimulationOptions plant;
+    plant.environment.walls = {wall};
+    world.start_plant(q0, plant);
+    DaemonOptions o = options_for(model);
+    no_reflex(o, model.dof());
+    world.add_controller(o);
+    world.run_for(0.1);
+    world.recorder().publish("MODE", cartesian_mode(k));
+    world.run_for(0.2);
+    Transform goal = T0;
+    goal.translation() = wall.point - 0.01 * wall.normal;
+    world.recorder().publish("TARGET", cartesian_target(goal, 1.0));
+    world.run_for(3.0);
+    const controller::Controller& c = world.controller().controller();
+    ASSERT_EQ(c.law().law, Law::kCartesianImpedance);
+    ASSERT_EQ(c.rejected_targets(), 0) << c.last_rejection();
+    const plant::Truth& truth = world.plant()->truth();
+    ASSERT_TRUE(truth.contact);
+    const double K = wall.stiffness, expected = k * K / (k + K) * 0.01;
+    const double force = truth.tip_wrench_ext.tail<3>().dot(wall.normal);
+    const Vector3d p = tip_position(model, world);
+    const double drift = (p - goal.translation()).cross(wall.normal).norm();
+    std::printf("[ wall ] k = %4.0f N/m: contact force %.4f N, series spring %.4f N (%+.3f %%), lateral drift %.4f mm\n",
+                k, force, expected, 100.0 * (force - expected) / expected, 1e3 * drift);
+    EXPECT_NEAR(force, expected, 0.02 * expected);
+    EXPECT_LE(drift, 1e-3);
+    EXPECT_LT(world.plant()->plant().qd().norm(), 1e-3) << "not at rest";
+    EXPECT_EQ(c.faults(), 0);
+  }
+}
+
+// A 5 mm step of the Cartesian target along each base axis from five configurations: the tip gets
+// there without overshooting by more than 5 % of the step, damped critically by the law's ζ = 1.
+TEST(compliance, AFiveMillimetreStepOfTheTargetSettlesWithoutOvershoot) {
+  const RobotModel& model = panda();
+  Data data(model);
+  double worst_overshoot = 0.0, worst_final = 0.0;
+  for (const VectorXd& q0 : configurations()) {
+    for (int axis = 0; axis < 3; ++axis) {
+      World world;
+      world.start_plant(q0);
+      DaemonOptions o = options_for(model);
+      world.add_controller(o);
+      world.run_for(0.1);
+      world.recorder().publish("MODE", cartesian_mode(1000.0));
+      world.run_for(0.3);
+      const Transform T0 = forward_kinematics(model, data, q0);
+      const Vector3d start = tip_position(model, world), direction = Vector3d::Unit(axis);
+      Transform goal = T0;
+      goal.translation() = start + 0.005 * direction;
+      world.recorder().publish("TARGET", cartesian_target(goal, 0.0));
+      double peak = -kInf;
+      world.run_until(
+          [&] {
+            peak = std::max(peak, (tip_position(model, world) - start).dot(direction));
+            return false;
+          },
+          1.5);
+      const controller::Controller& c = world.controller().controller();
+      ASSERT_EQ(c.rejected_targets(), 0) << c.last_rejection();
+      const double final_error = (tip_position(model, world) - goal.translation()).norm();
+      worst_overshoot = std::max(worst_overshoot, (peak - 0.005) / 0.005);
+      worst_final = std::max(worst_final, final_error);
+      EXPECT_LE(peak, 0.005 * 1.05) << "axis " << axis;
+      EXPECT_GE(peak, 0.005 * 0.95) << "axis " << axis << ": the step was not taken";
+      EXPECT_LE(final_error, 5e-5) << "axis " << axis << ": not settled";
+      EXPECT_EQ(c.faults(), 0);
+    }
+  }
+  std::printf("[ step ] 15 steps of 5 mm: worst overshoot %+.2f %% of the step, worst error after 1.5 s %.1f um\n",
+              100.0 * worst_overshoot, 1e6 * worst_final);
+}
+
+// Free drive: a 10 N push for half a second moves the arm, and once it ends the arm comes to rest
+// and stays there. The push is a hand guiding the arm, no collision: the thresholds are raised, as
+// they must be for guiding (a 10 N push on the hand is 2 N·m on the Panda's wrist, over 15 % of
+// its effort limit).
+TEST(compliance, FreeDriveYieldsToAPushAndStaysWhereItIsLeft) {
+  const RobotModel& model = panda();
+  for (const VectorXd& q0 : configurations()) {
+    World world;
+    plant::SimulationOptions plant;
+    plant::Push push;
+    push.start = 0.5, push.duration = 0.5, push.ramp = 0.02;
+    push.wrench << 0, 0, 0, 10.0, 0, 0;
+    plant.environment.pushes = {push};
+    world.start_plant(q0, plant);
+    DaemonOptions o = options_for(model);
+    no_reflex(o, model.dof());
+    world.add_controller(o);
+    world.run_for(0.1);
+    world.recorder().publish("MODE", mode_message(Law::kFreeDrive, model.dof()));
+    world.run_for(0.35);
+    const Vector3d before = tip_position(model, world);
+    world.run_for(0.55 + 2.0);  // past the push, then two seconds to come to rest
+    const Vector3d rested = tip_position(model, world);
+    world.run_for(1.0);
+    const Vector3d later = tip_position(model, world);
+    const controller::Controller& c = world.controller().controller();
+    const double moved = (rested - before).norm(), drift = (later - rested).norm();
+    std::printf("[ free drive ] moved %.1f mm by the push; then drifts %.4f mm/s\n", 1e3 * moved, 1e3 * drift);
+    EXPECT_EQ(c.law().law, Law::kFreeDrive);
+    EXPECT_GT(moved, 0.01) << "the push did not move the arm";
+    EXPECT_LE(drift, 1e-3);
+    EXPECT_EQ(c.faults(), 0);
+  }
+}
+
+// A 1.5 kg payload the plant carries and the controller does not know: the arm sags under computed
+// torque and the observer reads it as external torque; once told at run time, both drop.
+TEST(compliance, APayloadGivenAtRunTimeRemovesTheHoldErrorAndTheExternalTorque) {
+  const RobotModel& model = panda();
+  double worst_ratio = kInf, worst_residual = 0.0;
+  for (const VectorXd& q0 : configurations()) {
+    Payload load;
+    load.mass = 1.5;
+    load.centre = Vector3d(0.0, 0.02, 0.05);
+    World world;
+    plant::SimulationOptions plant;
+    plant.environment.payload = load;
+    world.start_plant(q0, plant);
+    world.add_controller(options_for(model));
+    world.run_for(2.0);
+    const controller::Controller& c = world.controller().controller();
+    const double error_before = c.error().cwiseAbs().maxCoeff();
+    const double tau_before = c.contact().tau_ext.cwiseAbs().maxCoeff();
+    payload_t message{};
+    message.mass = load.mass;
+    for (int i = 0; i < 3; ++i) message.centre_of_mass[i] = load.centre(i);
+    world.recorder().publish("PAYLOAD", message);
+    world.run_for(2.0);
+    const double error_after = c.error().cwiseAbs().maxCoeff();
+    const double tau_after = c.contact().tau_ext.cwiseAbs().maxCoeff();
+    ASSERT_TRUE(world.recorder().status());
+    EXPECT_EQ(world.recorder().status()->payload_mass, 1.5);
+    worst_ratio = std::min(worst_ratio, error_before / error_after);
+    worst_residual = std::max(worst_residual, tau_after);
+    std::printf("[ payload ] hold error %.2e -> %.2e rad (%.0fx); |tau_ext| %.3f -> %.2e N*m\n", error_before,
+                error_after, error_before / error_after, tau_before, tau_after);
+    EXPECT_GE(error_before, 20.0 * error_after);
+    EXPECT_GT(tau_before, 1.0);
+    EXPECT_LE(tau_after, 1e-3);
+    EXPECT_EQ(c.faults(), 0);
+  }
+  std::printf("[ payload ] 5 configurations: hold error down %.0fx at least; |tau_ext| after at most %.2e N*m\n",
+              worst_ratio, worst_residual);
+}
+
+// Every ordered pair of the four laws: the first drives a joint motion (free drive is moved by a
+// push instead), the second takes over halfway through. No command steps by more than the rate
+// limit, nothing faults, and the target is reached under every law but free drive.
+TEST(compliance, EverySwitchBetweenTheFourLawsMidMotionStaysWithinTheRateLimit) {
+  const RobotModel& model = panda();
+  const VectorXd q0 = configurations()[0];
+  VectorXd far = q0;
+  far(0) += 0.4, far(1) -= 0.2, far(3) += 0.3, far(5) -= 0.3;
+  World world;
+  plant::SimulationOptions plant;
+  world.start_plant(q0, plant);
+  DaemonOptions o = options_for(model);
+  no_reflex(o, model.dof());  // a switch into free drive mid-motion lets the arm coast: no reflex
+  world.add_controller(o);
+  world.run_for(0.2);
+  const Law laws[] = {Law::kComputedTorque, Law::kJointImpedance, Law::kCartesianImpedance, Law::kFreeDrive};
+  const controller::Controller& c = world.controller().controller();
+  int switches = 0;
+  bool toward_far = true;
+  for (Law from : laws) {
+    for (Law to : laws) {
+      if (from == to) continue;
+      world.recorder().publish("MODE", mode_message(from, model.dof()));
+      world.run_for(0.3);
+      if (from != Law::kFreeDrive) {
+        world.send_joint_target(toward_far ? far : q0, 1.0);
+        toward_far = !toward_far;
+      }
+      world.run_for(0.5);
+      if (from != Law::kFreeDrive) {
+        ASSERT_EQ(c.mode(), Mode::kRunning) << controller::to_string(from);
+      }
+      world.recorder().publish("MODE", mode_message(to, model.dof()));
+      world.run_for(1.0);
+      ASSERT_EQ(c.law().law, to);
+      ++switches;
+      if (to != Law::kFreeDrive && from != Law::kFreeDrive) {
+        // The motion went on under the new law and ended at its goal.
+        EXPECT_EQ(c.mode(), Mode::kHolding) << controller::to_string(from) << " -> " << controller::to_string(to);
+      }
+    }
+  }
+  const CommandReport report = check_commands(model, world.recorder().commands(), world.recorder().statuses(),
+                                              o.control.torque_ramp, o.control.period);
+  std::printf("[ switching ] %d switches mid-motion: %lld commands, torque steps up to %.2f of the rate limit, effort "
+              "up to %.2f of its limit; %lld faults, %lld modes refused\n",
+              switches, static_cast<long long>(report.commands), report.max_rate_ratio, report.max_effort_ratio,
+              static_cast<long long>(c.faults()), static_cast<long long>(c.rejected_modes()));
+  EXPECT_EQ(switches, 12);
+  EXPECT_EQ(report.rate_violations, 0) << report.first_violation;
+  EXPECT_EQ(report.effort_violations, 0) << report.first_violation;
+  EXPECT_EQ(report.non_finite, 0);
+  EXPECT_EQ(c.faults(), 0);
+  EXPECT_EQ(c.rejected_modes(), 0) << c.mode_rejection();
+}
+
+}  // namespace
+}  // namespace chasles::faults
