@@ -280,6 +280,13 @@ int64_t Node::report() {
   if (!have_snapshot_) return now + status_period;
   const Snapshot& s = last_;
   const bool changed = s.mode != reported_mode_;
+  if (s.faults != reported_faults_ && s.mode != Mode::kFault) {
+    // A FAULT that was over before this step looked (a stall longer than the stale limit, then
+    // fresh states again) is still said.
+    std::fprintf(stderr, "chasles_controller: FAULT (over by now, %lld in all): %s\n",
+                 static_cast<long long>(s.faults), s.fault);
+  }
+  reported_faults_ = s.faults;
   if (changed) {
     const char* detail = s.mode == Mode::kFault ? s.fault : s.mode == Mode::kReflex ? s.reflex : "";
     std::fprintf(stderr, "chasles_controller: %s%s%s\n", to_string(s.mode), *detail ? ": " : "", detail);

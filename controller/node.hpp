@@ -207,7 +207,7 @@ class Node {
   controller_status_t status_;
   std::vector<uint8_t> status_bytes_;
   Mode reported_mode_ = Mode::kWaiting;
-  int64_t reported_rejections_ = 0, reported_wire_ = 0, reported_modes_ = 0;
+  int64_t reported_rejections_ = 0, reported_wire_ = 0, reported_modes_ = 0, reported_faults_ = 0;
   int64_t last_status_ns_ = INT64_MIN / 2;
 };
 

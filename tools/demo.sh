@@ -6,7 +6,7 @@
 #   tools/demo.sh [--seconds N] [--robot ur5|panda|FILE.urdf] [--tip LINK] [--summary FILE]
 #                 [--tick state|clock]
 #
-#   --seconds N      length of the controlled run (default 10)
+#   --seconds N      length of the controlled run (default 16, at least 10)
 #   --robot R        ur5 or panda (tests/data/R.urdf), or a URDF file (default panda)
 #   --tip LINK       the chain's tip, for a URDF with several leaves (ur5: tool0, panda: panda_hand)
 #   --summary FILE   also copy the controller's summary JSON here
@@ -14,10 +14,11 @@
 #                    every period on its own clock (a state then waits up to a period)
 #
 # In a private network namespace (tools/netns.sh) it starts lcm-logger, chasles_plant (real time,
-# 1 kHz, damped) and chasles_controller --realtime, sends a programme of targets with
-# `chasles target` (hold; a joint move; another; a Cartesian move; back home; hold), stops every
-# process after N
-# seconds, then runs chasles_loop_bench (a bare 1 kHz loop and an LCM ping-pong, 3 s each) for
+# 1 kHz, damped, with a table under the arm) and chasles_controller --realtime, sends a programme
+# of targets with `chasles target` (hold; a joint move; another; a Cartesian move; back home;
+# hold; a push the stop reflex answers), then the compliant segment: the arm goes over the table,
+# switches to Cartesian impedance (`chasles mode`) and presses on it with its target 1 cm below
+# the surface, then holds and switches back. It stops every process after N seconds, then runs chasles_loop_bench (a bare 1 kHz loop and an LCM ping-pong, 3 s each) for
 # reference and prints the controller's figures beside it. Everything of the run (the LCM log,
 # each process's output, the summaries) is kept in build/demo/<time>/. CHASLES_BUILD_DIR chooses
 # another build tree.
@@ -114,6 +115,20 @@ send() {
   fi
 }
 
+# mode WHAT LAW ARGS...: one `chasles mode`.
+mode() {
+  local what=$1 err
+  shift
+  printf '  %6.2f s  law: %s\n' "$(awk -v s="$run_start" -v n="$(now)" 'BEGIN { print n - s }')" "$what"
+  if ! "$DEMO_BUILD/tools/chasles" mode "$@" "${model[@]}" --lcm-url "$lcm_url" >>"$DEMO_DIR/modes.jsonl" \
+    2>"$DEMO_DIR/mode.err"; then
+    err=$(cat "$DEMO_DIR/mode.err")
+    echo "demo.sh: chasles mode refused or failed: $err" >&2
+    stop_all
+    exit 1
+  fi
+}
+
 inside() {
   local dir=$DEMO_DIR seconds=$DEMO_SECONDS model=() i
   model=(--robot "$DEMO_URDF")
@@ -168,25 +183,59 @@ print(",".join(repr(v) for v in (T[0][3], T[1][3], T[2][3], w, x, y, z)))
 PY
   )
 
-  # The programme, as fractions of the run: for 10 s, moves of 1.8 s starting at 1, 3, 5 and 7 s.
+  echo "{\"cases\":[{\"q\":[$pose_b]}]}" >"$dir/press_case.json"
+  "$DEMO_BUILD/tools/chasles" eval --urdf "$DEMO_URDF" ${DEMO_TIP:+--tip "$DEMO_TIP"} \
+    --cases "$dir/press_case.json" >"$dir/press_pose.json"
+
+  # The programme, as fractions of the run: for 16 s, moves of 1.76 s starting at 0.8, 2.7, 4.6
+  # and 6.6 s, the push at 8.6 s, the compliant segment from 9.6 s.
   local move t_hold t_a t_b t_cart t_home t_hold2 t_push push_s t_release push
-  move=$(awk -v n="$seconds" 'BEGIN { d = 0.18 * n; printf "%g", (d > 2 ? 2 : d) }')
+  local t_over t_mode t_press t_measure t_lift t_back press_s
+  move=$(awk -v n="$seconds" 'BEGIN { d = 0.11 * n; printf "%g", (d > 2 ? 2 : d) }')
   read -r t_hold t_a t_b t_cart t_home t_hold2 t_push push_s t_release < <(awk -v n="$seconds" \
-    'BEGIN { printf "%g %g %g %g %g %g %g %g %g\n", 0.05 * n, 0.1 * n, 0.3 * n, 0.5 * n, 0.7 * n, 0.9 * n, 0.91 * n,
-             0.03 * n, 0.97 * n }')
+    'BEGIN { printf "%g %g %g %g %g %g %g %g %g\n", 0.03 * n, 0.05 * n, 0.17 * n, 0.29 * n, 0.41 * n, 0.53 * n,
+             0.54 * n, 0.02 * n, 0.58 * n }')
+  read -r t_over t_mode t_press press_s t_measure t_lift t_back < <(awk -v n="$seconds" \
+    'BEGIN { printf "%g %g %g %g %g %g %g\n", 0.60 * n, 0.73 * n, 0.74 * n, 0.03 * n, 0.80 * n, 0.89 * n, 0.91 * n }')
   # The plant pushes the resting arm's tip with 30 N along the base's x axis, ramped in and out over
   # 10 ms (from the plant's start, which comes first): the controller's estimate crosses the
   # collision threshold and the stop reflex holds the arm until the next target.
   push="$t_push,$push_s,0.01,0,0,0,30,0,0"
+  # The table: a plane 5 mm under the tip at the second pose, the lowest point of the programme,
+  # facing up, with the plant's default stiffness 10^4 N/m. The press aims 1 cm below its surface
+  # with a Cartesian stiffness of 1000 N/m: the two springs in series press with 9.09 N.
+  local press_k=1000 table_k=10000 table press_pose
+  read -r table press_pose < <(python3 - "$dir/press_pose.json" <<'PY'
+import json, math, sys
+T = json.load(open(sys.argv[1]))["cases"][0]["T"]
+R = [row[:3] for row in T[:3]]
+t = R[0][0] + R[1][1] + R[2][2]
+if t > 0:
+    s = 2 * math.sqrt(1 + t); w, x, y, z = s / 4, (R[2][1] - R[1][2]) / s, (R[0][2] - R[2][0]) / s, (R[1][0] - R[0][1]) / s
+elif R[0][0] > R[1][1] and R[0][0] > R[2][2]:
+    s = 2 * math.sqrt(1 + R[0][0] - R[1][1] - R[2][2]); w, x, y, z = (R[2][1] - R[1][2]) / s, s / 4, (R[0][1] + R[1][0]) / s, (R[0][2] + R[2][0]) / s
+elif R[1][1] > R[2][2]:
+    s = 2 * math.sqrt(1 + R[1][1] - R[0][0] - R[2][2]); w, x, y, z = (R[0][2] - R[2][0]) / s, (R[0][1] + R[1][0]) / s, s / 4, (R[1][2] + R[2][1]) / s
+else:
+    s = 2 * math.sqrt(1 + R[2][2] - R[0][0] - R[1][1]); w, x, y, z = (R[1][0] - R[0][1]) / s, (R[0][2] + R[2][0]) / s, (R[1][2] + R[2][1]) / s, s / 4
+px, py, pz = T[0][3], T[1][3], T[2][3]
+surface = pz - 0.005
+print(f"{px!r},{py!r},{surface!r},0,0,1 " + ",".join(repr(v) for v in (px, py, surface - 0.01, w, x, y, z)))
+PY
+  )
 
   start lcm-logger lcm-logger --lcm-url="$lcm_url" --force "$dir/chasles.lcmlog"
   start chasles_plant "$DEMO_BUILD/tools/chasles_plant" "${model[@]}" --realtime --rate 1000 --damping 0.5 --q0 "$home" \
-    --push "$push" --lcm-url "$lcm_url"
+    --push "$push" --wall "$table,$table_k,100" --lcm-url "$lcm_url"
   # The controller knows the plant's joint damping and feeds it forward (--damping).
   start chasles_controller "$DEMO_BUILD/controller/chasles_controller" "${model[@]}" --realtime --damping 0.5 \
     --lcm-url "$lcm_url" \
     --tick "$DEMO_TICK" --summary "$dir/summary.json"
   run_start=$(now)
+  # Where the report reads the press: the window in which the arm rests on the table, as utimes.
+  awk -v s="$run_start" -v a="$t_measure" -v b="$t_lift" -v k="$press_k" -v K="$table_k" \
+    'BEGIN { printf "{\"press_k\": %s, \"table_k\": %s, \"depth\": 0.01, \"from_utime\": %.0f, \"to_utime\": %.0f}\n",
+             k, K, (s + a) * 1e6, (s + b) * 1e6 }' >"$dir/press.json"
   sleep 0.3
   check_alive
 
@@ -207,6 +256,18 @@ PY
   echo "  the plant pushes the tip: 30 N along x from ${t_push} s for ${push_s} s (chasles_plant --push $push)"
   wait_until "$t_release"
   send "hold (a new target ends the reflex)" --hold
+  wait_until "$t_over"
+  send "JOINT move over the table, to [$pose_b]" "${model[@]}" --joint "$pose_b" --duration "$move"
+  wait_until "$t_mode"
+  mode "Cartesian impedance, $press_k N/m and 50 N*m/rad about the tip" cartesian-impedance \
+    --translational "$press_k" --rotational 50
+  wait_until "$t_press"
+  send "CARTESIAN press, the target 1 cm below the table's surface [$press_pose]" --pose "$press_pose" \
+    --duration "$press_s"
+  wait_until "$t_lift"
+  send "hold (where the arm rests on the table)" --hold
+  wait_until "$t_back"
+  mode "computed torque" computed-torque
   wait_until "$seconds"
 
   # The controller first: its summary covers a run in which the plant never stopped answering.
@@ -230,8 +291,10 @@ PY
 
 # The report: the controller's summary beside the reference, and what the log holds.
 report() {
+  "$DEMO_BUILD/tools/chasles" log export "$DEMO_DIR/chasles.lcmlog" --channel CHASLES_STATUS \
+    --out "$DEMO_DIR/status.csv" >/dev/null
   python3 - "$DEMO_DIR" <<'PY'
-import json, os, re, struct, sys
+import csv, json, os, re, struct, sys
 from collections import Counter
 
 d = sys.argv[1]
@@ -304,6 +367,47 @@ with open(log, "rb") as file:
             break
         counts[file.read(channel_len).decode(errors="replace")] += 1
         file.seek(data_len, 1)
+
+# The compliant segment: the plant's contact force (TRUTH) while the arm rests on the table, against
+# the two springs in series.
+press = json.load(open(os.path.join(d, "press.json")))
+def doubles(data, offset, n):
+    return list(struct.unpack_from(f">{n}d", data, offset)), offset + 8 * n
+truth_f = []
+with open(log, "rb") as file:
+    while True:
+        head = file.read(28)
+        if len(head) < 28:
+            break
+        _, _, utime, channel_len, data_len = struct.unpack(">IqqII", head)
+        channel = file.read(channel_len).decode(errors="replace")
+        data = file.read(data_len)
+        if not (press["from_utime"] <= utime <= press["to_utime"]):
+            continue
+        if channel.endswith("TRUTH"):  # hash, utime, seq, num_joints, tau_ext[n], tip_wrench_ext[6], contact
+            n = struct.unpack_from(">i", data, 24)[0]
+            wrench, _ = doubles(data, 28 + 8 * n, 6)
+            truth_f.append(wrench[5])
+k, K, depth = press["press_k"], press["table_k"], press["depth"]
+expected = k * K / (k + K) * depth
+# The controller's side of the same window: its estimate of the force, and whether it faulted.
+window = [r for r in csv.DictReader(open(os.path.join(d, "status.csv")))
+          if press["from_utime"] <= int(r["log_utime"]) <= press["to_utime"]]
+estimate = [float(r["tip_wrench_ext[fz]"]) for r in window]
+faulted = len({r["faults"] for r in window}) > 1 or any(r["state"] == "3" for r in window)
+print()
+print(f"Compliant segment: Cartesian impedance {k:g} N/m pressing {100 * depth:g} cm behind a {K:g} N/m table:")
+if truth_f:
+    mean = sum(truth_f) / len(truth_f)
+    print(f"  contact force (plant's truth)   {mean:.3f} N, mean of {len(truth_f)} steps at rest on the table")
+    if estimate:
+        print(f"  contact force (controller's estimate) {sum(estimate) / len(estimate):.3f} N, mean of {len(estimate)} statuses")
+    print(f"  k K/(k + K) depth               {expected:.3f} N  (truth / expected = {mean / expected:.4f})")
+else:
+    print("  the plant reported no contact with the table while the arm pressed on it")
+if faulted:
+    print("  a FAULT came during the press (a stall of the machine past --stale-ms, see the controller's stderr): the")
+    print("  controller then held where the arm was, which released the press; the figure above is not the press's")
 print()
 print(f"Log: {log} ({os.path.getsize(log) / 1e6:.1f} MB; " +
       ", ".join(f"{c} {n}" for c, n in sorted(counts.items())) + ")")
@@ -320,7 +424,7 @@ fi
 # Outside: arguments, packages, build, then the run in a fresh network namespace.
 # ---------------------------------------------------------------------------------------------
 usage() { sed -n '6,14s/^# \{0,1\}//p' "$0"; }
-seconds=10
+seconds=16
 robot=panda
 tip=
 summary=
@@ -342,8 +446,8 @@ while [ $# -gt 0 ]; do
     *) echo "demo.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
 done
-if ! [[ "$seconds" =~ ^[0-9]+([.][0-9]*)?$ ]] || ! awk -v n="$seconds" 'BEGIN { exit !(n >= 1) }'; then
-  echo "demo.sh: --seconds must be a number of seconds, at least 1 (got '$seconds')" >&2
+if ! [[ "$seconds" =~ ^[0-9]+([.][0-9]*)?$ ]] || ! awk -v n="$seconds" 'BEGIN { exit !(n >= 10) }'; then
+  echo "demo.sh: --seconds must be a number of seconds, at least 10 (got '$seconds')" >&2
   exit 2
 fi
 case "$tick" in

@@ -42,6 +42,8 @@ Command register_rnea(CLI::App& app);
 Command register_fd(CLI::App& app);
 Command register_ik(CLI::App& app);      ///< inverse kinematics (chasles::ik)
 Command register_target(CLI::App& app);  ///< sends an arm_target_t over LCM
+Command register_mode(CLI::App& app);    ///< sends a control_mode_t (the control law) over LCM
+Command register_payload(CLI::App& app); ///< sends a payload_t (the load at the tip) over LCM
 Command register_monitor(CLI::App& app); ///< a live view of the controller's status, in the terminal
 Command register_log(CLI::App& app);     ///< LCM logs of a run: export a channel as CSV, plot
 

@@ -1,7 +1,8 @@
-// chasles: the model's answers as JSON on stdout, and `target`, which sends the controller one goal
-// and prints it; `monitor` shows the running controller and `log` exports and plots a run's log.
+// chasles: the model's answers as JSON on stdout, and `target`, `mode` and `payload`, which send the
+// controller one goal, control law or tip load and print it; `monitor` shows the running controller
+// and `log` exports and plots a run's log.
 // Errors: one line "chasles: ..." on stderr, nothing on stdout; exit 2 for a usage
-// error, 1 for bad input (URDF, cases file, a refused target) or when LCM cannot start.
+// error, 1 for bad input (URDF, cases file, a refused target, mode or payload) or when LCM cannot start.
 #include <iostream>
 #include <string>
 #include <vector>
@@ -33,13 +34,16 @@ int main(int argc, char** argv) {
       "  chasles --pretty eval --urdf ur5.urdf --tip tool0 --cases cases.json\n"
       "  chasles ik --urdf ur5.urdf --tip tool0 --targets targets.json\n"
       "  chasles target --robot ur5.urdf --tip tool0 --joint 0,-1.57,1.57,0,0,0 --duration 2\n"
+      "  chasles mode joint-impedance --robot ur5.urdf --tip tool0 --stiffness 300\n"
+      "  chasles payload --mass 1.5 --com 0,0,0.05\n"
       "  chasles monitor --urdf ur5.urdf --tip tool0\n"
       "  chasles log plot run.lcmlog --out plots/ --urdf ur5.urdf --tip tool0\n"
       "Run 'chasles COMMAND --help' for a command's input and output.");
 
   const std::vector<Command> commands = {register_inspect(app), register_eval(app), register_rnea(app),
                                          register_fd(app), register_ik(app), register_target(app),
-                                         register_monitor(app), register_log(app)};
+                                         register_mode(app), register_payload(app), register_monitor(app),
+                                         register_log(app)};
 
   try {
     app.parse(argc, argv);

@@ -22,6 +22,7 @@
 #include <sstream>
 
 #include "chasles/controller/clock.hpp"
+#include "chasles/controller/law.hpp"
 #include "command.hpp"
 #include "lcm_start.hpp"
 #include "messages.hpp"
@@ -232,7 +233,12 @@ std::string Monitor::frame(int64_t now_ns) {
     out << "controller  " << state_name(s.state) << (s.message.empty() ? "" : "  " + s.message) << "\n";
     out << printf_text("loop        %.1f Hz, %lld ticks; status %.0f Hz; ", tick_rate, static_cast<long long>(s.ticks),
                        status_rate_.rate(now_ns, start_ns_))
-        << bus << "\n\n";
+        << bus << "\n";
+    controller::Law law = controller::Law::kComputedTorque;
+    const bool known = s.law >= 0 && s.law <= 3;
+    if (known) law = static_cast<controller::Law>(s.law);
+    out << "law         " << (known ? controller::to_string(law) : "law " + std::to_string(int{s.law}))
+        << printf_text("; payload %.3f kg at the tip\n\n", s.payload_mass);
     joint_table(out);
     double worst = 0.0;
     for (const double e : s.tracking_error) worst = std::max(worst, std::abs(e));
