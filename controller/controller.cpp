@@ -378,7 +378,8 @@ bool Controller::tick(int64_t now_ns, const JointState* state) {
     // (Re-)entering HOLD where the arm is now. The torque-rate limit starts from g(q), which is
     // what a plant applies while it brakes or waits, so the first commands do not jump.
     hold_at(q_);
-    tau_prev_ = gravity_torques(*model_, data_, q_);
+    // Within the effort limits: the rate limit keeps every command between this and the law's.
+    tau_prev_ = gravity_torques(*model_, data_, q_).cwiseMax(-effort_limit_).cwiseMin(effort_limit_);
     switch_offset_.setZero();
   }
   if ((mode_ == Mode::kRunning || mode_ == Mode::kHolding) && contact_.estimate().collision) start_reflex(now_ns);

@@ -236,7 +236,8 @@ void cartesian_impedance(const RobotModel& model, Data& data, LawWorkspace& work
   const double k_n = s.nullspace_stiffness;
   work.null_torque = k_n * (posture - q) -
                      (2.0 * s.damping_ratio * (k_n * work.diag_M).cwiseSqrt()).cwiseProduct(qd);
-  const Vector6d moving_c = work.Lambda * (work.Minv_JcT.transpose() * work.null_torque);
+  const Vector6d Jc_Minv_tau = work.Minv_JcT.transpose() * work.null_torque;  // fixed size: no heap
+  const Vector6d moving_c = work.Lambda * Jc_Minv_tau;
   work.null_torque.noalias() -= work.J_c.transpose() * moving_c;
   tau += work.null_torque + work.c_plus_g;
 }

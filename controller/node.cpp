@@ -244,9 +244,15 @@ void Node::publish_snapshot() {
 // paths without waiting.
 bool Node::plan() {
   if (payloads_.read(payload_)) {
-    // Checked by the receiver (payload_problem), so with_payload does not throw here.
+    // The receiver checked it (payload_problem), so with_payload has nothing left to refuse; if it
+    // does, the model in force stays, and the operator hears why.
     LoadedModel& next = models_.back();
-    next.model = with_payload(model_, payload_);
+    try {
+      next.model = with_payload(model_, payload_);
+    } catch (const Error& e) {
+      std::fprintf(stderr, "chasles_controller: payload refused: %s\n", e.what());
+      return false;
+    }
     next.payload_mass = payload_.mass;
     models_.publish();
     return true;

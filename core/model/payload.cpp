@@ -18,6 +18,17 @@ std::string payload_problem(const Payload& payload) {
     std::snprintf(text, sizeof(text), "mass %g kg is negative", payload.mass);
     return text;
   }
+  // Beyond these no arm carries the load, and the body it makes could overflow (m |c|², I).
+  if (payload.mass > kMaxPayloadMass || payload.centre.norm() > kMaxPayloadReach ||
+      payload.inertia.cwiseAbs().maxCoeff() > kMaxPayloadInertia) {
+    char text[160];
+    std::snprintf(text, sizeof(text),
+                  "mass %g kg, centre %g m from the tip or an inertia entry of %g kg*m^2 is beyond any arm's load "
+                  "(%g kg, %g m, %g kg*m^2)",
+                  payload.mass, payload.centre.norm(), payload.inertia.cwiseAbs().maxCoeff(), kMaxPayloadMass,
+                  kMaxPayloadReach, kMaxPayloadInertia);
+    return text;
+  }
   const double asymmetry = (payload.inertia - payload.inertia.transpose()).norm();
   if (asymmetry > std::max(1e-12 * payload.inertia.norm(), 1e-15)) return "the inertia is not symmetric";
   if (payload.inertia.isZero(0.0)) return {};  // a point mass

@@ -14,8 +14,12 @@ struct Payload {
   Matrix3d inertia = Matrix3d::Zero();   ///< about its centre of mass, tip-frame axes, kg·m² (0: a point mass)
 };
 
-/// Empty, or why the payload cannot be a body: a non-finite number, a negative mass, an inertia
-/// that is not symmetric or breaks the triangle inequalities (check_inertia).
+/// Bounds no arm's load comes near: kg, m from the tip frame's origin, kg·m² per inertia entry.
+inline constexpr double kMaxPayloadMass = 1000.0, kMaxPayloadReach = 5.0, kMaxPayloadInertia = 1000.0;
+
+/// Empty, or why the payload cannot be a body: a non-finite number, a negative mass, a mass, centre
+/// or inertia beyond the bounds above, an inertia that is not symmetric or breaks the triangle
+/// inequalities (check_inertia).
 std::string payload_problem(const Payload& payload);
 
 /// The model with the payload on its last body: at c = T_last_tip · centre in the last body's

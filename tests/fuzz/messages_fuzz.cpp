@@ -1,16 +1,22 @@
 // Every reader of chasles messages on arbitrary bytes, and the controller behind them. Byte 0
 // picks the reader, the rest is the message: 0 the controller's robot_state_t receiver, 1 its
 // arm_target_t receiver and Controller::set_target, 2 the plant's joint_torque_command_t inbox,
-// 3 the checked decoders of `chasles log` for all four types, 4 the controller's watch for other
-// senders on its command channel. What a reader accepts must be what the contract promises (the
-// arm's joint count, finite values; for the watch, a command of its own, once), and after every
-// input the controller ticks (1 ms later, with the latest state accepted) and must command finite
-// torques within the effort limits, whatever it was fed. The readers take bytes: no sockets.
+// 3 the checked decoders for any arm (`chasles log`'s four types, control_mode_t and payload_t),
+// 4 the controller's watch for other senders on its command channel, 5 its control_mode_t receiver
+// and Controller::set_law, 6 its payload_t receiver, the model built with the payload (as the
+// daemon's worker does) and Controller::set_model. What a reader accepts must be what the contract
+// promises (the arm's joint count, finite values; for the watch, a command of its own, once; for a
+// payload, a body the model can carry), and after every input the controller ticks (1 ms later,
+// with the latest state accepted) and must command finite torques within the effort limits,
+// whatever it was fed. The readers take bytes: no sockets.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <exception>
 #include <memory>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "chasles/controller/clock.hpp"
@@ -39,6 +45,12 @@ struct Readers {
   SentCommands sent;
   CommandWatch watch{sent};
   CommandEncoder publisher{n};
+  SpscRing<LawSettings> laws{4, LawSettings(n)};
+  ModeReceiver mode_receiver{n, laws};
+  Mailbox<Payload> payloads{Payload{}};
+  Doorbell payload_bell;
+  PayloadReceiver payload_receiver{payloads, payload_bell};
+  std::unique_ptr<RobotModel> loaded;  // the model with the latest payload, which the controller holds
   int64_t sent_seq = 0;
   std::vector<bool> heard{false};  // by seq: our command has come back
   JointState state{n};  // the latest state accepted
@@ -82,10 +94,82 @@ void judge_the_command_watch(Readers& r, const uint8_t* message, int bytes) {
   if (!foreign) r.heard[size_t(seq)] = true;
 }
 
+bool all_finite(const double* values, size_t n) {
+  return std::all_of(values, values + n, [](double x) { return std::isfinite(x); });
+}
+bool all_finite(const std::vector<double>& values) { return all_finite(values.data(), values.size()); }
+
+// A control_mode_t the checked decoder took: its arrays sized for its counts.
+bool sized_for_its_counts(const control_mode_t& m) {
+  return m.num_joints >= 0 && m.num_posture >= 0 && m.joint_stiffness.size() == size_t(m.num_joints) &&
+         m.joint_damping.size() == size_t(m.num_joints) && m.nullspace_posture.size() == size_t(m.num_posture);
+}
+
 template <typename Message>
 void decode_as(const uint8_t* data, size_t size) {
   Message message;
-  if (cli::decode_checked(data, size, message).empty()) FUZZ_CHECK(message.num_joints >= 0);
+  if (!cli::decode_checked(data, size, message).empty()) return;
+  if constexpr (std::is_same_v<Message, control_mode_t>) {
+    FUZZ_CHECK(sized_for_its_counts(message));
+  } else if constexpr (!std::is_same_v<Message, payload_t>) {
+    FUZZ_CHECK(message.num_joints >= 0);
+  }
+  if constexpr (std::is_same_v<Message, control_mode_t> || std::is_same_v<Message, payload_t>) {
+    // No string or boolean to normalise: what was taken encodes back to the very bytes.
+    FUZZ_CHECK(message.getEncodedSize() == static_cast<int>(size));
+    std::vector<uint8_t> again(size);
+    FUZZ_CHECK(message.encode(again.data(), 0, static_cast<int>(size)) == static_cast<int>(size));
+    FUZZ_CHECK(std::equal(again.begin(), again.end(), data));
+  }
+}
+
+// The controller's mode receiver: what its checked decoder takes has each count 0 or the arm's and
+// finite numbers; what the receiver passes on is a LawSettings sized for the arm, which
+// Controller::set_law judges (bounds, definiteness, limits).
+void judge_a_mode(Readers& r, const uint8_t* message, int bytes) {
+  control_mode_t mode;
+  if (messages::decode_checked(message, size_t(bytes), mode, r.n, messages::Finite::Required).empty()) {
+    FUZZ_CHECK(sized_for_its_counts(mode));
+    FUZZ_CHECK((mode.num_joints == 0 || mode.num_joints == r.n) && (mode.num_posture == 0 || mode.num_posture == r.n));
+    FUZZ_CHECK(all_finite(mode.joint_stiffness) && all_finite(mode.joint_damping) &&
+               all_finite(mode.nullspace_posture) && std::isfinite(mode.damping_ratio) &&
+               all_finite(&mode.cartesian_stiffness[0][0], 36) && all_finite(mode.stiffness_frame_position, 3) &&
+               all_finite(mode.stiffness_frame_quaternion, 4) && std::isfinite(mode.nullspace_stiffness));
+  } else {
+    FUZZ_CHECK(!r.mode_receiver.receive(message, size_t(bytes)).empty());  // refused by the same decoder
+    return;
+  }
+  if (!r.mode_receiver.receive(message, size_t(bytes)).empty()) return;
+  LawSettings law(r.n);
+  FUZZ_CHECK(r.laws.pop(law));
+  FUZZ_CHECK(law.joint_stiffness.size() == r.n && law.joint_damping.size() == r.n &&
+             law.nullspace_posture.size() == r.n);
+  FUZZ_CHECK(law.joint_stiffness.allFinite() && law.joint_damping.allFinite() &&
+             law.cartesian_stiffness.allFinite() && law.T_tip_frame.matrix().allFinite() &&
+             law.nullspace_posture.allFinite());
+  r.controller.set_law(law, r.now_ns);
+}
+
+// The controller's payload receiver: what it passes on is a physical body (payload_problem), so the
+// daemon's worker builds the model that carries it without a throw; the controller then controls
+// with that model.
+void judge_a_payload(Readers& r, const uint8_t* message, int bytes) {
+  if (!r.payload_receiver.receive(message, size_t(bytes)).empty()) return;
+  Payload payload;
+  FUZZ_CHECK(r.payloads.read(payload));
+  FUZZ_CHECK(std::isfinite(payload.mass) && payload.mass >= 0.0 && payload.centre.allFinite() &&
+             payload.inertia.allFinite());
+  FUZZ_CHECK(payload_problem(payload).empty());
+  std::unique_ptr<RobotModel> model;
+  try {
+    model = std::make_unique<RobotModel>(with_payload(r.model, payload));
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "with_payload threw for a payload the receiver took: %s\n", e.what());
+    FUZZ_CHECK(false);
+  }
+  FUZZ_CHECK(model->dof() == r.n);
+  r.controller.set_model(*model);
+  r.loaded = std::move(model);  // the previous model is released only once the controller holds this one
 }
 
 }  // namespace
@@ -96,7 +180,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   Readers& r = *readers;
   const uint8_t* message = data + 1;
   const int bytes = static_cast<int>(size - 1);
-  switch (data[0] % 5) {
+  switch (data[0] % 7) {
     case 0:
       if (r.state_receiver.receive(message, size_t(bytes), r.now_ns).empty()) {
         JointState state(r.n);
@@ -127,11 +211,19 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     case 4:
       judge_the_command_watch(r, message, bytes);
       break;
+    case 5:
+      judge_a_mode(r, message, bytes);
+      break;
+    case 6:
+      judge_a_payload(r, message, bytes);
+      break;
     default: {
       decode_as<robot_state_t>(message, size - 1);
       decode_as<joint_torque_command_t>(message, size - 1);
       decode_as<arm_target_t>(message, size - 1);
       decode_as<controller_status_t>(message, size - 1);
+      decode_as<control_mode_t>(message, size - 1);
+      decode_as<payload_t>(message, size - 1);
       cli::Cells cells;
       cli::message_cells(cli::message_type(message, size - 1), message, size - 1, {}, cells);
       FUZZ_CHECK(cells.names.size() == cells.values.size());

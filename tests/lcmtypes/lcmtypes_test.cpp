@@ -1,16 +1,24 @@
 // The LCM message contracts on the wire: every field survives an encode/decode round trip
 // bit for bit, the encoded size is the contract's, and a damaged buffer (truncated, or of another
-// type) is refused rather than half-read.
+// type) is refused rather than half-read. For control_mode_t and payload_t, also what their checked
+// decoder (lcmtypes/checked.hpp) refuses, and the reason it gives.
 #include <gtest/gtest.h>
 
 #include <chasles/arm_target_t.hpp>
+#include <chasles/control_mode_t.hpp>
 #include <chasles/controller_status_t.hpp>
 #include <chasles/joint_torque_command_t.hpp>
+#include <chasles/payload_t.hpp>
 #include <chasles/robot_state_t.hpp>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <set>
+#include <string>
+#include <utility>
 #include <vector>
+
+#include "chasles/lcmtypes/checked.hpp"
 
 namespace chasles::testing {
 namespace {
@@ -124,7 +132,87 @@ controller_status_t make_status() {
   status.collision = false;
   status.contacts = 4;
   status.reflexes = 1;
+  status.law = control_mode_t::CARTESIAN_IMPEDANCE;
+  status.payload_mass = 1.375;
   return status;
+}
+
+// A mode with num_joints = joints and num_posture = posture; every number differs from the others
+// (values the law would refuse are fine here: only the wire is under test).
+control_mode_t make_mode(int joints, int posture) {
+  control_mode_t mode;
+  mode.utime = 1'790'000'000'777'001;
+  mode.law = control_mode_t::CARTESIAN_IMPEDANCE;
+  mode.num_joints = joints;
+  mode.joint_stiffness = values(joints, 300.0);
+  mode.joint_damping = values(joints, -4.5);
+  mode.damping_ratio = 0.7;
+  const std::vector<double> k = values(36, 50.0);
+  for (int r = 0; r < 6; ++r) {
+    for (int c = 0; c < 6; ++c) mode.cartesian_stiffness[r][c] = k[size_t(6 * r + c)];
+  }
+  const double position[3] = {0.01, -0.02, 0.105};
+  const double quaternion[4] = {0.5, 0.5, -0.5, 0.5};  // (w, x, y, z)
+  for (int i = 0; i < 3; ++i) mode.stiffness_frame_position[i] = position[i];
+  for (int i = 0; i < 4; ++i) mode.stiffness_frame_quaternion[i] = quaternion[i];
+  mode.num_posture = posture;
+  mode.nullspace_posture = values(posture, 0.9);
+  mode.nullspace_stiffness = 12.5;
+  return mode;
+}
+
+payload_t make_payload() {
+  payload_t payload;
+  payload.utime = 1'790'000'000'888'002;
+  payload.mass = 0.73;
+  const double centre[3] = {0.002, -0.011, 0.087};
+  for (int i = 0; i < 3; ++i) payload.centre_of_mass[i] = centre[i];
+  const double inertia[3][3] = {{1.5e-3, -2e-5, 3e-6}, {-2e-5, 1.25e-3, 4e-6}, {3e-6, 4e-6, 7.5e-4}};
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) payload.inertia[r][c] = inertia[r][c];
+  }
+  return payload;
+}
+
+void expect_same_mode(const control_mode_t& back, const control_mode_t& mode) {
+  EXPECT_EQ(back.utime, mode.utime);
+  EXPECT_EQ(back.law, mode.law);
+  EXPECT_EQ(back.num_joints, mode.num_joints);
+  EXPECT_EQ(back.joint_stiffness, mode.joint_stiffness);
+  EXPECT_EQ(back.joint_damping, mode.joint_damping);
+  EXPECT_EQ(back.damping_ratio, mode.damping_ratio);
+  for (int r = 0; r < 6; ++r) {
+    for (int c = 0; c < 6; ++c) EXPECT_EQ(back.cartesian_stiffness[r][c], mode.cartesian_stiffness[r][c]) << r << c;
+  }
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(back.stiffness_frame_position[i], mode.stiffness_frame_position[i]);
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(back.stiffness_frame_quaternion[i], mode.stiffness_frame_quaternion[i]);
+  EXPECT_EQ(back.num_posture, mode.num_posture);
+  EXPECT_EQ(back.nullspace_posture, mode.nullspace_posture);
+  EXPECT_EQ(back.nullspace_stiffness, mode.nullspace_stiffness);
+}
+
+void expect_same_payload(const payload_t& back, const payload_t& payload) {
+  EXPECT_EQ(back.utime, payload.utime);
+  EXPECT_EQ(back.mass, payload.mass);
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(back.centre_of_mass[i], payload.centre_of_mass[i]);
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(back.inertia[r][c], payload.inertia[r][c]) << r << c;
+  }
+}
+
+// The checked decoder as the controller runs it (an arm of kJoints, finite numbers required): ""
+// or why the bytes were refused.
+template <class Message>
+std::string decode_checked(const std::vector<uint8_t>& bytes, int arm = kJoints,
+                           messages::Finite finite = messages::Finite::Required) {
+  Message message;
+  return messages::decode_checked(bytes.data(), bytes.size(), message, arm, finite);
+}
+
+// The bytes with the big-endian int32 at `offset` replaced by `count`.
+std::vector<uint8_t> with_int32(std::vector<uint8_t> bytes, size_t offset, uint32_t count) {
+  for (int i = 0; i < 4; ++i) bytes[offset + size_t(i)] = uint8_t(count >> (24 - 8 * i));
+  return bytes;
 }
 
 TEST(lcmtypes, RobotStateRoundTrips) {
@@ -188,9 +276,10 @@ TEST(lcmtypes, ControllerStatusRoundTrips) {
   const size_t string_size = 4 + status.message.size() + 1;  // length (with the NUL), bytes, NUL
   // fingerprint, utime, state, message, num_joints, q, q_desired, tracking_error, tip position
   // and quaternion, torque, ik (int32, double, boolean), nine timing doubles, five counters,
-  // tau_ext, the tip wrench, contact and collision, two counters
+  // tau_ext, the tip wrench, contact and collision, two counters, the law (int8) and the payload's
+  // mass (double)
   EXPECT_EQ(buffer.size(), kHash + 8 + 1 + string_size + 4 + 3 * 8 * kJoints + 8 * 3 + 8 * 4 + 8 * kJoints +
-                               (4 + 8 + 1) + 9 * 8 + 5 * 8 + 8 * kJoints + 6 * 8 + 2 + 2 * 8);
+                               (4 + 8 + 1) + 9 * 8 + 5 * 8 + 8 * kJoints + 6 * 8 + 2 + 2 * 8 + 1 + 8);
   const auto back = decode<controller_status_t>(buffer);
   EXPECT_EQ(back.utime, status.utime);
   EXPECT_EQ(back.state, controller_status_t::FAULT);
@@ -225,15 +314,181 @@ TEST(lcmtypes, ControllerStatusRoundTrips) {
   EXPECT_FALSE(back.collision);
   EXPECT_EQ(back.contacts, 4);
   EXPECT_EQ(back.reflexes, 1);
+  EXPECT_EQ(back.law, control_mode_t::CARTESIAN_IMPEDANCE);
+  EXPECT_EQ(back.payload_mass, status.payload_mass);
   expect_damage_refused<controller_status_t>(buffer);
+}
+
+TEST(lcmtypes, ControlModeRoundTrips) {
+  EXPECT_EQ(control_mode_t::COMPUTED_TORQUE, 0);
+  EXPECT_EQ(control_mode_t::JOINT_IMPEDANCE, 1);
+  EXPECT_EQ(control_mode_t::CARTESIAN_IMPEDANCE, 2);
+  EXPECT_EQ(control_mode_t::FREE_DRIVE, 3);
+  for (const auto& [joints, posture] :
+       {std::pair{0, 0}, std::pair{kJoints, 0}, std::pair{0, kJoints}, std::pair{kJoints, kJoints}}) {
+    SCOPED_TRACE("num_joints " + std::to_string(joints) + ", num_posture " + std::to_string(posture));
+    const control_mode_t mode = make_mode(joints, posture);
+    const std::vector<uint8_t> buffer = encode(mode);
+    // fingerprint, utime, law, num_joints, joint_stiffness and joint_damping[num_joints],
+    // damping_ratio, cartesian_stiffness[6][6], the stiffness frame's position[3] and
+    // quaternion[4], num_posture, nullspace_posture[num_posture], nullspace_stiffness
+    EXPECT_EQ(buffer.size(), static_cast<size_t>(kHash + 8 + 1 + 4 + 2 * 8 * joints + 8 + 8 * 36 + 8 * 3 + 8 * 4 +
+                                                 4 + 8 * posture + 8));
+    expect_same_mode(decode<control_mode_t>(buffer), mode);
+    control_mode_t checked;
+    ASSERT_EQ(messages::decode_checked(buffer.data(), buffer.size(), checked, kJoints, messages::Finite::Required), "");
+    expect_same_mode(checked, mode);
+    expect_damage_refused<control_mode_t>(buffer);
+  }
+}
+
+TEST(lcmtypes, PayloadRoundTrips) {
+  const payload_t payload = make_payload();
+  const std::vector<uint8_t> buffer = encode(payload);
+  // fingerprint, utime, mass, centre_of_mass[3], inertia[3][3]: no count, one size
+  EXPECT_EQ(buffer.size(), static_cast<size_t>(kHash + 8 + 8 + 8 * 3 + 8 * 9));
+  EXPECT_EQ(buffer.size(), 120u);
+  expect_same_payload(decode<payload_t>(buffer), payload);
+  payload_t checked;
+  ASSERT_EQ(messages::decode_checked(buffer.data(), buffer.size(), checked, kJoints, messages::Finite::Required), "");
+  expect_same_payload(checked, payload);
+  expect_damage_refused<payload_t>(buffer);
+}
+
+// control_mode_t's checked decoder, which the controller's mode receiver uses:
+// each of its two counts must be 0 or the arm's, a count is read from the bytes and judged before
+// anything is sized for it, the size must then be exact, and with Finite::Required every number
+// must be finite. Each refusal says which.
+TEST(lcmtypes, ControlModeCheckedDecoderRefusesWhatIsNotAMode) {
+  const std::vector<uint8_t> bytes = encode(make_mode(kJoints, kJoints));
+  ASSERT_EQ(bytes.size(), 553u);  // 385 with no joint arrays, + 16 per joint, + 8 per posture entry
+  EXPECT_EQ(decode_checked<control_mode_t>(bytes), "");
+  EXPECT_EQ(decode_checked<control_mode_t>(bytes, messages::kAnyArm), "");
+
+  // Another type, or too few bytes for a fingerprint.
+  EXPECT_EQ(decode_checked<control_mode_t>(encode(make_payload())), "not a control_mode_t (wrong fingerprint)");
+  EXPECT_EQ(decode_checked<control_mode_t>(std::vector<uint8_t>(bytes.begin(), bytes.begin() + 7)),
+            "not a control_mode_t (wrong fingerprint)");
+  // Truncated before num_joints (at byte 17, after the fingerprint, utime and law), and before
+  // num_posture (at byte 17 + 4 + 16 × 7 + 8 × (1 + 36 + 3 + 4) = 485).
+  EXPECT_EQ(decode_checked<control_mode_t>(std::vector<uint8_t>(bytes.begin(), bytes.begin() + 20)),
+            "truncated: 20 bytes");
+  EXPECT_EQ(decode_checked<control_mode_t>(std::vector<uint8_t>(bytes.begin(), bytes.begin() + 488)),
+            "truncated: 488 bytes");
+
+  // Counts that are neither 0 nor the arm's, in either field; 0 and 7 in any combination are taken.
+  EXPECT_EQ(decode_checked<control_mode_t>(encode(make_mode(6, 0))),
+            "for 6 joints and a posture of 0; the arm has 7 (give 0 or 7 in each)");
+  EXPECT_EQ(decode_checked<control_mode_t>(encode(make_mode(kJoints, 6))),
+            "for 7 joints and a posture of 6; the arm has 7 (give 0 or 7 in each)");
+  EXPECT_EQ(decode_checked<control_mode_t>(encode(make_mode(8, 8))),
+            "for 8 joints and a posture of 8; the arm has 7 (give 0 or 7 in each)");
+  EXPECT_EQ(decode_checked<control_mode_t>(encode(make_mode(kJoints, kJoints)), 6),
+            "for 7 joints and a posture of 7; the arm has 6 (give 0 or 6 in each)");
+  EXPECT_EQ(decode_checked<control_mode_t>(encode(make_mode(6, 6)), messages::kAnyArm), "") << "any arm: any count";
+  for (const auto& [joints, posture] : {std::pair{0, 0}, std::pair{kJoints, 0}, std::pair{0, kJoints}}) {
+    EXPECT_EQ(decode_checked<control_mode_t>(encode(make_mode(joints, posture))), "") << joints << " " << posture;
+  }
+
+  // Impossible counts (negative, or more doubles than there are bytes), refused before anything
+  // is sized for them.
+  EXPECT_EQ(decode_checked<control_mode_t>(with_int32(bytes, 17, 0xffffffffu)),
+            "num_joints -1 in a message of 553 bytes");
+  EXPECT_EQ(decode_checked<control_mode_t>(with_int32(bytes, 17, 0x7fffffffu), messages::kAnyArm),
+            "num_joints 2147483647 in a message of 553 bytes");
+  EXPECT_EQ(decode_checked<control_mode_t>(with_int32(bytes, 485, 0x80000000u)),
+            "num_posture -2147483648 in a message of 553 bytes");
+  EXPECT_EQ(decode_checked<control_mode_t>(with_int32(bytes, 485, 0x7f000007u), messages::kAnyArm),
+            "num_posture 2130706439 in a message of 553 bytes");
+  // A possible count that puts num_posture past the end: 30 joints (240 bytes of the 553 as the
+  // first check sees it) move it to 17 + 4 + 16 × 30 + 352 = 853.
+  EXPECT_EQ(decode_checked<control_mode_t>(with_int32(bytes, 17, 30), messages::kAnyArm), "truncated: 553 bytes");
+
+  // Sizes that do not match the counts: a byte too few or too many, and counts that lie.
+  EXPECT_EQ(decode_checked<control_mode_t>(std::vector<uint8_t>(bytes.begin(), bytes.end() - 1)),
+            "of 552 bytes; expected 553 for 7 joints");
+  std::vector<uint8_t> longer = bytes;
+  longer.push_back(0);
+  EXPECT_EQ(decode_checked<control_mode_t>(longer), "of 554 bytes; expected 553 for 7 joints");
+  EXPECT_EQ(decode_checked<control_mode_t>(with_int32(bytes, 485, 0)), "of 553 bytes; expected 497 for 7 joints");
+  const std::vector<uint8_t> no_joints = encode(make_mode(0, 0));
+  ASSERT_EQ(no_joints.size(), 385u);
+  EXPECT_EQ(decode_checked<control_mode_t>(with_int32(no_joints, 17, kJoints)), "truncated: 385 bytes")
+      << "7 joints put num_posture at byte 485";
+
+  // A non-finite number in each field, first field first; Finite::NotRequired takes them.
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  const auto refused = [&](void (*damage)(control_mode_t&, double), double bad, const std::string& field) {
+    control_mode_t mode = make_mode(kJoints, kJoints);
+    damage(mode, bad);
+    const std::vector<uint8_t> damaged = encode(mode);
+    EXPECT_EQ(decode_checked<control_mode_t>(damaged), "with non-finite " + field);
+    EXPECT_EQ(decode_checked<control_mode_t>(damaged, kJoints, messages::Finite::NotRequired), "") << field;
+  };
+  refused([](control_mode_t& m, double x) { m.joint_stiffness[6] = x; }, nan, "joint_stiffness");
+  refused([](control_mode_t& m, double x) { m.joint_damping[0] = x; }, -inf, "joint_damping");
+  refused([](control_mode_t& m, double x) { m.damping_ratio = x; }, inf, "damping_ratio");
+  refused([](control_mode_t& m, double x) { m.cartesian_stiffness[5][5] = x; }, nan, "cartesian_stiffness");
+  refused([](control_mode_t& m, double x) { m.stiffness_frame_position[2] = x; }, inf, "stiffness_frame_position");
+  refused([](control_mode_t& m, double x) { m.stiffness_frame_quaternion[0] = x; }, nan, "stiffness_frame_quaternion");
+  refused([](control_mode_t& m, double x) { m.nullspace_posture[3] = x; }, -inf, "nullspace_posture");
+  refused([](control_mode_t& m, double x) { m.nullspace_stiffness = x; }, nan, "nullspace_stiffness");
+  refused(
+      [](control_mode_t& m, double x) {
+        m.nullspace_stiffness = x;
+        m.joint_damping[2] = x;
+      },
+      nan, "joint_damping");
+}
+
+// payload_t's checked decoder: no count, so one exact size; the arm does not matter; with
+// Finite::Required every number must be finite.
+TEST(lcmtypes, PayloadCheckedDecoderRefusesWhatIsNotAPayload) {
+  const std::vector<uint8_t> bytes = encode(make_payload());
+  ASSERT_EQ(bytes.size(), 120u);
+  EXPECT_EQ(decode_checked<payload_t>(bytes), "");
+  for (const int arm : {messages::kAnyArm, 0, 1, 6}) EXPECT_EQ(decode_checked<payload_t>(bytes, arm), "") << arm;
+
+  EXPECT_EQ(decode_checked<payload_t>(encode(make_mode(0, 0))), "not a payload_t (wrong fingerprint)");
+  EXPECT_EQ(decode_checked<payload_t>(std::vector<uint8_t>(bytes.begin(), bytes.begin() + 7)),
+            "not a payload_t (wrong fingerprint)");
+  // Truncated or too long: there is no count to read, only the one size.
+  EXPECT_EQ(decode_checked<payload_t>(std::vector<uint8_t>(bytes.begin(), bytes.begin() + 8)),
+            "of 8 bytes; expected 120");
+  EXPECT_EQ(decode_checked<payload_t>(std::vector<uint8_t>(bytes.begin(), bytes.end() - 1)),
+            "of 119 bytes; expected 120");
+  std::vector<uint8_t> longer = bytes;
+  longer.push_back(0);
+  EXPECT_EQ(decode_checked<payload_t>(longer), "of 121 bytes; expected 120");
+
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  const auto refused = [&](void (*damage)(payload_t&, double), double bad, const std::string& field) {
+    payload_t payload = make_payload();
+    damage(payload, bad);
+    const std::vector<uint8_t> damaged = encode(payload);
+    EXPECT_EQ(decode_checked<payload_t>(damaged), "with non-finite " + field);
+    EXPECT_EQ(decode_checked<payload_t>(damaged, kJoints, messages::Finite::NotRequired), "") << field;
+  };
+  refused([](payload_t& p, double x) { p.mass = x; }, nan, "mass");
+  refused([](payload_t& p, double x) { p.centre_of_mass[1] = x; }, -inf, "centre_of_mass");
+  refused([](payload_t& p, double x) { p.inertia[2][1] = x; }, inf, "inertia");
+  refused(
+      [](payload_t& p, double x) {
+        p.inertia[0][0] = x;
+        p.mass = x;
+      },
+      nan, "mass");
 }
 
 // A message of one type is never read as another: each type has its own fingerprint, and it is
 // checked before any field is read.
 TEST(lcmtypes, TypesAreNotInterchangeable) {
-  const std::set<int64_t> hashes = {robot_state_t::getHash(), joint_torque_command_t::getHash(),
-                                    arm_target_t::getHash(), controller_status_t::getHash()};
-  EXPECT_EQ(hashes.size(), 4u);
+  const std::set<int64_t> hashes = {robot_state_t::getHash(),  joint_torque_command_t::getHash(),
+                                    arm_target_t::getHash(),   controller_status_t::getHash(),
+                                    control_mode_t::getHash(), payload_t::getHash()};
+  EXPECT_EQ(hashes.size(), 6u);
 
   const std::vector<uint8_t> state = encode(make_state(kJoints));
   joint_torque_command_t command;
@@ -250,9 +505,12 @@ TEST(lcmtypes, FingerprintsArePinned) {
   EXPECT_EQ(static_cast<uint64_t>(robot_state_t::getHash()), 0xc003a166c618d7eeu);
   EXPECT_EQ(static_cast<uint64_t>(joint_torque_command_t::getHash()), 0xd037d1c904e0e80fu);
   EXPECT_EQ(static_cast<uint64_t>(arm_target_t::getHash()), 0x309277be8aae6666u);
-  // controller_status_t gained the contact fields at its end ([K]); no field changed meaning, and a
-  // reader built on the old contract refuses the new one by its fingerprint.
-  EXPECT_EQ(static_cast<uint64_t>(controller_status_t::getHash()), 0x12dcd8ff618718ceu);
+  // controller_status_t gained the contact fields at its end ([K]), then the law and the payload's
+  // mass at its end; no field changed meaning, and a reader built on an older contract refuses the
+  // new one by its fingerprint.
+  EXPECT_EQ(static_cast<uint64_t>(controller_status_t::getHash()), 0x56f7446d2a9f26bfu);
+  EXPECT_EQ(static_cast<uint64_t>(control_mode_t::getHash()), 0xe4a15f556715af84u);
+  EXPECT_EQ(static_cast<uint64_t>(payload_t::getHash()), 0x38b055cd3dfdfa1fu);
 }
 
 }  // namespace
