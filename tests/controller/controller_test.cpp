@@ -20,6 +20,7 @@
 #include "chasles/controller/trajectory.hpp"
 #include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/lie/se3.hpp"
+#include "chasles/core/model/payload.hpp"
 #include "chasles/core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/reference.hpp"
@@ -205,6 +206,25 @@ TEST_F(ControllerTest, WaitsForAStateThenHoldsAgainstGravity) {
   const VectorXd g = gravity_torques(model_, data_, state_.q);
   EXPECT_TRUE(matrices_near(controller.torque(), g, 1e-12));
   EXPECT_TRUE(matrices_near(controller.reference().q, state_.q, 0.0));
+}
+
+// An arm whose gravity torque is over a joint's effort limit (a heavy payload, stretched out): the
+// first command after WAITING starts from g(q) clamped to the limits, so no command exceeds them
+// (found by the fuzzer: the rate limit started from the unclamped g and let the command follow it).
+TEST_F(ControllerTest, TheFirstCommandStaysWithinTheEffortLimitsWhenGravityIsNot) {
+  Payload load;
+  load.mass = 15.0;
+  const RobotModel heavy = with_payload(model_, load);
+  Controller controller(heavy, config_);
+  state_.q << 0.0, 1.5, 0.0, -0.1, 0.0, 1.5, 0.0;
+  Data data(heavy);
+  const VectorXd g = gravity_torques(heavy, data, state_.q);
+  const VectorXd limit = VectorXd::NullaryExpr(7, [&](Eigen::Index i) { return heavy.joint(int(i)).limits.effort; });
+  ASSERT_GT((g.cwiseAbs() - limit).maxCoeff(), 0.0) << "the pose must ask for more than the limits";
+  for (int k = 0; k < 3; ++k) {
+    ASSERT_TRUE(controller.tick(k * kMs, fresh(k * kMs)));
+    EXPECT_LE((controller.torque().cwiseAbs() - limit).maxCoeff(), 0.0) << "tick " << k;
+  }
 }
 
 TEST_F(ControllerTest, ComputedTorqueIsMassMatrixTimesDesiredAccelerationPlusBias) {
