@@ -1,57 +1,219 @@
 #include "chasles/controller/bus.hpp"
 
+#include <arpa/inet.h>
 #include <lcm/lcm.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
+#include <atomic>
+#include <cerrno>
 #include <cstdlib>
 #include <cstring>
 #include <thread>
+#include <vector>
 
 #include "chasles/controller/realtime.hpp"
 #include "chasles/core/error.hpp"
 
 namespace chasles::controller {
 
-Bus::Subscription::~Subscription() {
-  if (subscription_ != nullptr) lcm_unsubscribe(lcm_, subscription_);
-}
-
-Bus::Subscription::Subscription(Subscription&& other) noexcept
-    : lcm_(other.lcm_), subscription_(other.subscription_), slot_(std::move(other.slot_)) {
-  other.subscription_ = nullptr;
-}
-
-Bus::Subscription& Bus::Subscription::operator=(Subscription&& other) noexcept {
-  if (this != &other) {
-    if (subscription_ != nullptr) lcm_unsubscribe(lcm_, subscription_);
-    lcm_ = other.lcm_;
-    subscription_ = other.subscription_;
-    slot_ = std::move(other.slot_);
-    other.subscription_ = nullptr;
-  }
-  return *this;
-}
-
 namespace {
 
-// The provider LCM will use for `url`: udpm:// (its default) stamps each datagram with the
-// kernel's receive time.
-bool stamps_arrival(const std::string& url) {
+// The URL LCM will use: `url`, else $LCM_DEFAULT_URL, else its default.
+std::string effective_url(const std::string& url) {
   const char* env = std::getenv("LCM_DEFAULT_URL");
-  const std::string effective = !url.empty() ? url : env != nullptr && *env != '\0' ? env : "udpm://";
-  return effective.rfind("udpm://", 0) == 0;
+  return !url.empty() ? url : env != nullptr && *env != '\0' ? env : "udpm://";
+}
+
+// LCM's defaults for udpm:// (lcm/udpm.c).
+constexpr const char* kDefaultGroup = "239.255.76.67";
+constexpr int kDefaultPort = 7667;
+// LCM's small-message header: magic 'LC02', then a sequence number, both big-endian; then the
+// channel, NUL-terminated, and the payload. A fragment of a larger message starts with 'LC03'.
+constexpr uint32_t kShortMagic = 0x4c433032, kFragmentMagic = 0x4c433033;
+constexpr size_t kShortHeader = 8;
+constexpr size_t kMaxChannel = 63;             // LCM_MAX_CHANNEL_NAME_LENGTH
+constexpr size_t kMaxDatagram = 65536;         // more than UDP's 65,507-byte payload
+constexpr int kReceiveBuffer = 2 * 1024 * 1024;  // bytes asked for; the kernel caps it at rmem_max
+
+uint32_t big_endian_u32(const uint8_t* p) {
+  return uint32_t{p[0]} << 24 | uint32_t{p[1]} << 16 | uint32_t{p[2]} << 8 | uint32_t{p[3]};
 }
 
 }  // namespace
 
-Bus::Bus(const std::string& url)
-    : lcm_(lcm_create(url.empty() ? nullptr : url.c_str())), kernel_stamps_(stamps_arrival(url)) {
+// The multicast socket of a Bus that receives directly, and its exact-name subscriptions.
+struct Bus::Direct {
+  struct Entry {
+    std::string channel;
+    Subscription::Slot* slot;
+  };
+  int fd = -1;
+  std::vector<Entry> entries;  // changed only while nothing is handled (construction, teardown)
+  std::vector<uint8_t> buffer = std::vector<uint8_t>(kMaxDatagram);
+  std::atomic<int64_t> dropped{0};
+
+  explicit Direct(const std::string& url) {
+    // udpm://GROUP:PORT?options; LCM's defaults fill in what is left out.
+    std::string rest = url.substr(std::strlen("udpm://"));
+    rest = rest.substr(0, rest.find('?'));
+    std::string group = kDefaultGroup;
+    int port = kDefaultPort;
+    if (!rest.empty()) {
+      const size_t colon = rest.find(':');
+      group = rest.substr(0, colon);
+      if (colon != std::string::npos) {
+        char* end = nullptr;
+        const long p = std::strtol(rest.c_str() + colon + 1, &end, 10);
+        if (*end != '\0' || p <= 0 || p > 65535) throw Error("LCM URL " + url + ": the port is not a number in 1..65535");
+        port = static_cast<int>(p);
+      }
+    }
+    in_addr address{};
+    if (inet_pton(AF_INET, group.c_str(), &address) != 1 || !IN_MULTICAST(ntohl(address.s_addr))) {
+      throw Error("LCM URL " + url + ": '" + group + "' is not an IPv4 multicast group");
+    }
+    fd = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    if (fd < 0) throw Error(std::string("cannot open a UDP socket: ") + std::strerror(errno));
+    const int one = 1, zero = 0;
+    sockaddr_in bound{};
+    bound.sin_family = AF_INET;
+    bound.sin_addr.s_addr = htonl(INADDR_ANY);
+    bound.sin_port = htons(static_cast<uint16_t>(port));
+    ip_mreq membership{};
+    membership.imr_multiaddr = address;
+    membership.imr_interface.s_addr = htonl(INADDR_ANY);
+    const char* failed = nullptr;
+    // As LCM's own socket: the port shared with every LCM process on the host (SO_REUSEADDR).
+    if (setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof(one)) != 0) failed = "SO_REUSEADDR";
+    else if (bind(fd, reinterpret_cast<const sockaddr*>(&bound), sizeof(bound)) != 0) failed = "bind";
+    else if (setsockopt(fd, IPPROTO_IP, IP_MULTICAST_ALL, &zero, sizeof(zero)) != 0) failed = "IP_MULTICAST_ALL";
+    else if (setsockopt(fd, IPPROTO_IP, IP_ADD_MEMBERSHIP, &membership, sizeof(membership)) != 0) failed = "join";
+    else if (setsockopt(fd, SOL_SOCKET, SO_TIMESTAMP, &one, sizeof(one)) != 0) failed = "SO_TIMESTAMP";
+    if (failed != nullptr) {
+      const int err = errno;
+      close(fd);
+      throw Error("cannot receive " + url + " directly (" + failed + ": " + std::strerror(err) +
+                  "; no multicast route? inside a network namespace run tools/netns.sh)");
+    }
+    setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &kReceiveBuffer, sizeof(kReceiveBuffer));  // best effort
+  }
+  ~Direct() { close(fd); }
+  Direct(const Direct&) = delete;
+  Direct& operator=(const Direct&) = delete;
+
+  // Reads one datagram and hands it to its subscribers: 1 if one was read (delivered or dropped),
+  // 0 if none waits, −1 on a socket error. Allocates nothing.
+  int receive_one(Bus& bus) {
+    iovec io{buffer.data(), buffer.size()};
+    alignas(cmsghdr) char control[CMSG_SPACE(sizeof(timeval))];
+    msghdr message{};
+    message.msg_iov = &io;
+    message.msg_iovlen = 1;
+    message.msg_control = control;
+    message.msg_controllen = sizeof(control);
+    ssize_t n = 0;
+    do {
+      n = recvmsg(fd, &message, MSG_DONTWAIT);
+    } while (n < 0 && errno == EINTR);
+    if (n < 0) return errno == EAGAIN || errno == EWOULDBLOCK ? 0 : -1;
+    const auto size = static_cast<size_t>(n);
+    const uint8_t* data = buffer.data();
+    if (size < kShortHeader + 1 || big_endian_u32(data) != kShortMagic || (message.msg_flags & MSG_TRUNC) != 0) {
+      dropped.fetch_add(1, std::memory_order_relaxed);  // a fragment ('LC03'), or not LCM's
+      return 1;
+    }
+    const char* channel = reinterpret_cast<const char*>(data + kShortHeader);
+    const size_t room = std::min(size - kShortHeader, kMaxChannel + 1);
+    const size_t length = strnlen(channel, room);
+    if (length == room) {  // no NUL where the channel must end
+      dropped.fetch_add(1, std::memory_order_relaxed);
+      return 1;
+    }
+    int64_t stamp_us = -1;
+    for (cmsghdr* c = CMSG_FIRSTHDR(&message); c != nullptr; c = CMSG_NXTHDR(&message, c)) {
+      if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SCM_TIMESTAMP) {
+        timeval tv{};
+        std::memcpy(&tv, CMSG_DATA(c), sizeof(tv));
+        stamp_us = int64_t{tv.tv_sec} * 1'000'000 + tv.tv_usec;
+      }
+    }
+    const uint8_t* payload = data + kShortHeader + length + 1;
+    const size_t payload_size = size - kShortHeader - length - 1;
+    bool heard = false;
+    for (const Entry& entry : entries) {
+      if (std::strcmp(entry.channel.c_str(), channel) != 0) continue;
+      bus.arrival_utime_ = stamp_us;
+      entry.slot->handler(payload, payload_size);
+      bus.arrival_utime_ = -1;
+      heard = true;
+    }
+    if (!heard) dropped.fetch_add(1, std::memory_order_relaxed);
+    return 1;
+  }
+};
+
+void Bus::Subscription::end() {
+  if (subscription_ != nullptr) lcm_unsubscribe(lcm_, subscription_);
+  if (direct_ != nullptr) {
+    auto& entries = direct_->entries;
+    for (auto it = entries.begin(); it != entries.end(); ++it) {
+      if (it->slot == slot_.get()) {
+        entries.erase(it);
+        break;
+      }
+    }
+  }
+  subscription_ = nullptr;
+  direct_ = nullptr;
+}
+
+Bus::Subscription::~Subscription() { end(); }
+
+Bus::Subscription::Subscription(Subscription&& other) noexcept
+    : lcm_(other.lcm_), subscription_(other.subscription_), direct_(other.direct_), slot_(std::move(other.slot_)) {
+  other.subscription_ = nullptr;
+  other.direct_ = nullptr;
+}
+
+Bus::Subscription& Bus::Subscription::operator=(Subscription&& other) noexcept {
+  if (this != &other) {
+    end();
+    lcm_ = other.lcm_;
+    subscription_ = other.subscription_;
+    direct_ = other.direct_;
+    slot_ = std::move(other.slot_);
+    other.subscription_ = nullptr;
+    other.direct_ = nullptr;
+  }
+  return *this;
+}
+
+Bus::Bus(const std::string& url, Receive receive)
+    : lcm_(lcm_create(url.empty() ? nullptr : url.c_str())),
+      kernel_stamps_(effective_url(url).rfind("udpm://", 0) == 0) {
   if (lcm_ == nullptr) {
     throw Error("LCM could not start on " + (url.empty() ? std::string("its default URL") : url) +
                 " (no multicast route? inside a network namespace run tools/netns.sh)");
   }
+  if (receive == Receive::kDirect && kernel_stamps_) {
+    try {
+      direct_ = std::make_unique<Direct>(effective_url(url));
+    } catch (...) {
+      lcm_destroy(lcm_);
+      throw;
+    }
+  }
 }
 
-Bus::~Bus() { lcm_destroy(lcm_); }
+Bus::~Bus() {
+  direct_.reset();
+  lcm_destroy(lcm_);
+}
+
+int64_t Bus::dropped() const { return direct_ ? direct_->dropped.load(std::memory_order_relaxed) : 0; }
 
 bool Bus::publish(const std::string& channel, const void* data, size_t size) {
   return lcm_publish(lcm_, channel.c_str(), data, static_cast<unsigned>(size)) == 0;
@@ -61,6 +223,15 @@ Bus::Subscription Bus::subscribe(const std::string& channel, Handler handler, in
   Subscription s;
   s.lcm_ = lcm_;
   s.slot_ = std::make_unique<Subscription::Slot>(Subscription::Slot{std::move(handler), this});
+  if (direct_) {
+    if (channel.find_first_of(".*+?[](){}|^$\\") != std::string::npos || channel.size() > kMaxChannel) {
+      throw Error("a Bus that receives directly takes exact channel names of at most 63 characters, not '" +
+                  channel + "'");
+    }
+    direct_->entries.push_back({channel, s.slot_.get()});
+    s.direct_ = direct_.get();
+    return s;
+  }
   // The C interface hands the channel over as a char*; the C++ one builds a std::string for every
   // message, which may allocate.
   s.subscription_ = lcm_subscribe(
@@ -77,17 +248,28 @@ Bus::Subscription Bus::subscribe(const std::string& channel, Handler handler, in
   return s;
 }
 
-int Bus::handle(int timeout_ms) { return lcm_handle_timeout(lcm_, timeout_ms); }
+int Bus::handle(int timeout_ms) {
+  if (!direct_) return lcm_handle_timeout(lcm_, timeout_ms);
+  pollfd p{direct_->fd, POLLIN, 0};
+  const int ready = poll(&p, 1, timeout_ms);
+  if (ready <= 0) return ready;
+  return direct_->receive_one(*this);
+}
 
 int Bus::handle_pending() {
   int count = 0;
+  if (direct_) {
+    while (direct_->receive_one(*this) > 0) ++count;
+    return count;
+  }
   while (lcm_handle_timeout(lcm_, 0) > 0) ++count;
   return count;
 }
 
-int Bus::fileno() const { return lcm_get_fileno(lcm_); }
+int Bus::fileno() const { return direct_ ? direct_->fd : lcm_get_fileno(lcm_); }
 
 std::string Bus::start_receiving(int priority) {
+  if (direct_) return {};  // no receive thread: the handling thread reads the socket
   std::string warning;
   std::thread starter([&] {
     if (const int err = request_fifo(priority); err != 0) {

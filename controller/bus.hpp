@@ -3,6 +3,15 @@
 // udpm:// (UDP multicast), the in-process tests on memq:// (LCM's own in-process queue), and
 // every message takes the same path either way — lcm-gen's encoding, LCM's dispatch, and the
 // checked decoder of its type (lcmtypes/checked.hpp) on the receiving side.
+//
+// Receiving directly (Receive::kDirect, on udpm://): LCM 1.3.1 reads every datagram on a thread of
+// its own and hands it over through a pipe, two wake-ups per message before a handler runs. A
+// direct Bus instead reads the multicast group itself, on the thread that calls handle(): its own
+// socket, joined to the URL's group and port as LCM's is, and LCM's small-message format (the
+// 'LC02' header, the channel, the payload), so the messages are LCM's own, published by LCM. It
+// takes only the group it joined (IP_MULTICAST_ALL off: another group on the same port is not
+// delivered to it), exact channel names, and messages of one datagram (up to 64 kB, which every
+// chasles message is); a fragmented message ('LC03') is counted and dropped. It sends through LCM.
 #pragma once
 
 #include <cstddef>
@@ -20,6 +29,8 @@ typedef struct _lcm_subscription_t lcm_subscription_t;
 namespace chasles::controller {
 
 class Bus {
+  struct Direct;  // the socket of a Bus that receives directly
+
  public:
   /// Called on the thread that handles the bus, with the message's bytes as received.
   using Handler = std::function<void(const uint8_t* data, size_t size)>;
@@ -40,12 +51,17 @@ class Bus {
     };
     lcm_t* lcm_ = nullptr;
     lcm_subscription_t* subscription_ = nullptr;
+    Direct* direct_ = nullptr;  // receiving directly: the table slot_ is entered in
     std::unique_ptr<Slot> slot_;
+    void end();
   };
 
+  /// Who reads what arrives: LCM's receive thread, or the handling thread itself (see above).
+  enum class Receive { kLcm, kDirect };
+
   /// Starts LCM on `url` (empty: $LCM_DEFAULT_URL, else LCM's default). Throws chasles::Error if
-  /// it cannot.
-  explicit Bus(const std::string& url);
+  /// it cannot. Receive::kDirect takes effect on udpm:// only (memq:// has no socket to read).
+  explicit Bus(const std::string& url, Receive receive = Receive::kLcm);
   ~Bus();
   Bus(const Bus&) = delete;
   Bus& operator=(const Bus&) = delete;
@@ -64,9 +80,10 @@ class Bus {
     return publish(channel, bytes);
   }
 
-  /// `channel` is a regular expression, as in LCM ("CHASLES_.*" hears every chasles channel).
+  /// `channel` is a regular expression, as in LCM ("CHASLES_.*" hears every chasles channel);
+  /// receiving directly, an exact name (a pattern is refused with chasles::Error).
   /// `queue_capacity` > 0: how many messages may wait for this subscriber before LCM drops the
-  /// newest (LCM's default otherwise, 30).
+  /// newest (LCM's default otherwise, 30); receiving directly, the socket's buffer is the queue.
   [[nodiscard]] Subscription subscribe(const std::string& channel, Handler handler, int queue_capacity = 0);
 
   /// Delivers one message to its subscribers, waiting up to timeout_ms for it: > 0 if one was
@@ -90,10 +107,17 @@ class Bus {
   /// SCHED_FIFO is refused (the thread then starts under SCHED_OTHER); empty otherwise.
   std::string start_receiving(int priority);
 
+  /// Whether this Bus reads its socket itself.
+  bool direct() const { return direct_ != nullptr; }
+  /// Receiving directly: datagrams dropped as not one whole LCM message of ours to read (a
+  /// fragment, a truncated or foreign datagram), and those on channels nobody here subscribed to.
+  int64_t dropped() const;
+
  private:
   lcm_t* lcm_;
   bool kernel_stamps_;
   int64_t arrival_utime_ = -1;
+  std::unique_ptr<Direct> direct_;
 };
 
 }  // namespace chasles::controller

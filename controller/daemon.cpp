@@ -37,9 +37,9 @@ struct Daemon::Impl {
 
   Impl(const RobotModel& model, const DaemonOptions& o)
       : options(o),
-        receive(o.lcm_url),
-        // Before the Node subscribes: LCM's receive thread starts under SCHED_FIFO with
-        // --realtime, because every state passes through it before the loop can see it.
+        receive(o.lcm_url, o.direct_receive ? Bus::Receive::kDirect : Bus::Receive::kLcm),
+        // Before the Node subscribes: LCM's receive thread (when LCM receives) starts under
+        // SCHED_FIFO with --realtime, because every state passes through it before the loop sees it.
         receive_warning(o.realtime ? receive.start_receiving(o.priority) : std::string()),
         command(o.lcm_url),
         status(o.lcm_url),
@@ -80,8 +80,8 @@ struct Daemon::Impl {
     const int64_t end = options.seconds > 0.0 ? start + static_cast<int64_t>(options.seconds * 1e9) : INT64_MAX;
     int64_t next = node.first_tick();
     if (state_driven()) {
-      // One thread from the state's arrival to the command: LCM's receive thread hands the
-      // datagram over through its pipe, this thread dispatches it and ticks at once.
+      // One thread from the state's arrival to the command: this thread reads the datagram off its
+      // socket (or, receiving through LCM, takes it from LCM's pipe), dispatches it and ticks.
       const int fd = receive.fileno();
       while (!stop.load(std::memory_order_relaxed) && next <= end) {
         if (wait_readable(fd, next)) receive.handle_pending();

@@ -46,6 +46,9 @@ struct DaemonOptions {
   double seconds = 0.0;  ///< stop after this long; 0: run until stopped
   double status_hz = 100.0;
   TickSource tick = TickSource::kState;
+  /// Read the receiving socket on the loop's own thread (Bus::Receive::kDirect, udpm:// only)
+  /// rather than through LCM's receive thread.
+  bool direct_receive = true;
 };
 
 /// What a run measured; the figures of --summary.

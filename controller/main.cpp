@@ -254,6 +254,10 @@ int main(int argc, char** argv) {
       ->transform(CLI::CheckedTransformer(
           std::map<std::string, chasles::controller::TickSource>{{"state", chasles::controller::TickSource::kState},
                                                                  {"clock", chasles::controller::TickSource::kClock}}));
+  app.add_option("--receive", options.direct_receive,
+                 "who reads states and targets off the wire: 'direct', the loop on its own multicast socket "
+                 "(default), or 'lcm', LCM's receive thread, which hands each message over through a pipe")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, bool>{{"direct", true}, {"lcm", false}}));
   app.add_option("--channel-prefix", options.channel_prefix, "prefix of the LCM channels (default CHASLES_)");
   app.add_option("--lcm-url", options.lcm_url, "LCM URL (default: LCM's, or $LCM_DEFAULT_URL)");
   app.add_option("--seconds", options.seconds, "stop after this long (default: run until SIGINT/SIGTERM)")

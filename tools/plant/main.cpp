@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <map>
 #include <csignal>
 #include <cstdio>
 #include <iostream>
@@ -50,6 +51,7 @@ struct Options {
   std::string payload, friction;
   bool realtime = false;
   std::string lcm_url;
+  Bus::Receive receive = Bus::Receive::kDirect;
   double seconds = 0.0;
   SimulationOptions sim;
 };
@@ -241,6 +243,11 @@ void add_options(CLI::App& app, Options& o) {
   app.add_flag("--truth", o.sim.truth,
                "Publish chasles.sim_truth_t on PREFIX TRUTH after every state even with none of --push, --wall, "
                "--payload, --friction (with any of them it is always published)");
+  app.add_option("--receive", o.receive,
+                 "who reads the commands off the wire: 'direct', this process's step loop on its own multicast "
+                 "socket (default), or 'lcm', LCM's receive thread and its hand-over")
+      ->transform(CLI::CheckedTransformer(
+          std::map<std::string, Bus::Receive>{{"direct", Bus::Receive::kDirect}, {"lcm", Bus::Receive::kLcm}}));
   app.add_option("--lcm-url", o.lcm_url, "LCM provider URL (default: $LCM_DEFAULT_URL, else LCM's default)")
       ->type_name("URL");
   app.add_option("--seed", o.sim.faults.seed, "Seed of the injected faults")->capture_default_str();
@@ -325,8 +332,8 @@ int main(int argc, char** argv) {
     sigaddset(&stop_signals, SIGTERM);
     pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
 
-    // Real time before LCM starts: its receive thread, which every command passes through,
-    // inherits SCHED_FIFO. Below the controller's default priority (80): on a shared machine the
+    // Real time before LCM starts: with --receive lcm its receive thread, which every command
+    // passes through, inherits SCHED_FIFO. Below the controller's default priority (80): on a shared machine the
     // controller's tick comes first.
     if (options.realtime) {
       for (const auto& warning : chasles::controller::make_realtime(70, -1)) {
@@ -335,7 +342,7 @@ int main(int argc, char** argv) {
     }
     std::unique_ptr<Bus> bus;
     try {
-      bus = std::make_unique<Bus>(options.lcm_url);
+      bus = std::make_unique<Bus>(options.lcm_url, options.receive);
     } catch (const chasles::Error&) {
       return fail("cannot start LCM" + (options.lcm_url.empty() ? std::string() : " on " + options.lcm_url) +
                       ": is there a multicast route? Run inside tools/netns.sh with "

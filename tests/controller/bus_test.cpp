@@ -1,0 +1,187 @@
+// The Bus that reads its multicast socket itself (Receive::kDirect) against LCM's own sender, over
+// real UDP multicast on loopback in a network namespace of this binary's own (tools/netns.sh): it
+// hears exactly what LCM publishes, stamps it with the kernel's receive time, shares the port with
+// LCM's own receivers, takes only its own group, and drops what is not one whole LCM message.
+#include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <sys/time.h>
+#include <unistd.h>
+
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "chasles/controller/bus.hpp"
+#include "chasles/core/error.hpp"
+#include "support/allocation_counter.hpp"
+
+namespace chasles::controller {
+namespace {
+
+constexpr const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
+constexpr const char* kOtherGroup = "udpm://239.255.76.68:7667?ttl=0";  // same port, another group
+
+int64_t wall_us() {
+  timeval tv{};
+  gettimeofday(&tv, nullptr);
+  return int64_t{tv.tv_sec} * 1'000'000 + tv.tv_usec;
+}
+
+std::vector<uint8_t> bytes(size_t n, uint8_t seed) {
+  std::vector<uint8_t> b(n);
+  for (size_t i = 0; i < n; ++i) b[i] = static_cast<uint8_t>(seed + 7 * i);
+  return b;
+}
+
+struct Heard {
+  std::vector<std::vector<uint8_t>> messages;
+  std::vector<int64_t> stamps;
+};
+
+Bus::Handler recorder(Heard& heard, const Bus& bus) {
+  return [&heard, &bus](const uint8_t* data, size_t size) {
+    heard.messages.emplace_back(data, data + size);
+    heard.stamps.push_back(bus.arrival_utime());
+  };
+}
+
+// Handles what the socket holds until `count` messages were heard or 2 s passed (loopback
+// multicast is delivered within the send call; the bound only keeps a broken build from hanging).
+void handle_until(Bus& bus, const Heard& heard, size_t count) {
+  for (int i = 0; i < 200 && heard.messages.size() < count; ++i) bus.handle(10);
+}
+
+TEST(DirectBus, HearsWhatLcmPublishesStampedByTheKernel) {
+  Bus sender(kUrl);
+  Bus receiver(kUrl, Bus::Receive::kDirect);
+  ASSERT_TRUE(receiver.direct());
+  EXPECT_FALSE(sender.direct());
+  Heard heard;
+  auto subscription = receiver.subscribe("ARM_STATE", recorder(heard, receiver));
+  const std::vector<uint8_t> a = bytes(196, 1), b = bytes(1, 9), c = bytes(60000, 3);
+  const int64_t before = wall_us();
+  ASSERT_TRUE(sender.publish("ARM_STATE", a));
+  ASSERT_TRUE(sender.publish("ARM_STATE", b));
+  ASSERT_TRUE(sender.publish("ARM_STATE", c));  // large, still one datagram
+  const int64_t after = wall_us();
+  handle_until(receiver, heard, 3);
+  ASSERT_EQ(heard.messages.size(), 3u);
+  EXPECT_EQ(heard.messages[0], a);
+  EXPECT_EQ(heard.messages[1], b);
+  EXPECT_EQ(heard.messages[2], c);
+  for (int64_t stamp : heard.stamps) {
+    EXPECT_GE(stamp, before - 1);  // µs resolution on both sides
+    EXPECT_LE(stamp, after + 1);
+  }
+  EXPECT_EQ(receiver.arrival_utime(), -1);  // outside a handler
+  EXPECT_EQ(receiver.dropped(), 0);
+}
+
+TEST(DirectBus, OnlyTheSubscribedChannelsAndItsOwnGroupAreDelivered) {
+  Bus sender(kUrl), other_group(kOtherGroup);
+  Bus receiver(kUrl, Bus::Receive::kDirect);
+  Heard state, target;
+  auto s1 = receiver.subscribe("ARM_STATE", recorder(state, receiver));
+  auto s2 = receiver.subscribe("ARM_TARGET", recorder(target, receiver));
+  ASSERT_TRUE(other_group.publish("ARM_STATE", bytes(10, 2)));  // same port: not for this socket
+  ASSERT_TRUE(sender.publish("ARM_STATUS", bytes(10, 3)));      // nobody here listens
+  ASSERT_TRUE(sender.publish("ARM_STATE_X", bytes(10, 4)));     // a longer name is another channel
+  ASSERT_TRUE(sender.publish("ARM_TARGET", bytes(12, 5)));
+  ASSERT_TRUE(sender.publish("ARM_STATE", bytes(11, 6)));
+  handle_until(receiver, state, 1);
+  receiver.handle_pending();
+  ASSERT_EQ(state.messages.size(), 1u);
+  EXPECT_EQ(state.messages[0], bytes(11, 6));
+  ASSERT_EQ(target.messages.size(), 1u);
+  EXPECT_EQ(target.messages[0], bytes(12, 5));
+  EXPECT_EQ(receiver.dropped(), 2);  // ARM_STATUS and ARM_STATE_X; the other group never arrived
+}
+
+TEST(DirectBus, SharesThePortWithLcmsOwnReceivers) {
+  Bus sender(kUrl), lcm_receiver(kUrl);
+  Bus direct_a(kUrl, Bus::Receive::kDirect), direct_b(kUrl, Bus::Receive::kDirect);
+  Heard via_lcm, via_a, via_b;
+  auto s1 = lcm_receiver.subscribe("ARM_STATE", recorder(via_lcm, lcm_receiver));
+  auto s2 = direct_a.subscribe("ARM_STATE", recorder(via_a, direct_a));
+  auto s3 = direct_b.subscribe("ARM_STATE", recorder(via_b, direct_b));
+  ASSERT_TRUE(sender.publish("ARM_STATE", bytes(100, 8)));
+  handle_until(lcm_receiver, via_lcm, 1);
+  handle_until(direct_a, via_a, 1);
+  handle_until(direct_b, via_b, 1);
+  for (const Heard* h : {&via_lcm, &via_a, &via_b}) {
+    ASSERT_EQ(h->messages.size(), 1u);
+    EXPECT_EQ(h->messages[0], bytes(100, 8));
+  }
+}
+
+TEST(DirectBus, DropsFragmentsAndForeignDatagramsAndGoesOn) {
+  Bus sender(kUrl);
+  Bus receiver(kUrl, Bus::Receive::kDirect);
+  Heard heard;
+  auto subscription = receiver.subscribe("ARM_STATE", recorder(heard, receiver));
+  // LCM fragments a message this large ('LC03' datagrams): not one this Bus reads.
+  ASSERT_TRUE(sender.publish("ARM_STATE", bytes(200'000, 1)));
+  // Datagrams on the group that are not LCM's: junk, a short header, a channel without its NUL.
+  const int fd = socket(AF_INET, SOCK_DGRAM, 0);
+  ASSERT_GE(fd, 0);
+  sockaddr_in group{};
+  group.sin_family = AF_INET;
+  group.sin_port = htons(7667);
+  inet_pton(AF_INET, "239.255.76.67", &group.sin_addr);
+  const unsigned char ttl = 0;
+  setsockopt(fd, IPPROTO_IP, IP_MULTICAST_TTL, &ttl, sizeof(ttl));
+  std::vector<std::vector<uint8_t>> foreign = {
+      {1, 2, 3, 4, 5, 6, 7, 8, 9, 10}, {0x4c, 0x43, 0x30, 0x32, 0, 0}, {0x4c, 0x43, 0x30, 0x32, 0, 0, 0, 1}};
+  std::vector<uint8_t> unterminated = {0x4c, 0x43, 0x30, 0x32, 0, 0, 0, 2};
+  unterminated.insert(unterminated.end(), 64, 'A');  // 64 characters and no NUL: over LCM's 63
+  foreign.push_back(unterminated);
+  for (const auto& datagram : foreign) {
+    ASSERT_EQ(sendto(fd, datagram.data(), datagram.size(), 0, reinterpret_cast<const sockaddr*>(&group), sizeof(group)),
+              static_cast<ssize_t>(datagram.size()));
+  }
+  close(fd);
+  ASSERT_TRUE(sender.publish("ARM_STATE", bytes(20, 4)));
+  handle_until(receiver, heard, 1);
+  ASSERT_EQ(heard.messages.size(), 1u);
+  EXPECT_EQ(heard.messages[0], bytes(20, 4));
+  // 200,000 bytes go in 4 fragments of at most 65,423 bytes (lcm/udpm.c), then the four above.
+  EXPECT_EQ(receiver.dropped(), 4 + 4);
+}
+
+TEST(DirectBus, RefusesChannelPatternsAndHandlesWithoutAllocating) {
+  Bus sender(kUrl);
+  Bus receiver(kUrl, Bus::Receive::kDirect);
+  EXPECT_THROW((void)receiver.subscribe("ARM_.*", [](const uint8_t*, size_t) {}), Error);
+  EXPECT_THROW((void)receiver.subscribe(std::string(64, 'A'), [](const uint8_t*, size_t) {}), Error);
+  size_t heard = 0, bytes_heard = 0;
+  auto subscription = receiver.subscribe("ARM_STATE", [&](const uint8_t*, size_t size) {
+    ++heard;
+    bytes_heard += size;
+  });
+  const std::vector<uint8_t> message = bytes(196, 5);
+  for (int i = 0; i < 100; ++i) ASSERT_TRUE(sender.publish("ARM_STATE", message));
+  testing::AllocationCounter counter;
+  int handled = 0;
+  for (int i = 0; i < 200 && heard < 100; ++i) handled += receiver.handle_pending();
+  const int64_t allocations = counter.count();
+  EXPECT_EQ(heard, 100u);
+  EXPECT_EQ(handled, 100);
+  EXPECT_EQ(bytes_heard, 100 * message.size());
+  EXPECT_EQ(allocations, 0);
+}
+
+// A Bus on memq:// has no socket: Receive::kDirect is LCM's path there, as the in-process tests use.
+TEST(DirectBus, MemqKeepsLcmsDispatch) {
+  Bus bus("memq://", Bus::Receive::kDirect);
+  EXPECT_FALSE(bus.direct());
+  int heard = 0;
+  auto subscription = bus.subscribe("ARM_.*", [&](const uint8_t*, size_t) { ++heard; });
+  ASSERT_TRUE(bus.publish("ARM_STATE", bytes(4, 1)));
+  bus.handle_pending();
+  EXPECT_EQ(heard, 1);
+}
+
+}  // namespace
+}  // namespace chasles::controller
