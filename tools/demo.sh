@@ -196,7 +196,7 @@ PY
     'BEGIN { printf "%g %g %g %g %g %g %g %g %g\n", 0.03 * n, 0.05 * n, 0.17 * n, 0.29 * n, 0.41 * n, 0.53 * n,
              0.54 * n, 0.02 * n, 0.58 * n }')
   read -r t_over t_mode t_press press_s t_measure t_lift t_back < <(awk -v n="$seconds" \
-    'BEGIN { printf "%g %g %g %g %g %g %g\n", 0.60 * n, 0.73 * n, 0.74 * n, 0.03 * n, 0.80 * n, 0.89 * n, 0.91 * n }')
+    'BEGIN { printf "%g %g %g %g %g %g %g\n", 0.60 * n, 0.73 * n, 0.74 * n, 0.03 * n, 0.86 * n, 0.89 * n, 0.91 * n }')
   # The plant pushes the resting arm's tip with 30 N along the base's x axis, ramped in and out over
   # 10 ms (from the plant's start, which comes first): the controller's estimate crosses the
   # collision threshold and the stop reflex holds the arm until the next target.

@@ -16,7 +16,8 @@
 # then the controllers (state-driven, --realtime), sends each arm a JOINT move after 2 s and one
 # back at half time, and stops everything after S seconds. It prints each arm's figures — the
 # controller's ticks, FAULTs, overruns, latency, the plant's late cycles and late stops, the CPU
-# each process used — and the totals. Exit status 0 when every arm held (0 FAULTs, 0 late stops,
+# each process used — and the totals, beside a bare 1 kHz loop run alongside (the machine's own
+# stalls, which every arm shares). Exit status 0 when every arm held (0 FAULTs, 0 late stops,
 # late cycles ≤ 0.1 %), 3 when one did not, 1 when a process failed. Everything of the run is kept
 # in build/fleet/<time>/. CHASLES_BUILD_DIR chooses another build tree.
 set -euo pipefail
@@ -71,6 +72,14 @@ inside() {
     pids+=("$!")
   done
 
+  # The anchor, in the same minute: a bare 1 kHz loop beside the fleet, whose stalls every arm
+  # shares (a wake-up more than 10 ms late is one no controller's default --stale-ms rides out).
+  "$FLEET_BUILD/tools/chasles_loop_bench" --mode sleep \
+    --seconds "$(awk -v s="$seconds" 'BEGIN { printf "%.1f", (s > 3 ? s - 2 : 1) }')" "${realtime[@]}" \
+    >"$dir/loop_bench.json" 2>"$dir/loop_bench.err" &
+  local bench_pid=$!
+  pids+=("$bench_pid")
+
   local start=$SECONDS
   # After the controllers have started (loaded the URDF, listened, begun to hold), the CPU count
   # starts; the moves go out, one per arm.
@@ -107,6 +116,7 @@ inside() {
   for ((i = 0; i < n; i++)); do
     wait "${plant_pids[$i]}" || { echo "fleet.sh: plant $i failed: $(tail -n 3 "$dir/plant$i.err")" >&2; failed=1; }
   done
+  wait "$bench_pid" || { echo "fleet.sh: the bare-loop anchor failed: $(tail -n 3 "$dir/loop_bench.err")" >&2; failed=1; }
   pids=()
   echo "${plant_pids[*]}" >"$dir/plant_pids.txt"
   echo "${controller_pids[*]}" >"$dir/controller_pids.txt"
@@ -162,7 +172,7 @@ chasles_install_missing "${chasles_packages_build[@]}"
 
 build=${CHASLES_BUILD_DIR:-$root/build}
 echo "Building chasles, chasles_plant and chasles_controller in $build ..."
-chasles_build fleet "$build" chasles chasles_plant chasles_controller_daemon || exit 1
+chasles_build fleet "$build" chasles chasles_plant chasles_controller_daemon chasles_loop_bench || exit 1
 
 dir="$build/fleet/$(date +%Y%m%d-%H%M%S)"
 mkdir -p "$dir"
@@ -208,6 +218,13 @@ print(f"total: {totals['ticks']} ticks, {totals['faults']} FAULTs, {totals['over
       f"{totals['late']} late cycles in {totals['steps']} steps ({late_all:.3f} %), {totals['stops']} late stops")
 print(f"CPU: {totals['cpu']:.0f} % of one core in all, {totals['cpu'] / n:.1f} % per arm (controller and plant), "
       f"on {os.cpu_count()} cores")
+try:
+    bare = json.load(open(os.path.join(d, "loop_bench.json")))["sleep_jitter_us"]
+    print(f"beside it, a bare 1 kHz loop ({bare['samples']} wake-ups): p99 {bare['p99']:.0f} us, max {bare['max'] / 1000:.1f} ms, "
+          f"{bare['late_10ms']} wake-ups over 10 ms late, {bare['overruns']} over a period: the machine's own stalls, "
+          "which every arm shares")
+except (OSError, ValueError, KeyError):
+    print("beside it, the bare 1 kHz loop gave no figures: see loop_bench.err")
 print(f"{held} of {n} arms held (0 FAULTs, 0 late stops, late cycles <= 0.1 %)")
 print(f"Run directory: {d}")
 sys.exit(1 if status else (0 if held == n else 3))

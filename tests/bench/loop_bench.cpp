@@ -42,6 +42,7 @@ constexpr char kPing[] = "LOOPBENCH_PING";
 constexpr char kPong[] = "LOOPBENCH_PONG";
 constexpr int kJoints = 7;
 constexpr int64_t kLateNs = 500'000;  // "late": a wake-up more than 500 µs after schedule
+constexpr int64_t kStallNs = 10'000'000;  // a stall: longer than the controller's default --stale-ms
 
 struct Options {
   std::string mode = "both";
@@ -127,6 +128,7 @@ struct SleepResult {
   Summary jitter;
   size_t samples = 0;
   int64_t late = 0, overruns = 0;
+  int64_t stalls = 0;  // wake-ups later than a controller's default stale limit
 };
 
 SleepResult run_sleep(const Options& o) {
@@ -144,6 +146,7 @@ SleepResult run_sleep(const Options& o) {
     const int64_t late = now - next;
     lateness_ns[result.samples++] = late;
     if (late > kLateNs) ++result.late;
+    if (late > kStallNs) ++result.stalls;
     if (late > period) {
       ++result.overruns;
       next = now;
@@ -338,7 +341,7 @@ int main(int argc, char** argv) {
       ->type_name("PATH");
   app.footer(
       "Output: {\"rate_hz\", \"seconds\", \"sched\", \"mlockall\",\n"
-      "         \"sleep_jitter_us\": {\"p50\", \"p99\", \"max\", \"late_500us\", \"overruns\", \"samples\"},\n"
+      "         \"sleep_jitter_us\": {\"p50\", \"p99\", \"max\", \"late_500us\", \"late_10ms\", \"overruns\", \"samples\"},\n"
       "         \"lcm_round_trip_us\": {\"p50\", \"p99\", \"max\", \"sent\", \"answered\", \"beyond_period\", \"message_bytes\"}}\n"
       "Example (as root; tools/netns.sh keeps the multicast on a private loopback):\n"
       "  tools/netns.sh chasles_loop_bench --realtime --lcm-url 'udpm://239.255.76.67:7667?ttl=0'");
@@ -377,6 +380,7 @@ int main(int argc, char** argv) {
     if (sleep) {
       const SleepResult r = run_sleep(o);
       out += ",\"sleep_jitter_us\":{" + summary_json(r.jitter) + ",\"late_500us\":" + std::to_string(r.late) +
+             ",\"late_10ms\":" + std::to_string(r.stalls) +
              ",\"overruns\":" + std::to_string(r.overruns) + ",\"samples\":" + std::to_string(r.samples) + "}";
     }
     if (pingpong) {
