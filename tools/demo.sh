@@ -160,32 +160,36 @@ print(",".join(repr(x) for x in b))
 PY
   )
   { read -r home; read -r pose_a; read -r pose_b; } <<<"$poses"
-  # The Cartesian goal: the tip pose at pose_a (by the CLI's FK), reached again in a straight line.
-  local tip_pose
-  echo "{\"cases\":[{\"q\":[$pose_a]}]}" >"$dir/cartesian_case.json"
+  # Poses by the CLI's FK: the Cartesian goal is the tip pose at pose_a, reached again in a straight
+  # line; the table lies 5 mm under the tip at pose_b, the lowest point of the programme, facing up,
+  # and the press aims 1 cm below its surface with the tip's orientation there.
+  local tip_pose table press_pose
+  echo "{\"cases\":[{\"q\":[$pose_a]},{\"q\":[$pose_b]}]}" >"$dir/pose_cases.json"
   "$DEMO_BUILD/tools/chasles" eval --urdf "$DEMO_URDF" ${DEMO_TIP:+--tip "$DEMO_TIP"} \
-    --cases "$dir/cartesian_case.json" >"$dir/cartesian_pose.json"
-  tip_pose=$(python3 - "$dir/cartesian_pose.json" <<'PY'
+    --cases "$dir/pose_cases.json" >"$dir/poses.json"
+  { read -r tip_pose; read -r table; read -r press_pose; } < <(python3 - "$dir/poses.json" <<'PY'
 import json, math, sys
-T = json.load(open(sys.argv[1]))["cases"][0]["T"]
-R = [row[:3] for row in T[:3]]
-# Rotation matrix -> unit quaternion (w, x, y, z), branch on the largest diagonal term.
-t = R[0][0] + R[1][1] + R[2][2]
-if t > 0:
-    s = 2 * math.sqrt(1 + t); w, x, y, z = s / 4, (R[2][1] - R[1][2]) / s, (R[0][2] - R[2][0]) / s, (R[1][0] - R[0][1]) / s
-elif R[0][0] > R[1][1] and R[0][0] > R[2][2]:
-    s = 2 * math.sqrt(1 + R[0][0] - R[1][1] - R[2][2]); w, x, y, z = (R[2][1] - R[1][2]) / s, s / 4, (R[0][1] + R[1][0]) / s, (R[0][2] + R[2][0]) / s
-elif R[1][1] > R[2][2]:
-    s = 2 * math.sqrt(1 + R[1][1] - R[0][0] - R[2][2]); w, x, y, z = (R[0][2] - R[2][0]) / s, (R[0][1] + R[1][0]) / s, s / 4, (R[1][2] + R[2][1]) / s
-else:
-    s = 2 * math.sqrt(1 + R[2][2] - R[0][0] - R[1][1]); w, x, y, z = (R[1][0] - R[0][1]) / s, (R[0][2] + R[2][0]) / s, (R[1][2] + R[2][1]) / s, s / 4
-print(",".join(repr(v) for v in (T[0][3], T[1][3], T[2][3], w, x, y, z)))
+def pose(T, z_offset=0.0):
+    """T's position (z moved by z_offset) and its rotation as a unit quaternion (w, x, y, z),
+    branching on the largest diagonal term."""
+    R = [row[:3] for row in T[:3]]
+    t = R[0][0] + R[1][1] + R[2][2]
+    if t > 0:
+        s = 2 * math.sqrt(1 + t); w, x, y, z = s / 4, (R[2][1] - R[1][2]) / s, (R[0][2] - R[2][0]) / s, (R[1][0] - R[0][1]) / s
+    elif R[0][0] > R[1][1] and R[0][0] > R[2][2]:
+        s = 2 * math.sqrt(1 + R[0][0] - R[1][1] - R[2][2]); w, x, y, z = (R[2][1] - R[1][2]) / s, s / 4, (R[0][1] + R[1][0]) / s, (R[0][2] + R[2][0]) / s
+    elif R[1][1] > R[2][2]:
+        s = 2 * math.sqrt(1 + R[1][1] - R[0][0] - R[2][2]); w, x, y, z = (R[0][2] - R[2][0]) / s, (R[0][1] + R[1][0]) / s, s / 4, (R[1][2] + R[2][1]) / s
+    else:
+        s = 2 * math.sqrt(1 + R[2][2] - R[0][0] - R[1][1]); w, x, y, z = (R[1][0] - R[0][1]) / s, (R[0][2] + R[2][0]) / s, (R[1][2] + R[2][1]) / s, s / 4
+    return ",".join(repr(v) for v in (T[0][3], T[1][3], T[2][3] + z_offset, w, x, y, z))
+a, b = (case["T"] for case in json.load(open(sys.argv[1]))["cases"])
+surface = b[2][3] - 0.005
+print(pose(a))
+print(f"{b[0][3]!r},{b[1][3]!r},{surface!r},0,0,1")
+print(pose(b, -0.015))
 PY
   )
-
-  echo "{\"cases\":[{\"q\":[$pose_b]}]}" >"$dir/press_case.json"
-  "$DEMO_BUILD/tools/chasles" eval --urdf "$DEMO_URDF" ${DEMO_TIP:+--tip "$DEMO_TIP"} \
-    --cases "$dir/press_case.json" >"$dir/press_pose.json"
 
   # The programme, as fractions of the run: for 16 s, moves of 1.76 s starting at 0.8, 2.7, 4.6
   # and 6.6 s, the push at 8.6 s, the compliant segment from 9.6 s.
@@ -201,28 +205,9 @@ PY
   # 10 ms (from the plant's start, which comes first): the controller's estimate crosses the
   # collision threshold and the stop reflex holds the arm until the next target.
   push="$t_push,$push_s,0.01,0,0,0,30,0,0"
-  # The table: a plane 5 mm under the tip at the second pose, the lowest point of the programme,
-  # facing up, with the plant's default stiffness 10^4 N/m. The press aims 1 cm below its surface
-  # with a Cartesian stiffness of 1000 N/m: the two springs in series press with 9.09 N.
-  local press_k=1000 table_k=10000 table press_pose
-  read -r table press_pose < <(python3 - "$dir/press_pose.json" <<'PY'
-import json, math, sys
-T = json.load(open(sys.argv[1]))["cases"][0]["T"]
-R = [row[:3] for row in T[:3]]
-t = R[0][0] + R[1][1] + R[2][2]
-if t > 0:
-    s = 2 * math.sqrt(1 + t); w, x, y, z = s / 4, (R[2][1] - R[1][2]) / s, (R[0][2] - R[2][0]) / s, (R[1][0] - R[0][1]) / s
-elif R[0][0] > R[1][1] and R[0][0] > R[2][2]:
-    s = 2 * math.sqrt(1 + R[0][0] - R[1][1] - R[2][2]); w, x, y, z = (R[2][1] - R[1][2]) / s, s / 4, (R[0][1] + R[1][0]) / s, (R[0][2] + R[2][0]) / s
-elif R[1][1] > R[2][2]:
-    s = 2 * math.sqrt(1 + R[1][1] - R[0][0] - R[2][2]); w, x, y, z = (R[0][2] - R[2][0]) / s, (R[0][1] + R[1][0]) / s, s / 4, (R[1][2] + R[2][1]) / s
-else:
-    s = 2 * math.sqrt(1 + R[2][2] - R[0][0] - R[1][1]); w, x, y, z = (R[1][0] - R[0][1]) / s, (R[0][2] + R[2][0]) / s, (R[1][2] + R[2][1]) / s, s / 4
-px, py, pz = T[0][3], T[1][3], T[2][3]
-surface = pz - 0.005
-print(f"{px!r},{py!r},{surface!r},0,0,1 " + ",".join(repr(v) for v in (px, py, surface - 0.01, w, x, y, z)))
-PY
-  )
+  # The table has the plant's default stiffness, 10^4 N/m; with a Cartesian stiffness of 1000 N/m
+  # the two springs in series press with 9.09 N.
+  local press_k=1000 table_k=10000
 
   start lcm-logger lcm-logger --lcm-url="$lcm_url" --force "$dir/chasles.lcmlog"
   start chasles_plant "$DEMO_BUILD/tools/chasles_plant" "${model[@]}" --realtime --rate 1000 --damping 0.5 --q0 "$home" \

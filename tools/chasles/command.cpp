@@ -1,5 +1,6 @@
 #include "command.hpp"
 
+#include <cctype>
 #include <stdexcept>
 #include <vector>
 
@@ -39,6 +40,25 @@ Eigen::VectorXd parse_list(const std::string& text, Eigen::Index n, const std::s
                      " (one per joint, comma-separated)");
   }
   return Eigen::Map<const Eigen::VectorXd>(values.data(), n);
+}
+
+void add_wire_options(CLI::App& command, WireOptions& wire, const std::string& what, const std::string& channel) {
+  command.add_option("--channel-prefix", wire.prefix, "The " + what + " goes out on PREFIX " + channel)
+      ->check(
+          [](const std::string& prefix) {
+            // The controller subscribes by name: only characters that match themselves in a pattern.
+            for (const char c : prefix) {
+              if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-' && c != '/') {
+                return std::string("letters, digits, '_', '-' and '/' only");
+              }
+            }
+            return std::string();
+          },
+          "")
+      ->type_name("PREFIX")
+      ->capture_default_str();
+  command.add_option("--lcm-url", wire.lcm_url, "LCM provider URL (default: $LCM_DEFAULT_URL, else LCM's default)")
+      ->type_name("URL");
 }
 
 }  // namespace chasles::cli

@@ -31,6 +31,16 @@ void add_model_options(CLI::App& command, ModelOptions& options);
 /// The model the options name; throws ModelError naming the file and the joint or link at fault.
 RobotModel load_model(const ModelOptions& options);
 
+/// Where a sending subcommand (target, mode, payload) sends: the channel prefix and the LCM URL.
+struct WireOptions {
+  std::string prefix = "CHASLES_";
+  std::string lcm_url;
+};
+
+/// Adds --channel-prefix (checked: characters that match themselves in the controller's channel
+/// names) and --lcm-url to `command`; `what` goes out on PREFIX `channel` ("target", "TARGET").
+void add_wire_options(CLI::App& command, WireOptions& wire, const std::string& what, const std::string& channel);
+
 /// A comma-separated list of exactly n finite numbers ("0.1,-2,3e-1"), the form single-shot
 /// commands take joint vectors in; `option` names it in errors ("--q").
 Eigen::VectorXd parse_list(const std::string& text, Eigen::Index n, const std::string& option);

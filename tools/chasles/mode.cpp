@@ -9,7 +9,6 @@
 // for it to answer, in its status.
 #include <lcm/lcm.h>
 
-#include <cctype>
 #include <chasles/control_mode_t.hpp>
 #include <chasles/payload_t.hpp>
 #include <cmath>
@@ -32,31 +31,6 @@ namespace chasles::cli {
 namespace {
 
 using controller::Law;
-
-// --channel-prefix and --lcm-url, as chasles target takes them.
-struct WireOptions {
-  std::string prefix = "CHASLES_";
-  std::string lcm_url;
-};
-
-void add_wire_options(CLI::App& command, WireOptions& wire, const std::string& what, const std::string& channel) {
-  command.add_option("--channel-prefix", wire.prefix, "The " + what + " goes out on PREFIX " + channel)
-      ->check(
-          [](const std::string& prefix) {
-            // The controller subscribes by regular expression: only characters that match themselves.
-            for (const char c : prefix) {
-              if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-' && c != '/') {
-                return std::string("letters, digits, '_', '-' and '/' only");
-              }
-            }
-            return std::string();
-          },
-          "")
-      ->type_name("PREFIX")
-      ->capture_default_str();
-  command.add_option("--lcm-url", wire.lcm_url, "LCM provider URL (default: $LCM_DEFAULT_URL, else LCM's default)")
-      ->type_name("URL");
-}
 
 std::vector<double> numbers(const std::string& text, const std::string& option) {
   try {

@@ -4,7 +4,6 @@
 // positive); whether the goal is reachable in time is the controller's decision.
 #include <unistd.h>
 
-#include <cctype>
 #include <charconv>
 #include <chasles/arm_target_t.hpp>
 #include <cmath>
@@ -29,8 +28,7 @@ struct TargetOptions {
   bool hold = false;
   std::string joint, pose, duration;
   ModelOptions model;
-  std::string prefix = "CHASLES_";
-  std::string lcm_url;
+  WireOptions wire;
 };
 
 // Shortest round-trip form, so a value just past a limit does not print equal to it.
@@ -155,12 +153,12 @@ std::string first_line(const std::string& text) {
 
 void send(const TargetOptions& options, const std::string& channel, const arm_target_t& target) {
   StderrCapture capture;
-  lcm::LCM lcm(options.lcm_url);
+  lcm::LCM lcm(options.wire.lcm_url);
   const std::string said = capture.release();
-  const std::string where = options.lcm_url.empty() ? std::string() : " on " + options.lcm_url;
+  const std::string where = options.wire.lcm_url.empty() ? std::string() : " on " + options.wire.lcm_url;
   if (!lcm.good()) {
     const std::string reason = first_line(said);
-    const bool multicast = options.lcm_url.empty() || options.lcm_url.rfind("udpm://", 0) == 0;
+    const bool multicast = options.wire.lcm_url.empty() || options.wire.lcm_url.rfind("udpm://", 0) == 0;
     throw InputError("cannot start LCM" + where + (reason.empty() ? "" : " (" + reason + ")") +
                      (multicast ? ": is there a multicast route? (inside tools/netns.sh use --lcm-url "
                                   "'udpm://239.255.76.67:7667?ttl=0')"
@@ -171,7 +169,7 @@ void send(const TargetOptions& options, const std::string& channel, const arm_ta
 }
 
 Json run_target(const TargetOptions& options) {
-  const std::string channel = options.prefix + "TARGET";
+  const std::string channel = options.wire.prefix + "TARGET";
   arm_target_t target{};
   target.num_joints = 0;
   target.duration = 0.0;
@@ -245,22 +243,7 @@ Command register_target(CLI::App& app) {
       ->add_option("--tip", options->model.tip,
                    "Link that ends the chain; needed when the URDF tree has several leaves")
       ->type_name("LINK");
-  command->add_option("--channel-prefix", options->prefix, "The target goes out on PREFIX TARGET")
-      ->check(
-          [](const std::string& prefix) {
-            // The controller subscribes by regular expression: only characters that match themselves.
-            for (const char c : prefix) {
-              if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-' && c != '/') {
-                return std::string("letters, digits, '_', '-' and '/' only");
-              }
-            }
-            return std::string();
-          },
-          "")
-      ->type_name("PREFIX")
-      ->capture_default_str();
-  command->add_option("--lcm-url", options->lcm_url, "LCM provider URL (default: $LCM_DEFAULT_URL, else LCM's default)")
-      ->type_name("URL");
+  add_wire_options(*command, options->wire, "target", "TARGET");
 
   // The combinations are usage errors (exit 2); the values are checked when the command runs (exit 1).
   command->parse_complete_callback([=] {
