@@ -181,6 +181,44 @@ TEST(daemon, LockstepJointMoveReachesTheTargetAndSettles) {
   std::remove(summary.c_str());
 }
 
+// Real time, state-driven, both ways of reading the wire: each process on its own socket
+// (--receive direct, the default) and through LCM's receive thread (--receive lcm). Either way a
+// JOINT move ends within 2 mrad of its goal, the commands answer the states in order, and the
+// controller's summary shows no FAULT (at --stale-ms 100, as the other tests here).
+class RealTime : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(RealTime, AJointMoveReachesItsGoalAndEveryCommandAnswersAState) {
+  Seat bus;
+  const std::string summary = temp_path(std::string("summary_") + GetParam());
+  ChildProcess plant(plant_args({"--receive", GetParam(), "--damping", "0.5", "--q0", list(bent_pose())}));
+  ChildProcess controller(controller_args({"--receive", GetParam(), "--damping", "0.5", "--summary", summary}));
+  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
+  VectorXd goal = bent_pose();
+  goal(0) += 0.3, goal(1) -= 0.2, goal(3) += 0.2;
+  bus.send_target(joint_target(goal, 1.0));
+  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::RUNNING); }, 2.0)) << controller.stderr_text();
+  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 4.0)) << controller.stderr_text();
+  bus.listen(0.3);
+  ASSERT_TRUE(bus.state.has_value());
+  EXPECT_LT((vector_of(bus.state->position) - goal).cwiseAbs().maxCoeff(), 2e-3);
+  EXPECT_EQ(controller.stop(SIGTERM), 0) << controller.stderr_text();
+  const nlohmann::json s = read_json(summary);
+  EXPECT_EQ(s["faults"].get<int64_t>(), 0) << controller.stderr_text();
+  EXPECT_EQ(s["tick"].get<std::string>(), "state");
+  // State-driven: the commands answer the states in the order they came, none a state not yet sent.
+  ASSERT_GT(bus.commands.size(), 1000u);
+  for (size_t k = 0; k < bus.commands.size(); ++k) {
+    const int64_t answered = bus.commands[k].state_seq;
+    EXPECT_GE(answered, 0);
+    EXPECT_LE(answered, bus.state->seq);
+    if (k > 0) EXPECT_GE(answered, bus.commands[k - 1].state_seq) << "command " << k;
+  }
+  std::remove(summary.c_str());
+}
+
+INSTANTIATE_TEST_SUITE_P(Receive, RealTime, ::testing::Values("direct", "lcm"),
+                         [](const ::testing::TestParamInfo<const char*>& p) { return std::string(p.param); });
+
 // A CARTESIAN move, lockstep: the IK worker plans the straight-line path, the arm follows it and
 // ends within 1 mm and 1 mrad of the goal pose.
 TEST(daemon, LockstepCartesianMoveEndsAtTheGoalPose) {
