@@ -211,7 +211,9 @@ TEST_P(RealTime, AJointMoveReachesItsGoalAndEveryCommandAnswersAState) {
     const int64_t answered = bus.commands[k].state_seq;
     EXPECT_GE(answered, 0);
     EXPECT_LE(answered, bus.state->seq);
-    if (k > 0) EXPECT_GE(answered, bus.commands[k - 1].state_seq) << "command " << k;
+    if (k > 0) {
+      EXPECT_GE(answered, bus.commands[k - 1].state_seq) << "command " << k;
+    }
   }
   std::remove(summary.c_str());
 }
