@@ -9,9 +9,12 @@
 #include <unistd.h>
 
 #include <chasles/arm_target_t.hpp>
+#include <chasles/control_mode_t.hpp>
 #include <chasles/controller_status_t.hpp>
 #include <chasles/joint_torque_command_t.hpp>
+#include <chasles/payload_t.hpp>
 #include <chasles/robot_state_t.hpp>
+#include <chasles/sim_truth_t.hpp>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -381,6 +384,103 @@ TEST(log, ExportGivesBackEveryMessageSent) {
   r = chasles({"log", "export", recording.path, "--channel", "CHASLES_TARGET", "--out", "-"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(read_csv(r.out).size(), size_t(kTargets + 1));
+}
+
+// The control laws, payloads and the simulator's truth a run records export too, every field as
+// sent: a Cartesian impedance with a posture, a joint impedance, a payload, two truths.
+TEST(log, ExportGivesBackModesPayloadsAndTruths) {
+  Recording recording("modes.lcmlog");
+  control_mode_t cartesian{};
+  cartesian.utime = 11;
+  cartesian.law = control_mode_t::CARTESIAN_IMPEDANCE;
+  cartesian.damping_ratio = 0.8;
+  for (int r = 0; r < 6; ++r) {
+    for (int c = 0; c < 6; ++c) cartesian.cartesian_stiffness[r][c] = r == c ? 100.0 * (r + 1) : 0.5 * (r + c);
+  }
+  cartesian.stiffness_frame_position[2] = 0.1;
+  cartesian.stiffness_frame_quaternion[0] = 1.0;
+  cartesian.num_posture = 7;
+  for (int i = 0; i < 7; ++i) cartesian.nullspace_posture.push_back(0.1 * i - 0.3);
+  cartesian.nullspace_stiffness = 12.5;
+  control_mode_t joint{};
+  joint.utime = 12;
+  joint.law = control_mode_t::JOINT_IMPEDANCE;
+  joint.num_joints = 7;
+  for (int i = 0; i < 7; ++i) joint.joint_stiffness.push_back(100.0 + i), joint.joint_damping.push_back(0.25 * i);
+  joint.damping_ratio = 1.0;
+  joint.stiffness_frame_quaternion[0] = 1.0;
+  payload_t payload{};
+  payload.utime = 13;
+  payload.mass = 1.5;
+  payload.centre_of_mass[0] = 0.01, payload.centre_of_mass[2] = 0.05;
+  payload.inertia[0][0] = 0.002, payload.inertia[1][1] = 0.003, payload.inertia[2][2] = 0.004;
+  recording.send("CHASLES_MODE", cartesian);
+  recording.send("CHASLES_MODE", joint);
+  recording.send("CHASLES_PAYLOAD", payload);
+  for (int k = 0; k < 2; ++k) {
+    sim_truth_t truth{};
+    truth.utime = 20 + k;
+    truth.seq = k;
+    truth.num_joints = 7;
+    for (int i = 0; i < 7; ++i) truth.tau_ext.push_back(0.5 * i + k);
+    for (int i = 0; i < 6; ++i) truth.tip_wrench_ext[i] = i - 2.5 * k;
+    truth.contact = k == 1;
+    recording.send("CHASLES_TRUTH", truth);
+  }
+  recording.finish();
+
+  const std::string csv = temp_path("modes.csv");
+  RunResult r = chasles(concat({"log", "export", recording.path, "--channel", "CHASLES_MODE", "--out", csv}, panda()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["type"], "chasles.control_mode_t");
+  auto records = csv_records(csv);
+  ASSERT_EQ(records.size(), 2u);
+  EXPECT_EQ(records[0].at("law"), "2");
+  EXPECT_EQ(number(records[0], "damping_ratio"), 0.8);
+  for (int r6 = 0; r6 < 6; ++r6) {
+    for (int c = 0; c < 6; ++c) {
+      const std::string name = "cartesian_stiffness[" + std::to_string(r6) + "][" + std::to_string(c) + "]";
+      EXPECT_EQ(number(records[0], name), cartesian.cartesian_stiffness[r6][c]) << name;
+    }
+  }
+  EXPECT_EQ(number(records[0], "stiffness_frame_position[z]"), 0.1);
+  EXPECT_EQ(number(records[0], "stiffness_frame_quaternion[w]"), 1.0);
+  EXPECT_EQ(records[0].at("num_posture"), "7");
+  EXPECT_EQ(number(records[0], "nullspace_stiffness"), 12.5);
+  EXPECT_EQ(records[0].at("joint_stiffness[" + kPandaJoints[0] + "]"), "");  // a Cartesian law has none
+  EXPECT_EQ(records[1].at("law"), "1");
+  for (int j = 0; j < 7; ++j) {
+    const std::string& name = kPandaJoints[size_t(j)];
+    EXPECT_EQ(number(records[0], "nullspace_posture[" + name + "]"), cartesian.nullspace_posture[size_t(j)]);
+    EXPECT_EQ(number(records[1], "joint_stiffness[" + name + "]"), joint.joint_stiffness[size_t(j)]);
+    EXPECT_EQ(number(records[1], "joint_damping[" + name + "]"), joint.joint_damping[size_t(j)]);
+  }
+  std::remove(csv.c_str());
+
+  r = chasles({"log", "export", recording.path, "--channel", "CHASLES_PAYLOAD", "--out", csv});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["type"], "chasles.payload_t");
+  records = csv_records(csv);
+  ASSERT_EQ(records.size(), 1u);
+  EXPECT_EQ(number(records[0], "mass"), 1.5);
+  EXPECT_EQ(number(records[0], "centre_of_mass[x]"), 0.01);
+  EXPECT_EQ(number(records[0], "centre_of_mass[z]"), 0.05);
+  EXPECT_EQ(number(records[0], "inertia[y][y]"), 0.003);
+  EXPECT_EQ(number(records[0], "inertia[x][z]"), 0.0);
+  std::remove(csv.c_str());
+
+  r = chasles({"log", "export", recording.path, "--channel", "CHASLES_TRUTH", "--out", csv});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["type"], "chasles.sim_truth_t");
+  records = csv_records(csv);
+  ASSERT_EQ(records.size(), 2u);
+  for (int k = 0; k < 2; ++k) {
+    EXPECT_EQ(records[size_t(k)].at("seq"), std::to_string(k));
+    EXPECT_EQ(number(records[size_t(k)], "tau_ext[j6]"), 0.5 * 6 + k);
+    EXPECT_EQ(number(records[size_t(k)], "tip_wrench_ext[fz]"), 5 - 2.5 * k);
+    EXPECT_EQ(records[size_t(k)].at("contact"), k == 1 ? "1" : "0");
+  }
+  std::remove(csv.c_str());
 }
 
 TEST(log, ExportRefusesWhatItCannotDo) {

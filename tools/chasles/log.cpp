@@ -163,7 +163,7 @@ Json run_export(const LogOptions& options) {
   if (type == MessageType::Unknown) {
     throw InputError(options.log + ": the messages on " + options.channel +
                      " are not of a chasles type (robot_state_t, joint_torque_command_t, arm_target_t, "
-                     "controller_status_t)");
+                     "controller_status_t, control_mode_t, payload_t, sim_truth_t)");
   }
   const std::vector<std::string> labels =
       labels_for(joints, width, "the " + type_name(type) + " messages on " + options.channel);

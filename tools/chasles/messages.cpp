@@ -1,6 +1,8 @@
 #include "messages.hpp"
 
+#include <algorithm>
 #include <charconv>
+#include <type_traits>
 #include <cmath>
 
 namespace chasles::cli {
@@ -107,20 +109,72 @@ void lay_out(const controller_status_t& m, Row& row) {
   row.add("collision", int64_t{m.collision ? 1 : 0});
   row.add("contacts", m.contacts);
   row.add("reflexes", m.reflexes);
+  row.add("law", int64_t{m.law});
+  row.add("payload_mass", m.payload_mass);
+}
+
+void lay_out(const control_mode_t& m, Row& row) {
+  row.add("utime", m.utime);
+  row.add("law", int64_t{m.law});
+  row.add("num_joints", int64_t{m.num_joints});
+  row.joints("joint_stiffness", m.joint_stiffness);
+  row.joints("joint_damping", m.joint_damping);
+  row.add("damping_ratio", m.damping_ratio);
+  for (int r = 0; r < 6; ++r) {
+    const std::string name = "cartesian_stiffness[" + std::to_string(r) + "]";
+    row.components(name.c_str(), m.cartesian_stiffness[r], "012345");
+  }
+  row.components("stiffness_frame_position", m.stiffness_frame_position, "xyz");
+  row.components("stiffness_frame_quaternion", m.stiffness_frame_quaternion, "wxyz");
+  row.add("num_posture", int64_t{m.num_posture});
+  row.joints("nullspace_posture", m.nullspace_posture);
+  row.add("nullspace_stiffness", m.nullspace_stiffness);
+}
+
+void lay_out(const payload_t& m, Row& row) {
+  row.add("utime", m.utime);
+  row.add("mass", m.mass);
+  row.components("centre_of_mass", m.centre_of_mass, "xyz");
+  for (int r = 0; r < 3; ++r) {
+    const std::string name = std::string("inertia[") + "xyz"[r] + "]";
+    row.components(name.c_str(), m.inertia[r], "xyz");
+  }
+}
+
+void lay_out(const sim_truth_t& m, Row& row) {
+  row.add("utime", m.utime);
+  row.add("seq", m.seq);
+  row.add("num_joints", int64_t{m.num_joints});
+  row.joints("tau_ext", m.tau_ext);
+  row.wrench("tip_wrench_ext", m.tip_wrench_ext);
+  row.add("contact", int64_t{m.contact ? 1 : 0});
+}
+
+// The widest joint array of a message: its num_joints (a control mode's posture may be the wider;
+// a payload has none).
+template <typename Message>
+int joints_of(const Message& m) {
+  if constexpr (std::is_same_v<Message, payload_t>) {
+    return 0;
+  } else if constexpr (std::is_same_v<Message, control_mode_t>) {
+    return std::max(m.num_joints, m.num_posture);
+  } else {
+    return m.num_joints;
+  }
 }
 
 template <typename Message>
 int count_of(const void* data, size_t size) {
   Message message;
-  return messages::decode_checked(data, size, message).empty() ? message.num_joints : -1;
+  return messages::decode_checked(data, size, message).empty() ? joints_of(message) : -1;
 }
 
 template <typename Message>
 std::string cells_of(const void* data, size_t size, const std::vector<std::string>& joints, Cells& cells) {
   Message message;
   if (std::string why = messages::decode_checked(data, size, message); !why.empty()) return why;
-  if (size_t(message.num_joints) > joints.size()) {
-    return "num_joints " + std::to_string(message.num_joints) + ", more than the " + std::to_string(joints.size()) +
+  if (size_t(joints_of(message)) > joints.size()) {
+    return "num_joints " + std::to_string(joints_of(message)) + ", more than the " + std::to_string(joints.size()) +
            " joint columns";
   }
   Row row(cells, joints);
@@ -135,6 +189,9 @@ MessageType message_type(const void* data, size_t size) {
   if (messages::starts_as<joint_torque_command_t>(data, size)) return MessageType::Command;
   if (messages::starts_as<arm_target_t>(data, size)) return MessageType::Target;
   if (messages::starts_as<controller_status_t>(data, size)) return MessageType::Status;
+  if (messages::starts_as<control_mode_t>(data, size)) return MessageType::Mode;
+  if (messages::starts_as<payload_t>(data, size)) return MessageType::Payload;
+  if (messages::starts_as<sim_truth_t>(data, size)) return MessageType::Truth;
   return MessageType::Unknown;
 }
 
@@ -144,6 +201,9 @@ std::string type_name(MessageType type) {
     case MessageType::Command: return std::string("chasles.") + joint_torque_command_t::getTypeName();
     case MessageType::Target: return std::string("chasles.") + arm_target_t::getTypeName();
     case MessageType::Status: return std::string("chasles.") + controller_status_t::getTypeName();
+    case MessageType::Mode: return std::string("chasles.") + control_mode_t::getTypeName();
+    case MessageType::Payload: return std::string("chasles.") + payload_t::getTypeName();
+    case MessageType::Truth: return std::string("chasles.") + sim_truth_t::getTypeName();
     case MessageType::Unknown: break;
   }
   return "unknown";
@@ -162,6 +222,9 @@ int joint_count(MessageType type, const void* data, size_t size) {
     case MessageType::Command: return count_of<joint_torque_command_t>(data, size);
     case MessageType::Target: return count_of<arm_target_t>(data, size);
     case MessageType::Status: return count_of<controller_status_t>(data, size);
+    case MessageType::Mode: return count_of<control_mode_t>(data, size);
+    case MessageType::Payload: return count_of<payload_t>(data, size);
+    case MessageType::Truth: return count_of<sim_truth_t>(data, size);
     case MessageType::Unknown: break;
   }
   return -1;
@@ -174,6 +237,9 @@ std::string message_cells(MessageType type, const void* data, size_t size, const
     case MessageType::Command: return cells_of<joint_torque_command_t>(data, size, joints, cells);
     case MessageType::Target: return cells_of<arm_target_t>(data, size, joints, cells);
     case MessageType::Status: return cells_of<controller_status_t>(data, size, joints, cells);
+    case MessageType::Mode: return cells_of<control_mode_t>(data, size, joints, cells);
+    case MessageType::Payload: return cells_of<payload_t>(data, size, joints, cells);
+    case MessageType::Truth: return cells_of<sim_truth_t>(data, size, joints, cells);
     case MessageType::Unknown: break;
   }
   return "not a chasles message (unknown fingerprint)";
