@@ -32,7 +32,7 @@ constexpr const char* kDefaultGroup = "239.255.76.67";
 constexpr int kDefaultPort = 7667;
 // LCM's small-message header: magic 'LC02', then a sequence number, both big-endian; then the
 // channel, NUL-terminated, and the payload. A fragment of a larger message starts with 'LC03'.
-constexpr uint32_t kShortMagic = 0x4c433032, kFragmentMagic = 0x4c433033;
+constexpr uint32_t kShortMagic = 0x4c433032;
 constexpr size_t kShortHeader = 8;
 constexpr size_t kMaxChannel = 63;             // LCM_MAX_CHANNEL_NAME_LENGTH
 constexpr size_t kMaxDatagram = 65536;         // more than UDP's 65,507-byte payload
@@ -43,6 +43,18 @@ uint32_t big_endian_u32(const uint8_t* p) {
 }
 
 }  // namespace
+
+bool parse_lcm_datagram(const uint8_t* data, size_t size, LcmDatagram& out) {
+  if (size < kShortHeader + 1 || big_endian_u32(data) != kShortMagic) return false;
+  const char* channel = reinterpret_cast<const char*>(data + kShortHeader);
+  const size_t room = std::min(size - kShortHeader, kMaxChannel + 1);
+  const size_t length = strnlen(channel, room);
+  if (length == room) return false;  // no NUL where the channel must end
+  out.channel = channel;
+  out.payload = data + kShortHeader + length + 1;
+  out.payload_size = size - kShortHeader - length - 1;
+  return true;
+}
 
 // The multicast socket of a Bus that receives directly, and its exact-name subscriptions.
 struct Bus::Direct {
@@ -119,17 +131,9 @@ struct Bus::Direct {
       n = recvmsg(fd, &message, MSG_DONTWAIT);
     } while (n < 0 && errno == EINTR);
     if (n < 0) return errno == EAGAIN || errno == EWOULDBLOCK ? 0 : -1;
-    const auto size = static_cast<size_t>(n);
-    const uint8_t* data = buffer.data();
-    if (size < kShortHeader + 1 || big_endian_u32(data) != kShortMagic || (message.msg_flags & MSG_TRUNC) != 0) {
+    LcmDatagram datagram;
+    if ((message.msg_flags & MSG_TRUNC) != 0 || !parse_lcm_datagram(buffer.data(), static_cast<size_t>(n), datagram)) {
       dropped.fetch_add(1, std::memory_order_relaxed);  // a fragment ('LC03'), or not LCM's
-      return 1;
-    }
-    const char* channel = reinterpret_cast<const char*>(data + kShortHeader);
-    const size_t room = std::min(size - kShortHeader, kMaxChannel + 1);
-    const size_t length = strnlen(channel, room);
-    if (length == room) {  // no NUL where the channel must end
-      dropped.fetch_add(1, std::memory_order_relaxed);
       return 1;
     }
     int64_t stamp_us = -1;
@@ -140,13 +144,11 @@ struct Bus::Direct {
         stamp_us = int64_t{tv.tv_sec} * 1'000'000 + tv.tv_usec;
       }
     }
-    const uint8_t* payload = data + kShortHeader + length + 1;
-    const size_t payload_size = size - kShortHeader - length - 1;
     bool heard = false;
     for (const Entry& entry : entries) {
-      if (std::strcmp(entry.channel.c_str(), channel) != 0) continue;
+      if (std::strcmp(entry.channel.c_str(), datagram.channel) != 0) continue;
       bus.arrival_utime_ = stamp_us;
-      entry.slot->handler(payload, payload_size);
+      entry.slot->handler(datagram.payload, datagram.payload_size);
       bus.arrival_utime_ = -1;
       heard = true;
     }

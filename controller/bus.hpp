@@ -28,6 +28,18 @@ typedef struct _lcm_subscription_t lcm_subscription_t;
 
 namespace chasles::controller {
 
+/// One UDP datagram read as an LCM small message (LCM's 'LC02' header, the channel NUL-terminated
+/// in at most 63 characters, the payload): the channel and the payload point into `data`. Anything
+/// else — a fragment of a larger message ('LC03'), a truncated header, a channel without its NUL,
+/// bytes that are not LCM's — is not one.
+struct LcmDatagram {
+  const char* channel = nullptr;
+  const uint8_t* payload = nullptr;
+  size_t payload_size = 0;
+};
+/// Whether `data` is one whole LCM small message, then `out` filled. Allocates nothing.
+bool parse_lcm_datagram(const uint8_t* data, size_t size, LcmDatagram& out);
+
 class Bus {
   struct Direct;  // the socket of a Bus that receives directly
 

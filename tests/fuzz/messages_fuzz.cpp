@@ -4,7 +4,9 @@
 // 3 the checked decoders for any arm (`chasles log`'s four types, control_mode_t and payload_t),
 // 4 the controller's watch for other senders on its command channel, 5 its control_mode_t receiver
 // and Controller::set_law, 6 its payload_t receiver, the model built with the payload (as the
-// daemon's worker does) and Controller::set_model. What a reader accepts must be what the contract
+// daemon's worker does) and Controller::set_model, 7 the direct Bus's reading of a UDP datagram as an
+// LCM small message (parse_lcm_datagram) and, when it is one, the state receiver on its payload.
+// What a reader accepts must be what the contract
 // promises (the arm's joint count, finite values; for the watch, a command of its own, once; for a
 // payload, a body the model can carry), and after every input the controller ticks (1 ms later,
 // with the latest state accepted) and must command finite torques within the effort limits,
@@ -13,12 +15,14 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 #include <memory>
 #include <string>
 #include <type_traits>
 #include <vector>
 
+#include "chasles/controller/bus.hpp"
 #include "chasles/controller/clock.hpp"
 #include "chasles/controller/controller.hpp"
 #include "chasles/controller/lcm_io.hpp"
@@ -172,6 +176,25 @@ void judge_a_payload(Readers& r, const uint8_t* message, int bytes) {
   r.loaded = std::move(model);  // the previous model is released only once the controller holds this one
 }
 
+// A datagram the direct Bus reads: what it takes is LCM's small-message format, its channel and
+// payload inside the datagram, end to end; the payload then goes where the state channel's would.
+void judge_a_datagram(Readers& r, const uint8_t* data, size_t size) {
+  LcmDatagram datagram;
+  if (!parse_lcm_datagram(data, size, datagram)) return;
+  FUZZ_CHECK(size >= 9 && data[0] == 'L' && data[1] == 'C' && data[2] == '0' && data[3] == '2');
+  const auto* channel = reinterpret_cast<const uint8_t*>(datagram.channel);
+  FUZZ_CHECK(channel == data + 8);
+  const size_t length = std::strlen(datagram.channel);
+  FUZZ_CHECK(length <= 63);
+  FUZZ_CHECK(datagram.payload == channel + length + 1);
+  FUZZ_CHECK(datagram.payload + datagram.payload_size == data + size);
+  if (r.state_receiver.receive(datagram.payload, datagram.payload_size, r.now_ns).empty()) {
+    JointState state(r.n);
+    FUZZ_CHECK(r.states.read(state));
+    FUZZ_CHECK(state.q.allFinite() && state.qd.allFinite());
+  }
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -180,7 +203,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   Readers& r = *readers;
   const uint8_t* message = data + 1;
   const int bytes = static_cast<int>(size - 1);
-  switch (data[0] % 7) {
+  switch (data[0] % 8) {
     case 0:
       if (r.state_receiver.receive(message, size_t(bytes), r.now_ns).empty()) {
         JointState state(r.n);
@@ -216,6 +239,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       break;
     case 6:
       judge_a_payload(r, message, bytes);
+      break;
+    case 7:
+      judge_a_datagram(r, message, size_t(bytes));
       break;
     default: {
       decode_as<robot_state_t>(message, size - 1);
