@@ -14,12 +14,12 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
-#include <lcm/lcm-cpp.hpp>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "chasles/lcmtypes/checked.hpp"
+#include "support/channel_listener.hpp"
 #include "support/process.hpp"
 #include "support/reference.hpp"
 
@@ -27,7 +27,6 @@ namespace chasles::testing {
 namespace {
 
 using nlohmann::json;
-using Clock = std::chrono::steady_clock;
 using Bytes = std::vector<uint8_t>;
 using Result = testing::RunResult;
 
@@ -44,35 +43,9 @@ Result run_cli(const std::vector<std::string>& args, const std::vector<std::stri
   return testing::run_to_completion(argv, "/dev/null", environment);
 }
 
-// The raw bytes of every message on `channel`. Subscribed through LCM's C interface: GCC 12 with
-// -fsanitize=vptr miscompiles LCM's typed C++ subscription.
-class Listener {
- public:
-  explicit Listener(const std::string& channel) : lcm_(kLcmUrl) {
-    EXPECT_TRUE(lcm_.good()) << "LCM did not start: is the test running under tools/netns.sh?";
-    lcm_subscribe(lcm_.getUnderlyingLCM(), channel.c_str(), &Listener::on_message, this);
-    lcm_.getFileno();  // the receive socket exists from here on: nothing sent later is missed
-  }
-
-  /// Everything that arrives within `seconds`; returns early once `count` messages are in.
-  const std::vector<Bytes>& listen(double seconds, size_t count = SIZE_MAX) {
-    const auto deadline = Clock::now() + std::chrono::duration<double>(seconds);
-    while (received_.size() < count) {
-      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
-      if (left <= 0) break;
-      lcm_.handleTimeout(static_cast<int>(left));
-    }
-    return received_;
-  }
-
- private:
-  static void on_message(const lcm_recv_buf_t* rbuf, const char*, void* self) {
-    const auto* data = static_cast<const uint8_t*>(rbuf->data);
-    static_cast<Listener*>(self)->received_.emplace_back(data, data + rbuf->data_size);
-  }
-
-  lcm::LCM lcm_;
-  std::vector<Bytes> received_;
+// The raw bytes of every message `chasles` sent on `channel` of the test's bus.
+struct Listener : testing::ChannelListener {
+  explicit Listener(const std::string& channel) : ChannelListener(kLcmUrl, channel) {}
 };
 
 // As the controller's ModeReceiver and PayloadReceiver decode them.

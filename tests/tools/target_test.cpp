@@ -11,11 +11,11 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <lcm/lcm-cpp.hpp>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
+#include "support/channel_listener.hpp"
 #include "support/process.hpp"
 #include "support/reference.hpp"
 
@@ -23,7 +23,6 @@ namespace chasles::testing {
 namespace {
 
 using nlohmann::json;
-using Clock = std::chrono::steady_clock;
 
 constexpr char kLcmUrl[] = "udpm://239.255.76.67:7667?ttl=0";  // the URL tools/netns.sh documents
 constexpr char kPrefix[] = "TEST_";
@@ -40,37 +39,26 @@ Result run_target(const std::vector<std::string>& args, const std::vector<std::s
   return testing::run_to_completion(argv, "/dev/null", environment);
 }
 
-// Every arm_target_t on `channel`. Subscribed through LCM's C interface: GCC 12 with
-// -fsanitize=vptr miscompiles LCM's typed C++ subscription.
+// Every arm_target_t on `channel`, decoded as sent (a malformed one fails the test).
 class Listener {
  public:
-  explicit Listener(const std::string& channel) : lcm_(kLcmUrl) {
-    EXPECT_TRUE(lcm_.good()) << "LCM did not start: is the test running under tools/netns.sh?";
-    lcm_subscribe(lcm_.getUnderlyingLCM(), channel.c_str(), &Listener::on_target, this);
-    lcm_.getFileno();  // the receive socket exists from here on: nothing sent later is missed
-  }
+  explicit Listener(const std::string& channel) : ear_(kLcmUrl, channel) {}
 
   /// Everything that arrives within `seconds`; returns early once `count` targets are in.
   const std::vector<arm_target_t>& listen(double seconds, size_t count = SIZE_MAX) {
-    const auto deadline = Clock::now() + std::chrono::duration<double>(seconds);
-    while (received_.size() < count) {
-      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
-      if (left <= 0) break;
-      lcm_.handleTimeout(static_cast<int>(left));
+    const auto& heard = ear_.listen(seconds, count);
+    for (size_t k = targets_.size(); k < heard.size(); ++k) {
+      arm_target_t target;
+      const int size = static_cast<int>(heard[k].size());
+      EXPECT_EQ(target.decode(heard[k].data(), 0, size), size) << "chasles target sent a malformed arm_target_t";
+      targets_.push_back(target);
     }
-    return received_;
+    return targets_;
   }
 
  private:
-  static void on_target(const lcm_recv_buf_t* rbuf, const char*, void* self) {
-    arm_target_t target;
-    const int size = static_cast<int>(rbuf->data_size);
-    ASSERT_EQ(target.decode(rbuf->data, 0, size), size) << "chasles target sent a malformed arm_target_t";
-    static_cast<Listener*>(self)->received_.push_back(target);
-  }
-
-  lcm::LCM lcm_;
-  std::vector<arm_target_t> received_;
+  testing::ChannelListener ear_;
+  std::vector<arm_target_t> targets_;
 };
 
 int64_t now_us() {
