@@ -119,6 +119,7 @@ ContactMonitor::ContactMonitor(const RobotModel& model, const ContactConfig& con
       observer_(model, config_.observer_gain, damping),
       data_(model),
       estimate_(model.dof()),
+      allowance_(Eigen::VectorXd::Zero(model.dof())),
       history_q_(Eigen::MatrixXd::Zero(model.dof(), static_cast<Eigen::Index>(std::ceil(kHistorySeconds / period)))),
       history_tip_(Eigen::Matrix3Xd::Zero(3, history_q_.cols())) {}
 
@@ -145,6 +146,8 @@ void ContactMonitor::update(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
   estimate_.tau_ext = observer_.update(q, qd, effort, static_cast<double>(steps) * period_);
   estimate_.wrench_tip = tip_wrench_from_torque(J_b, estimate_.tau_ext);
   estimate_.wrench_base = base_aligned_wrench(data_.T_sb, estimate_.wrench_tip);
+  allowance_base_ = allowance_.isZero(0.0) ? Vector6d::Zero()
+                                           : base_aligned_wrench(data_.T_sb, tip_wrench_from_torque(J_b, allowance_));
   classify();
 }
 
@@ -161,10 +164,14 @@ void ContactMonitor::classify() {
     if (value / contact_limit > contact.ratio) contact = {value / contact_limit, value, contact_limit, joint, what};
   };
   for (int i = 0; i < model_->dof(); ++i) {
-    consider(std::abs(estimate_.tau_ext(i)), config_.contact_torque(i), config_.collision_torque(i), i, "torque");
+    const double allowed = std::abs(allowance_(i));
+    consider(std::abs(estimate_.tau_ext(i)), config_.contact_torque(i), config_.collision_torque(i) + allowed, i,
+             "torque");
   }
-  consider(estimate_.wrench_base.tail<3>().norm(), config_.contact_force, config_.collision_force, -1, "force");
-  consider(estimate_.wrench_base.head<3>().norm(), config_.contact_moment, config_.collision_moment, -1, "moment");
+  const double force = allowance_base_.tail<3>().norm(), moment = allowance_base_.head<3>().norm();
+  consider(estimate_.wrench_base.tail<3>().norm(), config_.contact_force, config_.collision_force + force, -1, "force");
+  consider(estimate_.wrench_base.head<3>().norm(), config_.contact_moment, config_.collision_moment + moment, -1,
+           "moment");
   estimate_.collision = collision.what != nullptr;
   estimate_.contact = contact.what != nullptr;
   const Excess& e = estimate_.collision ? collision : contact;

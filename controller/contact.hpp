@@ -66,6 +66,12 @@ class ContactMonitor {
   /// periods (or steps ≤ 0), reporting no contact until it has run one. Allocates nothing.
   void update(const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& effort, int64_t steps);
   const ContactEstimate& estimate() const { return estimate_; }
+  /// The joint torque the controller's law means the arm to apply to its surroundings (an
+  /// impedance pressing on a surface; zero under computed torque and free drive): a contact still,
+  /// but no collision, so from the next update each collision threshold is raised by it — per
+  /// joint by |τ_i|, at the tip by the force and moment it makes there. Allocates nothing.
+  void set_allowance(const Eigen::VectorXd& torque) { allowance_ = torque; }
+
   /// Estimates with `model` from now on (the same chain, another payload); the observer starts
   /// again at the next state. Keeps a reference; allocates nothing.
   void set_model(const RobotModel& model);
@@ -87,6 +93,8 @@ class ContactMonitor {
   MomentumObserver observer_;
   Data data_;
   ContactEstimate estimate_;
+  Eigen::VectorXd allowance_;
+  Vector6d allowance_base_ = Vector6d::Zero();  // allowance_ as a wrench at the tip, base-aligned
   bool started_ = false;
   char reason_[160] = {};  // room for the reflex to be named after it in 192
   // The recent path: joint positions and tip positions, a ring of the newest `history_size_`.

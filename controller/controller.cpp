@@ -90,6 +90,7 @@ Controller::Controller(const RobotModel& model, const Config& config)
       law_(model.dof()),
       work_(model.dof()),
       switch_offset_(Eigen::VectorXd::Zero(model.dof())),
+      allowance_(Eigen::VectorXd::Zero(model.dof())),
       effort_limit_(model.dof()),
       rate_limit_per_tick_(model.dof()),
       q_(Eigen::VectorXd::Zero(model.dof())),
@@ -181,6 +182,7 @@ void Controller::observe(const JointState& state) {
   if (!observed_any_ || __builtin_sub_overflow(state.seq, observed_seq_, &steps)) steps = 0;
   observed_seq_ = state.seq;
   observed_any_ = true;
+  contact_.set_allowance(allowance_);
   contact_.update(state.q, state.qd, state.effort, steps);
   const ContactEstimate& e = contact_.estimate();
   if (e.contact && !in_contact_) ++contacts_;
@@ -419,6 +421,12 @@ void Controller::apply_law(int64_t now_ns) {
         free_drive(*model_, data_, work_, law_, q_, qd_, tau_);
         break;
     }
+  }
+  // What an impedance pulls with on purpose is not a collision when it presses on something.
+  if (!compliant_ && is_impedance(law_.law)) {
+    allowance_ = work_.spring;
+  } else {
+    allowance_.setZero();
   }
   if (config_.damping.size() != 0) tau_ += config_.damping.cwiseProduct(ref_.qd);
   if (switch_pending_) {

@@ -167,6 +167,7 @@ class Controller {
   LawSettings law_;
   LawWorkspace work_;
   Eigen::VectorXd switch_offset_;  // what the torque last commanded differed from the new law's
+  Eigen::VectorXd allowance_;      // the impedance's own pull at the last tick, for the contact monitor
   bool switch_pending_ = false;    // a new law: take the offset at the next commanding tick
   int64_t switch_start_ns_ = 0;
   Eigen::VectorXd effort_limit_, rate_limit_per_tick_;

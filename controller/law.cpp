@@ -80,7 +80,8 @@ LawWorkspace::LawWorkspace(int n)
       zero(Eigen::VectorXd::Zero(n)),
       null_torque(Eigen::VectorXd::Zero(n)),
       c_plus_g(Eigen::VectorXd::Zero(n)),
-      diag_M(Eigen::VectorXd::Zero(n)) {}
+      diag_M(Eigen::VectorXd::Zero(n)),
+      spring(Eigen::VectorXd::Zero(n)) {}
 
 const char* law_problem(const RobotModel& model, const LawSettings& s, char (&why)[192]) {
   const int n = model.dof();
@@ -194,8 +195,9 @@ void joint_impedance(const RobotModel& model, Data& data, LawWorkspace& work, co
   } else {
     work.null_torque = s.joint_damping;
   }
+  work.spring = K.cwiseProduct(ref.q - q) + work.null_torque.cwiseProduct(ref.qd - qd);
   tau = inverse_dynamics(model, data, q, qd, ref.qdd);  // M q̈_d + c + g
-  tau += K.cwiseProduct(ref.q - q) + work.null_torque.cwiseProduct(ref.qd - qd);
+  tau += work.spring;
 }
 
 void cartesian_impedance(const RobotModel& model, Data& data, LawWorkspace& work, const LawSettings& s,
@@ -239,7 +241,9 @@ void cartesian_impedance(const RobotModel& model, Data& data, LawWorkspace& work
   const Vector6d Jc_Minv_tau = work.Minv_JcT.transpose() * work.null_torque;  // fixed size: no heap
   const Vector6d moving_c = work.Lambda * Jc_Minv_tau;
   work.null_torque.noalias() -= work.J_c.transpose() * moving_c;
-  tau += work.null_torque + work.c_plus_g;
+  tau += work.null_torque;
+  work.spring = tau;
+  tau += work.c_plus_g;
 }
 
 void free_drive(const RobotModel& model, Data& data, LawWorkspace& work, const LawSettings& s,

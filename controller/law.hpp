@@ -90,6 +90,9 @@ struct LawWorkspace {
   Eigen::MatrixXd Minv_JcT;   ///< M⁻¹ J_cᵀ, n × 6
   Eigen::LLT<Eigen::MatrixXd> M_llt;
   Eigen::VectorXd zero, null_torque, c_plus_g, diag_M;
+  /// An impedance's own pull at the last call, τ less what compensates the arm's dynamics: K e + D ė
+  /// (joint), J_cᵀ F + N τ_null (Cartesian). The force the arm is meant to apply when it presses.
+  Eigen::VectorXd spring;
   Matrix6d Lambda = Matrix6d::Zero();  ///< the Cartesian inertia at frame c, bounded
   Vector6d xi = Vector6d::Zero(), xi_dot = Vector6d::Zero(), wrench = Vector6d::Zero();
   explicit LawWorkspace(int n = 0);

@@ -116,9 +116,8 @@ TEST(compliance, TheWallIsPressedWithTheSeriesSpringOfTheCommandedStiffness) {
       plant::SimulationOptions plant;
       plant.environment.walls = {wall};
       world.start_plant(q0, plant);
-      DaemonOptions o = options_for(model);
-      no_reflex(o, model.dof());
-      world.add_controller(o);
+      // The default thresholds: 16.7 N pressed on purpose is a contact, not a collision (15 N).
+      world.add_controller(options_for(model));
       world.run_for(0.1);
       world.recorder().publish("MODE", cartesian_mode(k));
       world.run_for(0.2);
@@ -141,8 +140,37 @@ TEST(compliance, TheWallIsPressedWithTheSeriesSpringOfTheCommandedStiffness) {
       EXPECT_LE(drift, 1e-3);
       EXPECT_LT(world.plant()->plant().qd().norm(), 1e-3) << "not at rest";
       EXPECT_EQ(c.faults(), 0);
+      EXPECT_EQ(c.reflexes(), 0) << c.reflex_reason();
+      EXPECT_GE(c.contacts(), 1);
     }
   }
+}
+
+// What an impedance presses with on purpose raises the collision thresholds by exactly that, no
+// more: holding under Cartesian impedance, a push of 30 N (twice the 15 N threshold) is a collision
+// and the reflex stops the arm, as under computed torque.
+TEST(compliance, ACollisionUnderCartesianImpedanceStillStartsTheReflex) {
+  const RobotModel& model = panda();
+  World world;
+  plant::SimulationOptions plant;
+  plant::Push push;
+  push.start = 0.8, push.duration = 0.3, push.ramp = 0.005;
+  push.wrench << 0, 0, 0, 30.0, 0, 0;
+  plant.environment.pushes = {push};
+  world.start_plant(configurations()[0], plant);
+  world.add_controller(options_for(model));
+  world.run_for(0.1);
+  world.recorder().publish("MODE", cartesian_mode(1000.0));
+  world.run_for(0.65);
+  const controller::Controller& c = world.controller().controller();
+  EXPECT_EQ(c.reflexes(), 0);
+  const bool tripped = world.run_until([&] { return c.mode() == Mode::kReflex; }, 0.1);
+  // The plant started at the World's time 0, which the push's start counts from.
+  std::printf("[ collision ] Cartesian impedance holding, 30 N push: %s after %.1f ms\n", c.reflex_reason(),
+              1e-6 * static_cast<double>(world.now()) - 1e3 * push.start);
+  EXPECT_TRUE(tripped);
+  EXPECT_EQ(c.reflexes(), 1);
+  EXPECT_EQ(c.law().law, Law::kCartesianImpedance);
 }
 
 // A 5 mm step of the Cartesian target along each base axis from five configurations: the tip gets
