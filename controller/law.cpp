@@ -81,6 +81,7 @@ LawWorkspace::LawWorkspace(int n)
       null_torque(Eigen::VectorXd::Zero(n)),
       c_plus_g(Eigen::VectorXd::Zero(n)),
       diag_M(Eigen::VectorXd::Zero(n)),
+      damping(Eigen::VectorXd::Zero(n)),
       spring(Eigen::VectorXd::Zero(n)) {}
 
 const char* law_problem(const RobotModel& model, const LawSettings& s, char (&why)[192]) {
@@ -191,11 +192,11 @@ void joint_impedance(const RobotModel& model, Data& data, LawWorkspace& work, co
   const Eigen::VectorXd& K = s.joint_stiffness;
   if (s.damping_from_ratio) {
     work.diag_M = mass_matrix(model, data, q).diagonal();
-    work.null_torque = 2.0 * s.damping_ratio * (K.cwiseProduct(work.diag_M)).cwiseSqrt();
+    work.damping = 2.0 * s.damping_ratio * (K.cwiseProduct(work.diag_M)).cwiseSqrt();
   } else {
-    work.null_torque = s.joint_damping;
+    work.damping = s.joint_damping;
   }
-  work.spring = K.cwiseProduct(ref.q - q) + work.null_torque.cwiseProduct(ref.qd - qd);
+  work.spring = K.cwiseProduct(ref.q - q) + work.damping.cwiseProduct(ref.qd - qd);
   tau = inverse_dynamics(model, data, q, qd, ref.qdd);  // M q̈_d + c + g
   tau += work.spring;
 }

@@ -90,6 +90,7 @@ struct LawWorkspace {
   Eigen::MatrixXd Minv_JcT;   ///< M⁻¹ J_cᵀ, n × 6
   Eigen::LLT<Eigen::MatrixXd> M_llt;
   Eigen::VectorXd zero, null_torque, c_plus_g, diag_M;
+  Eigen::VectorXd damping;  ///< the joint impedance's D at the last call
   /// An impedance's own pull at the last call, τ less what compensates the arm's dynamics: K e + D ė
   /// (joint), J_cᵀ F + N τ_null (Cartesian). The force the arm is meant to apply when it presses.
   Eigen::VectorXd spring;
