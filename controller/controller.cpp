@@ -162,8 +162,7 @@ bool Controller::set_law(const LawSettings& settings, int64_t now_ns) {
 void Controller::set_model(const RobotModel& model) {
   if (model.dof() != model_->dof() || &model == model_) return;
   model_ = &model;
-  contact_.set_model(model);
-  observed_any_ = false;
+  contact_.set_model(model);  // restarts the observer at the next state
 }
 
 void Controller::hold_at(const Eigen::VectorXd& q) {
