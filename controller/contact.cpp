@@ -4,7 +4,6 @@
 #include <cstdio>
 #include <limits>
 
-#include "chasles/core/kinematics/kinematics.hpp"
 
 namespace chasles::controller {
 namespace {
@@ -12,8 +11,6 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kDefaultObserverGain = 200.0;
 constexpr double kContactShareOfEffort = 0.05, kCollisionShareOfEffort = 0.15;
-// A gap longer than this many periods is a restart: the torque held over it is not known.
-constexpr int64_t kMaxGapSteps = 10;
 constexpr double kHistorySeconds = 2.0;
 
 bool positive_or_infinite(double x) { return x > 0.0; }  // false for NaN
@@ -115,9 +112,7 @@ ContactMonitor::ContactMonitor(const RobotModel& model, const ContactConfig& con
                                double period)
     : model_(&model),
       config_(filled(config, model)),
-      period_(period),
       observer_(model, config_.observer_gain, damping),
-      data_(model),
       estimate_(model.dof()),
       allowance_(Eigen::VectorXd::Zero(model.dof())),
       history_q_(Eigen::MatrixXd::Zero(model.dof(), static_cast<Eigen::Index>(std::ceil(kHistorySeconds / period)))),
@@ -125,17 +120,16 @@ ContactMonitor::ContactMonitor(const RobotModel& model, const ContactConfig& con
 
 void ContactMonitor::set_model(const RobotModel& model) {
   model_ = &model;
-  observer_.set_model(model);
-  started_ = false;
+  started_ = false;  // the new model's momentum is not the old one's
 }
 
-void ContactMonitor::update(const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& effort,
-                            int64_t steps) {
-  const Matrix6Xd& J_b = body_jacobian(*model_, data_, q);
-  estimate_.tip_position = data_.T_sb.translation();
+void ContactMonitor::update(const Data& data, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                            const Eigen::VectorXd& effort, double dt) {
+  const Matrix6Xd& J_b = data.J_b;
+  estimate_.tip_position = data.T_sb.translation();
   remember(q);
-  if (!started_ || steps <= 0 || steps > kMaxGapSteps) {
-    observer_.reset(q, qd);
+  if (!started_ || !(dt > 0.0)) {
+    observer_.reset(data, qd);
     started_ = true;
     estimate_.tau_ext.setZero();
     estimate_.wrench_tip.setZero();
@@ -143,11 +137,11 @@ void ContactMonitor::update(const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
     estimate_.contact = estimate_.collision = false;
     return;
   }
-  estimate_.tau_ext = observer_.update(q, qd, effort, static_cast<double>(steps) * period_);
+  estimate_.tau_ext = observer_.update(data, qd, effort, dt);
   estimate_.wrench_tip = tip_wrench_from_torque(J_b, estimate_.tau_ext);
-  estimate_.wrench_base = base_aligned_wrench(data_.T_sb, estimate_.wrench_tip);
+  estimate_.wrench_base = base_aligned_wrench(data.T_sb, estimate_.wrench_tip);
   allowance_base_ = allowance_.isZero(0.0) ? Vector6d::Zero()
-                                           : base_aligned_wrench(data_.T_sb, tip_wrench_from_torque(J_b, allowance_));
+                                           : base_aligned_wrench(data.T_sb, tip_wrench_from_torque(J_b, allowance_));
   classify();
 }
 

@@ -57,14 +57,17 @@ struct ContactEstimate {
 
 class ContactMonitor {
  public:
-  /// `damping` is the known viscous joint damping (empty: none); `period` the state's period, s.
-  /// Keeps a reference to the model. Throws ArgumentError (a bad config) or ObserverError.
+  /// `damping` is the known viscous joint damping (empty: none); `period` the state's nominal
+  /// period, s (it sizes the recent path kept for the retract reflex). Keeps a reference to the
+  /// model. Throws ArgumentError (a bad config) or ObserverError.
   ContactMonitor(const RobotModel& model, const ContactConfig& config, const Eigen::VectorXd& damping, double period);
 
-  /// Takes a state (q, q̇ and the torque applied over the step that ended at it) that came `steps`
-  /// periods after the previous one; the observer starts again after a gap of more than 10
-  /// periods (or steps ≤ 0), reporting no contact until it has run one. Allocates nothing.
-  void update(const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& effort, int64_t steps);
+  /// Takes a state — `data` holding the terms at its (q, q̇) (compute_tick_terms), `effort` the
+  /// torque applied over the interval that ended at it — `dt` seconds after the previous state
+  /// taken. dt ≤ 0 (a first state, a gap, a sender that restarted) starts the observer again,
+  /// reporting no contact until it has run one step. Allocates nothing.
+  void update(const Data& data, const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& effort,
+              double dt);
   const ContactEstimate& estimate() const { return estimate_; }
   /// The joint torque the controller's law means the arm to apply to its surroundings (an
   /// impedance pressing on a surface; zero under computed torque and free drive): a contact still,
@@ -89,9 +92,7 @@ class ContactMonitor {
 
   const RobotModel* model_;
   ContactConfig config_;
-  double period_;
   MomentumObserver observer_;
-  Data data_;
   ContactEstimate estimate_;
   Eigen::VectorXd allowance_;
   Vector6d allowance_base_ = Vector6d::Zero();  // allowance_ as a wrench at the tip, base-aligned

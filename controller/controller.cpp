@@ -31,6 +31,10 @@ bool is_impedance(Law law) { return law == Law::kJointImpedance || law == Law::k
 // off is a mistake (a missing component, (x, y, z, w) order), refused rather than normalised.
 constexpr double kQuaternionNormTolerance = 1e-3;
 
+// A gap between states longer than this many periods restarts the observer: the torque held over
+// it is not known.
+constexpr double kMaxGapPeriods = 10.5;
+
 void format_into(char (&buffer)[192], const char* format, va_list args) {
   std::vsnprintf(buffer, sizeof(buffer), format, args);
 }
@@ -87,6 +91,7 @@ Controller::Controller(const RobotModel& model, const Config& config)
     : model_(&model),
       config_(validated(config, model.dof())),
       data_(model),
+      data_ref_(model),
       law_(model.dof()),
       work_(model.dof()),
       switch_offset_(Eigen::VectorXd::Zero(model.dof())),
@@ -104,7 +109,8 @@ Controller::Controller(const RobotModel& model, const Config& config)
       path_(model.dof()),
       contact_(model, config_.contact, config_.damping, config_.period),
       retract_goal_(Eigen::VectorXd::Zero(model.dof())),
-      request_(model.dof()) {
+      request_(model.dof()),
+      state_period_(config_.period) {
   for (int i = 0; i < model.dof(); ++i) {
     const double effort = model.joint(i).limits.effort;
     effort_limit_(i) = effort > 0.0 ? effort : kInf;
@@ -172,21 +178,47 @@ void Controller::hold_at(const Eigen::VectorXd& q) {
 }
 
 // Every new state, whatever the mode: the observer needs each sample and the torque the arm had
-// over the step before it, ours or the plant's brake.
+// over the step before it, ours or the plant's brake. data_ holds the terms at this state.
 void Controller::observe(const JointState& state) {
   if (observed_any_ && state.seq == observed_seq_) return;
-  // Steps since the last state observed; a first state, a sender that restarted its count or a seq
-  // that does not fit (it comes off the wire) restarts the observer (steps ≤ 0).
+  // The time since the last state observed, from the states' own clock: utime, or where a sender
+  // leaves it standing, their arrival. A first state, a sender that restarted its count, a seq that
+  // does not fit (it comes off the wire) or a gap over kMaxGapPeriods restarts the observer (dt = 0).
   int64_t steps = 0;
-  if (!observed_any_ || __builtin_sub_overflow(state.seq, observed_seq_, &steps)) steps = 0;
+  double dt = 0.0;
+  if (observed_any_ && !__builtin_sub_overflow(state.seq, observed_seq_, &steps) && steps > 0) {
+    int64_t elapsed_us = 0;
+    if (!__builtin_sub_overflow(state.utime, observed_utime_, &elapsed_us) && elapsed_us > 0) {
+      dt = 1e-6 * static_cast<double>(elapsed_us);
+    } else {
+      dt = 1e-9 * static_cast<double>(state.arrival_ns - observed_arrival_ns_);
+    }
+    if (dt > 0.0 && steps == 1) track_period(dt);
+    if (!(dt <= kMaxGapPeriods * std::max(config_.period, state_period_))) dt = 0.0;
+  }
   observed_seq_ = state.seq;
+  observed_utime_ = state.utime;
+  observed_arrival_ns_ = state.arrival_ns;
   observed_any_ = true;
   contact_.set_allowance(allowance_);
-  contact_.update(state.q, state.qd, state.effort, steps);
+  contact_.update(data_, state.q, state.qd, state.effort, dt);
   const ContactEstimate& e = contact_.estimate();
   if (e.contact && !in_contact_) ++contacts_;
   in_contact_ = e.contact;
   peak_tip_force_ = std::max(peak_tip_force_, e.wrench_base.tail<3>().norm());
+}
+
+// A running mean over the first kPeriodWindow intervals, then an exponential one of that length.
+void Controller::track_period(double dt) {
+  period_intervals_ = std::min<int64_t>(period_intervals_ + 1, kPeriodWindow);
+  state_period_ += (dt - state_period_) / static_cast<double>(period_intervals_);
+  const double ratio = state_period_ / config_.period;
+  period_mismatch_ = period_intervals_ == kPeriodWindow && std::abs(ratio - 1.0) > kPeriodTolerance;
+  if (period_mismatch_) {
+    std::snprintf(period_warning_, sizeof(period_warning_),
+                  "the robot states come every %.3g ms (%.4g Hz), the configured period is %.3g ms", 1e3 * state_period_,
+                  1.0 / state_period_, 1e3 * config_.period);
+  }
 }
 
 void Controller::start_reflex(int64_t now_ns) {
@@ -293,7 +325,7 @@ bool Controller::request_cartesian(const Target& target) {
   const Eigen::Quaterniond rotation(target.quaternion(0), target.quaternion(1), target.quaternion(2),
                                     target.quaternion(3));
   if (step) {
-    const Transform& T_sb = forward_kinematics(*model_, data_, ref_.q);
+    const Transform& T_sb = forward_kinematics(*model_, data_ref_, ref_.q);
     const double distance = (target.position - T_sb.translation()).norm();
     const double angle = Eigen::AngleAxisd(rotation.normalized().toRotationMatrix() * T_sb.linear().transpose()).angle();
     if (distance > kMaxTipStep || angle > kMaxTipRotationStep) {
@@ -373,6 +405,8 @@ bool Controller::tick(int64_t now_ns, const JointState* state) {
   }
   q_ = state->q;
   qd_ = state->qd;
+  // The model's terms at this state, once: the law, the observer and the contact monitor read them.
+  compute_tick_terms(*model_, data_, q_, qd_);
   observe(*state);
 
   if (mode_ == Mode::kWaiting || mode_ == Mode::kFault) {
@@ -380,7 +414,7 @@ bool Controller::tick(int64_t now_ns, const JointState* state) {
     // what a plant applies while it brakes or waits, so the first commands do not jump.
     hold_at(q_);
     // Within the effort limits: the rate limit keeps every command between this and the law's.
-    tau_prev_ = gravity_torques(*model_, data_, q_).cwiseMax(-effort_limit_).cwiseMin(effort_limit_);
+    tau_prev_ = data_.g.cwiseMax(-effort_limit_).cwiseMin(effort_limit_);
     switch_offset_.setZero();
   }
   if ((mode_ == Mode::kRunning || mode_ == Mode::kHolding) && contact_.estimate().collision) start_reflex(now_ns);
@@ -401,10 +435,7 @@ bool Controller::tick(int64_t now_ns, const JointState* state) {
 
 void Controller::apply_law(int64_t now_ns) {
   if (compliant_) {
-    // Gravity and velocity terms compensated, every joint damped as q̈ = −k q̇: nothing holds the
-    // arm in place, so it yields to a push and stops where it is left.
-    qdd_ref_ = -contact_.config().compliant_damping * qd_;
-    tau_ = inverse_dynamics(*model_, data_, q_, qd_, qdd_ref_);
+    damped_float(*model_, data_, contact_.config().compliant_damping, qd_, qdd_ref_, tau_);
   } else {
     switch (law_.law) {
       case Law::kComputedTorque:
@@ -414,10 +445,11 @@ void Controller::apply_law(int64_t now_ns) {
         joint_impedance(*model_, data_, work_, law_, ref_, q_, qd_, tau_);
         break;
       case Law::kCartesianImpedance:
-        cartesian_impedance(*model_, data_, work_, law_, ref_, q_, qd_, tau_);
+        body_jacobian(*model_, data_ref_, ref_.q);  // frame c at the reference
+        cartesian_impedance(*model_, data_, data_ref_, work_, law_, ref_, q_, qd_, tau_);
         break;
       case Law::kFreeDrive:
-        free_drive(*model_, data_, work_, law_, q_, qd_, tau_);
+        free_drive(*model_, data_, law_, qd_, tau_);
         break;
     }
   }

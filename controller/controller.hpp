@@ -126,6 +126,19 @@ class Controller {
   const char* reflex_reason() const { return reflex_reason_; }
   /// The contact monitor's estimate at the latest state.
   const ContactEstimate& contact() const { return contact_.estimate(); }
+  /// The period of the robot states, s, measured from their utime (their arrival where a sender
+  /// leaves utime standing): the mean over the last kPeriodWindow intervals between consecutive
+  /// states; the configured period until one is measured. The observer steps by each interval.
+  double state_period() const { return state_period_; }
+  /// Why the measured period is not the configured one (over kPeriodTolerance apart, once
+  /// kPeriodWindow intervals are in), or "" when it is.
+  const char* period_warning() const { return period_mismatch_ ? period_warning_ : ""; }
+  static constexpr int64_t kPeriodWindow = 100;
+  static constexpr double kPeriodTolerance = 0.1;
+  /// The model's terms at the latest state (compute_tick_terms), and the count of their passes.
+  const Data& data() const { return data_; }
+  /// The tip pose and J_b at the reference (computed under the Cartesian law only).
+  const Data& reference_data() const { return data_ref_; }
   /// The thresholds and reflex in force (the defaults filled in from the model).
   const ContactConfig& contact_config() const { return contact_.config(); }
   /// Contacts (each time the contact flag rose) and reflexes since start; the largest estimated
@@ -153,6 +166,7 @@ class Controller {
   void fault(const char* format, ...) __attribute__((format(printf, 2, 3)));
   void hold_at(const Eigen::VectorXd& q);
   void observe(const JointState& state);
+  void track_period(double dt);
   void start_reflex(int64_t now_ns);
   bool request_cartesian(const Target& target);
   /// The reference at now_ns; finishing a motion turns RUNNING into HOLDING.
@@ -163,7 +177,8 @@ class Controller {
 
   const RobotModel* model_;
   Config config_;
-  Data data_;
+  Data data_;      // the terms at the latest state, computed once per tick
+  Data data_ref_;  // frame c at the reference, for the Cartesian law (and a Cartesian step's check)
   LawSettings law_;
   LawWorkspace work_;
   Eigen::VectorXd switch_offset_;  // what the torque last commanded differed from the new law's
@@ -178,6 +193,7 @@ class Controller {
   bool following_path_ = false;
   ContactMonitor contact_;
   int64_t observed_seq_ = 0;  // of the last state the contact monitor took, once observed_any_
+  int64_t observed_utime_ = 0, observed_arrival_ns_ = 0;
   bool observed_any_ = false;
   bool compliant_ = false, retracting_ = false, in_contact_ = false;
   Eigen::VectorXd retract_goal_;
@@ -199,6 +215,10 @@ class Controller {
   char reflex_reason_[192] = {};
   char mode_rejection_[192] = {};
   int64_t faults_ = 0, stale_ticks_ = 0, rejected_targets_ = 0, rejected_modes_ = 0;
+  double state_period_;
+  int64_t period_intervals_ = 0;
+  bool period_mismatch_ = false;
+  char period_warning_[160] = {};
 };
 
 }  // namespace chasles::controller

@@ -5,8 +5,6 @@
 #include <cstdarg>
 #include <cstdio>
 
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/kinematics/kinematics.hpp"
 #include "chasles/core/lie/se3.hpp"
 
 namespace chasles::controller {
@@ -31,13 +29,10 @@ Vector3d block_eigenvalues(const Matrix3d& block) {
   return Eigen::SelfAdjointEigenSolver<Matrix3d>(block, Eigen::EigenvaluesOnly).eigenvalues();
 }
 
-// c + g at (q, q̇), and the diagonal of M(q) with its Cholesky factor when the law needs them.
-void common_terms(const RobotModel& model, Data& data, LawWorkspace& work, const Eigen::VectorXd& q,
-                  const Eigen::VectorXd& qd, bool factor) {
-  work.c_plus_g = inverse_dynamics(model, data, q, qd, work.zero);
-  const Eigen::MatrixXd& M = mass_matrix(model, data, q);
-  work.diag_M = M.diagonal();
-  if (factor) work.M_llt.compute(M);
+// M(q) x + c + g into tau, from the tick's terms: the inverse dynamics at q̈ = x.
+void inverse_dynamics_at(const Data& data, const Eigen::VectorXd& x, Eigen::VectorXd& tau) {
+  tau.noalias() = data.M * x;
+  tau += data.bias;
 }
 
 }  // namespace
@@ -77,10 +72,7 @@ LawWorkspace::LawWorkspace(int n)
     : J_c(Matrix6Xd::Zero(6, n)),
       Minv_JcT(Eigen::MatrixXd::Zero(n, 6)),
       M_llt(n),
-      zero(Eigen::VectorXd::Zero(n)),
       null_torque(Eigen::VectorXd::Zero(n)),
-      c_plus_g(Eigen::VectorXd::Zero(n)),
-      diag_M(Eigen::VectorXd::Zero(n)),
       damping(Eigen::VectorXd::Zero(n)),
       spring(Eigen::VectorXd::Zero(n)) {}
 
@@ -179,40 +171,36 @@ Matrix6d modal_damping(const Matrix6d& Lambda, const Matrix6d& K, double zeta) {
   return Q * modal.asDiagonal() * Q.transpose();
 }
 
-void computed_torque(const RobotModel& model, Data& data, const Eigen::VectorXd& kp, const Eigen::VectorXd& kd,
-                     const Reference& ref, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
-                     Eigen::VectorXd& qdd_scratch, Eigen::VectorXd& tau) {
-  // One RNEA with q̈ = q̈_d + K_d ė + K_p e gives M q̈ + c + g.
+void computed_torque(const RobotModel& /*model*/, const Data& data, const Eigen::VectorXd& kp,
+                     const Eigen::VectorXd& kd, const Reference& ref, const Eigen::VectorXd& q,
+                     const Eigen::VectorXd& qd, Eigen::VectorXd& qdd_scratch, Eigen::VectorXd& tau) {
   qdd_scratch = ref.qdd + kd.cwiseProduct(ref.qd - qd) + kp.cwiseProduct(ref.q - q);
-  tau = inverse_dynamics(model, data, q, qd, qdd_scratch);
+  inverse_dynamics_at(data, qdd_scratch, tau);
 }
 
-void joint_impedance(const RobotModel& model, Data& data, LawWorkspace& work, const LawSettings& s,
+void joint_impedance(const RobotModel& /*model*/, const Data& data, LawWorkspace& work, const LawSettings& s,
                      const Reference& ref, const Eigen::VectorXd& q, const Eigen::VectorXd& qd, Eigen::VectorXd& tau) {
   const Eigen::VectorXd& K = s.joint_stiffness;
   if (s.damping_from_ratio) {
-    work.diag_M = mass_matrix(model, data, q).diagonal();
-    work.damping = 2.0 * s.damping_ratio * (K.cwiseProduct(work.diag_M)).cwiseSqrt();
+    work.damping = 2.0 * s.damping_ratio * (K.cwiseProduct(data.M.diagonal())).cwiseSqrt();
   } else {
     work.damping = s.joint_damping;
   }
   work.spring = K.cwiseProduct(ref.q - q) + work.damping.cwiseProduct(ref.qd - qd);
-  tau = inverse_dynamics(model, data, q, qd, ref.qdd);  // M q̈_d + c + g
+  inverse_dynamics_at(data, ref.qdd, tau);  // M q̈_d + c + g
   tau += work.spring;
 }
 
-void cartesian_impedance(const RobotModel& model, Data& data, LawWorkspace& work, const LawSettings& s,
-                         const Reference& ref, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
-                         Eigen::VectorXd& tau) {
+void cartesian_impedance(const RobotModel& model, const Data& data, const Data& data_ref, LawWorkspace& work,
+                         const LawSettings& s, const Reference& ref, const Eigen::VectorXd& q,
+                         const Eigen::VectorXd& qd, Eigen::VectorXd& tau) {
   const Transform& T_bc = s.T_tip_frame;
   // Frame c at the reference: its pose and its body twist.
-  const Matrix6Xd& J_b_d = body_jacobian(model, data, ref.q);
-  const Transform T_sd = data.T_sb * T_bc;
-  const Vector6d V_d = adjoint_inverse_times(T_bc, J_b_d * ref.qd);
+  const Transform T_sd = data_ref.T_sb * T_bc;
+  const Vector6d V_d = adjoint_inverse_times(T_bc, data_ref.J_b * ref.qd);
   // Frame c where the arm is.
-  const Matrix6Xd& J_b = body_jacobian(model, data, q);
   const Transform T_sc = data.T_sb * T_bc;
-  for (int i = 0; i < model.dof(); ++i) work.J_c.col(i) = adjoint_inverse_times(T_bc, J_b.col(i));
+  for (int i = 0; i < model.dof(); ++i) work.J_c.col(i) = adjoint_inverse_times(T_bc, data.J_b.col(i));
   const Vector6d V_c = work.J_c * qd;
   // The error as the twist that carries c to d in unit time, in frame c (MR eq. 11.16), and its
   // rate with the desired twist moved into frame c (MR eq. 11.18).
@@ -220,7 +208,7 @@ void cartesian_impedance(const RobotModel& model, Data& data, LawWorkspace& work
   work.xi = log6(T_cd);
   work.xi_dot = adjoint_times(T_cd, V_d) - V_c;
 
-  common_terms(model, data, work, q, qd, true);
+  work.M_llt.compute(data.M);
   // Λ⁻¹ = J_c M⁻¹ J_cᵀ, inverted on its eigenvectors with each eigenvalue of Λ bounded.
   work.Minv_JcT = work.J_c.transpose();
   work.M_llt.solveInPlace(work.Minv_JcT);
@@ -238,23 +226,28 @@ void cartesian_impedance(const RobotModel& model, Data& data, LawWorkspace& work
   const Eigen::VectorXd& posture = s.fixed_posture ? s.nullspace_posture : ref.q;
   const double k_n = s.nullspace_stiffness;
   work.null_torque = k_n * (posture - q) -
-                     (2.0 * s.damping_ratio * (k_n * work.diag_M).cwiseSqrt()).cwiseProduct(qd);
+                     (2.0 * s.damping_ratio * (k_n * data.M.diagonal()).cwiseSqrt()).cwiseProduct(qd);
   const Vector6d Jc_Minv_tau = work.Minv_JcT.transpose() * work.null_torque;  // fixed size: no heap
   const Vector6d moving_c = work.Lambda * Jc_Minv_tau;
   work.null_torque.noalias() -= work.J_c.transpose() * moving_c;
   tau += work.null_torque;
   work.spring = tau;
-  tau += work.c_plus_g;
+  tau += data.bias;
 }
 
-void free_drive(const RobotModel& model, Data& data, LawWorkspace& work, const LawSettings& s,
-                const Eigen::VectorXd& q, const Eigen::VectorXd& qd, Eigen::VectorXd& tau) {
-  common_terms(model, data, work, q, qd, false);
+void free_drive(const RobotModel& /*model*/, const Data& data, const LawSettings& s, const Eigen::VectorXd& qd,
+                Eigen::VectorXd& tau) {
   if (s.damping_from_ratio) {
-    tau = work.c_plus_g - LawSettings::kFreeDriveRate * work.diag_M.cwiseProduct(qd);
+    tau = data.bias - LawSettings::kFreeDriveRate * data.M.diagonal().cwiseProduct(qd);
   } else {
-    tau = work.c_plus_g - s.joint_damping.cwiseProduct(qd);
+    tau = data.bias - s.joint_damping.cwiseProduct(qd);
   }
+}
+
+void damped_float(const RobotModel& /*model*/, const Data& data, double rate, const Eigen::VectorXd& qd,
+                  Eigen::VectorXd& qdd_scratch, Eigen::VectorXd& tau) {
+  qdd_scratch = -rate * qd;
+  inverse_dynamics_at(data, qdd_scratch, tau);
 }
 
 }  // namespace chasles::controller

@@ -89,7 +89,7 @@ struct LawWorkspace {
   Matrix6Xd J_c;              ///< Jacobian of frame c, in frame c
   Eigen::MatrixXd Minv_JcT;   ///< M⁻¹ J_cᵀ, n × 6
   Eigen::LLT<Eigen::MatrixXd> M_llt;
-  Eigen::VectorXd zero, null_torque, c_plus_g, diag_M;
+  Eigen::VectorXd null_torque;
   Eigen::VectorXd damping;  ///< the joint impedance's D at the last call
   /// An impedance's own pull at the last call, τ less what compensates the arm's dynamics: K e + D ė
   /// (joint), J_cᵀ F + N τ_null (Cartesian). The force the arm is meant to apply when it presses.
@@ -104,22 +104,32 @@ struct LawWorkspace {
 /// projector stay finite and the law keeps commanding bounded torques.
 inline constexpr double kMaxCartesianInertia = 100.0;
 
-/// Computed torque into tau (one RNEA).
-void computed_torque(const RobotModel& model, Data& data, const Eigen::VectorXd& kp, const Eigen::VectorXd& kd,
+// Each law reads the terms of the tick from `data`, computed at the state (q, q̇) by
+// compute_tick_terms (M, c + g, the tip pose and J_b), and owns no Data.
+
+/// Computed torque into tau: M (q̈_d + K_d ė + K_p e) + c + g.
+void computed_torque(const RobotModel& model, const Data& data, const Eigen::VectorXd& kp, const Eigen::VectorXd& kd,
                      const Reference& ref, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                      Eigen::VectorXd& qdd_scratch, Eigen::VectorXd& tau);
 
 /// Joint impedance into tau.
-void joint_impedance(const RobotModel& model, Data& data, LawWorkspace& work, const LawSettings& settings,
+void joint_impedance(const RobotModel& model, const Data& data, LawWorkspace& work, const LawSettings& settings,
                      const Reference& ref, const Eigen::VectorXd& q, const Eigen::VectorXd& qd, Eigen::VectorXd& tau);
 
 /// Cartesian impedance with nullspace into tau; work.xi, xi_dot, wrench and Lambda hold its parts.
-void cartesian_impedance(const RobotModel& model, Data& data, LawWorkspace& work, const LawSettings& settings,
-                         const Reference& ref, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
-                         Eigen::VectorXd& tau);
+/// `data_ref` holds the tip pose and J_b at the reference q_d (body_jacobian at ref.q).
+void cartesian_impedance(const RobotModel& model, const Data& data, const Data& data_ref, LawWorkspace& work,
+                         const LawSettings& settings, const Reference& ref, const Eigen::VectorXd& q,
+                         const Eigen::VectorXd& qd, Eigen::VectorXd& tau);
 
 /// Free drive into tau.
-void free_drive(const RobotModel& model, Data& data, LawWorkspace& work, const LawSettings& settings,
-                const Eigen::VectorXd& q, const Eigen::VectorXd& qd, Eigen::VectorXd& tau);
+void free_drive(const RobotModel& model, const Data& data, const LawSettings& settings, const Eigen::VectorXd& qd,
+                Eigen::VectorXd& tau);
+
+/// The compliant reflex into tau: gravity and velocity terms compensated and every joint damped as
+/// q̈ = −rate q̇, τ = M (−rate q̇) + c + g; nothing holds the arm, so it yields to a push and stops
+/// where it is left.
+void damped_float(const RobotModel& model, const Data& data, double rate, const Eigen::VectorXd& qd,
+                  Eigen::VectorXd& qdd_scratch, Eigen::VectorXd& tau);
 
 }  // namespace chasles::controller

@@ -5,12 +5,11 @@
 #include <cmath>
 #include <string>
 
-#include "chasles/core/dynamics/dynamics.hpp"
 
 namespace chasles {
 
 MomentumObserver::MomentumObserver(const RobotModel& model, const Eigen::VectorXd& gain, const Eigen::VectorXd& damping)
-    : model_(&model), data_(model), gain_(gain), damping_(damping) {
+    : gain_(gain), damping_(damping) {
   const int n = model.dof();
   if (gain_.size() != n) {
     throw ObserverError("the observer has " + std::to_string(gain_.size()) + " gains; the arm has " + std::to_string(n) +
@@ -23,40 +22,33 @@ MomentumObserver::MomentumObserver(const RobotModel& model, const Eigen::VectorX
   if (damping_.size() != n || !damping_.allFinite() || (damping_.array() < 0.0).any()) {
     throw ObserverError("the observer's joint damping must be one finite, non-negative value per joint");
   }
-  for (Eigen::VectorXd* v : {&r_, &p_, &gamma_, &p_prev_, &gamma_prev_, &mean_}) v->setZero(n);
+  for (Eigen::VectorXd* v : {&r_, &p_prev_, &gamma_, &gamma_prev_, &mean_}) v->setZero(n);
 }
 
-void MomentumObserver::momentum_balance(const JointVector& q, const JointVector& qd, Eigen::VectorXd& p,
-                                        Eigen::VectorXd& gamma) {
-  p = momentum_terms(*model_, data_, q, qd);
-  gamma = data_.ct_qd - data_.g - damping_.cwiseProduct(qd);
+void MomentumObserver::momentum_balance(const Data& data, const JointVector& qd, Eigen::VectorXd& gamma) const {
+  gamma = data.ct_qd - data.g - damping_.cwiseProduct(qd);
 }
 
-void MomentumObserver::set_model(const RobotModel& model) {
-  if (model.dof() != model_->dof()) throw ObserverError("set_model: a model of another size");
-  model_ = &model;
-  started_ = false;
-}
-
-void MomentumObserver::reset(const JointVector& q, const JointVector& qd) {
-  momentum_balance(q, qd, p_prev_, gamma_prev_);
+void MomentumObserver::reset(const Data& data, const JointVector& qd) {
+  p_prev_ = data.p;
+  momentum_balance(data, qd, gamma_prev_);
   r_.setZero();
   started_ = true;
 }
 
-const Eigen::VectorXd& MomentumObserver::update(const JointVector& q, const JointVector& qd, const JointVector& tau,
+const Eigen::VectorXd& MomentumObserver::update(const Data& data, const JointVector& qd, const JointVector& tau,
                                                 double dt) {
   if (!started_ || !(dt > 0.0)) {
-    reset(q, qd);
+    reset(data, qd);
     return r_;
   }
-  momentum_balance(q, qd, p_, gamma_);
-  mean_ = (p_ - p_prev_) / dt - tau - 0.5 * (gamma_prev_ + gamma_);
+  momentum_balance(data, qd, gamma_);
+  mean_ = (data.p - p_prev_) / dt - tau - 0.5 * (gamma_prev_ + gamma_);
   for (int i = 0; i < r_.size(); ++i) {
     const double a = std::exp(-gain_(i) * dt);
     r_(i) = a * r_(i) + (1.0 - a) * mean_(i);
   }
-  p_prev_.swap(p_);
+  p_prev_ = data.p;
   gamma_prev_.swap(gamma_);
   return r_;
 }

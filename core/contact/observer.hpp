@@ -29,39 +29,35 @@ class ObserverError : public Error {
   using Error::Error;
 };
 
-/// The momentum observer of one arm, with its own workspace: allocates nothing after
-/// construction. Keeps a reference to the model.
+/// The momentum observer of one arm: allocates nothing after construction. It owns no Data: each
+/// sample's p = M q̇, Cᵀq̇ and g come from the caller's, computed at that sample by
+/// compute_tick_terms (a controller's tick) or momentum_terms.
 class MomentumObserver {
  public:
-  /// `gain` is K_O, 1/s, one per joint (the bandwidth of the estimate); `damping` the model's
-  /// known viscous joint damping D, N·m·s/rad or N·s/m (empty: none). Throws ObserverError.
+  /// `gain` is K_O, 1/s, one per joint of `model` (the bandwidth of the estimate); `damping` the
+  /// model's known viscous joint damping D, N·m·s/rad or N·s/m (empty: none). Throws ObserverError.
   MomentumObserver(const RobotModel& model, const Eigen::VectorXd& gain, const Eigen::VectorXd& damping = {});
 
-  /// Observes with `model` from now on: the same chain with other inertias (a payload taken or
-  /// dropped), whose Data this observer's fits. The momentum of the new model is not the old one's,
-  /// so the observer starts again at the next sample. Keeps a reference; allocates nothing.
-  void set_model(const RobotModel& model);
-
-  /// Starts (again) from the sample (q, q̇) with r = 0: the first update() integrates from here.
-  void reset(const JointVector& q, const JointVector& qd);
+  /// Starts (again) from the sample in `data` (p, Cᵀq̇ and g at (q, q̇)) with r = 0: the first
+  /// update() integrates from here.
+  void reset(const Data& data, const JointVector& qd);
   bool started() const { return started_; }
 
-  /// Takes the sample (q, q̇) reached `dt` seconds after the previous one, with τ the joint torque
-  /// applied over that interval; returns τ̂_ext = r. Before reset(), only starts.
-  const Eigen::VectorXd& update(const JointVector& q, const JointVector& qd, const JointVector& tau, double dt);
+  /// Takes the sample in `data` (p, Cᵀq̇ and g at (q, q̇)) reached `dt` seconds after the previous
+  /// one, with τ the joint torque applied over that interval; returns τ̂_ext = r. Before reset(),
+  /// or with dt ≤ 0, only starts.
+  const Eigen::VectorXd& update(const Data& data, const JointVector& qd, const JointVector& tau, double dt);
 
   /// τ̂_ext: N·m or N per joint, the torque the environment applies, positive along the joint axis.
   const Eigen::VectorXd& external_torque() const { return r_; }
   const Eigen::VectorXd& gain() const { return gain_; }
 
  private:
-  // γ = Cᵀq̇ − g − D q̇ and p at a sample, into gamma and p.
-  void momentum_balance(const JointVector& q, const JointVector& qd, Eigen::VectorXd& p, Eigen::VectorXd& gamma);
+  // γ = Cᵀq̇ − g − D q̇ at the sample in data.
+  void momentum_balance(const Data& data, const JointVector& qd, Eigen::VectorXd& gamma) const;
 
-  const RobotModel* model_;
-  Data data_;
   Eigen::VectorXd gain_, damping_;
-  Eigen::VectorXd r_, p_, gamma_, p_prev_, gamma_prev_, mean_;
+  Eigen::VectorXd r_, p_prev_, gamma_, gamma_prev_, mean_;
   bool started_ = false;
 };
 

@@ -96,6 +96,19 @@ Vector6d inertia_times_axis(const SpatialInertia& G, const Joint& joint) {
   return P;
 }
 
+// M from the composite inertias in data.composite: column i is the wrench that accelerates joint i
+// alone, carried down toward the base.
+void mass_matrix_from_composites(const RobotModel& model, Data& data) {
+  for (int i = 0; i < model.dof(); ++i) {
+    Vector6d F = inertia_times_axis(data.composite[body(i)], model.joint(i));
+    data.M(i, i) = axis_dot(model.joint(i), F);
+    for (int j = i; j > 0; --j) {
+      F = adjoint_inverse_transpose_times(data.T_local[body(j)], F);
+      data.M(j - 1, i) = data.M(i, j - 1) = axis_dot(model.joint(j - 1), F);
+    }
+  }
+}
+
 // The largest Cholesky pivot of M that is still rounding: n ε max_i M_ii.
 double singular_pivot(const Eigen::MatrixXd& M) {
   return static_cast<double>(M.rows()) * std::numeric_limits<double>::epsilon() * M.diagonal().cwiseAbs().maxCoeff();
@@ -156,6 +169,50 @@ const Eigen::VectorXd& momentum_terms(const RobotModel& model, Data& data, const
   return data.p;
 }
 
+const Data& compute_tick_terms(const RobotModel& model, Data& data, const JointVector& q, const JointVector& qd) {
+  check_joint_vector(model, qd, "qd");
+  local_transforms(model, data, q);
+  const int n = model.dof();
+  // Forward: body poses and twists, and the acceleration each body has at q̈ = 0 — the velocity
+  // product's plus gravity's, entered as the base acceleration (0, −g) (MR eq. 8.50–8.51).
+  data.Vd[0] << Vector3d::Zero(), -model.gravity();
+  for (int i = 0; i < n; ++i) {
+    const Transform& T = data.T_local[body(i)];
+    data.T_body[body(i)] = data.T_body[body(i) - 1] * T;
+    const Vector6d A_qd = axis_times(model.joint(i), qd(i));
+    data.V[body(i)] = adjoint_inverse_times(T, data.V[body(i) - 1]) + A_qd;
+    data.Vd[body(i)] = adjoint_inverse_times(T, data.Vd[body(i) - 1]) + ad_times(data.V[body(i)], A_qd);
+  }
+  data.T_sb = data.T_body[body(n - 1)] * model.T_last_tip();
+  // Backward: the wrench F that moves bodies i…n at q̈ = 0 (c + g), their momentum H (p and Cᵀq̇,
+  // as momentum_terms) and their composite inertia C_i (M). Gravity alone is a uniform acceleration
+  // of the whole subtree, so the wrench that holds bodies i…n against it is C_i (0, −R_0iᵀ g).
+  Vector6d F = Vector6d::Zero(), H = Vector6d::Zero();
+  for (int i = n - 1; i >= 0; --i) {
+    const SpatialInertia& G = model.body_inertia(i);
+    const Joint& joint = model.joint(i);
+    const Vector6d& V = data.V[body(i)];
+    const Vector6d GV = G * V;
+    F += G * data.Vd[body(i)] - ad_transpose_times(V, GV);
+    H += GV;
+    data.bias(i) = axis_dot(joint, F);
+    data.p(i) = axis_dot(joint, H);
+    data.ct_qd(i) = axis_dot(joint, ad_transpose_times(V, H));
+    SpatialInertia& C = data.composite[body(i)];
+    C = G;
+    if (i + 1 < n) add(C, to_parent(data.T_local[body(i + 1)], data.composite[body(i + 1)]));
+    Vector6d a_gravity;
+    a_gravity << Vector3d::Zero(), -(data.T_body[body(i)].linear().transpose() * model.gravity());
+    data.g(i) = axis_dot(joint, C * a_gravity);
+    F = adjoint_inverse_transpose_times(data.T_local[body(i)], F);
+    H = adjoint_inverse_transpose_times(data.T_local[body(i)], H);
+  }
+  data.c = data.bias - data.g;
+  mass_matrix_from_composites(model, data);
+  body_jacobian_from_poses(model, data);
+  return data;
+}
+
 const Eigen::MatrixXd& mass_matrix(const RobotModel& model, Data& data, const JointVector& q) {
   local_transforms(model, data, q);
   const int n = model.dof();
@@ -165,15 +222,7 @@ const Eigen::MatrixXd& mass_matrix(const RobotModel& model, Data& data, const Jo
     data.composite[body(i - 1)] = model.body_inertia(i - 1);
     add(data.composite[body(i - 1)], to_parent(data.T_local[body(i)], data.composite[body(i)]));
   }
-  // Column i: the wrench needed to accelerate joint i alone, carried down toward the base.
-  for (int i = 0; i < n; ++i) {
-    Vector6d F = inertia_times_axis(data.composite[body(i)], model.joint(i));
-    data.M(i, i) = axis_dot(model.joint(i), F);
-    for (int j = i; j > 0; --j) {
-      F = adjoint_inverse_transpose_times(data.T_local[body(j)], F);
-      data.M(j - 1, i) = data.M(i, j - 1) = axis_dot(model.joint(j - 1), F);
-    }
-  }
+  mass_matrix_from_composites(model, data);
   return data.M;
 }
 

@@ -32,6 +32,14 @@ const Eigen::VectorXd& velocity_product(const RobotModel& model, Data& data, con
 /// Σ J̇_iᵀ G_i V_i, and joint j's column moves as [Ad_T0j] ad_{V_j} A_j. Returns data.p.
 const Eigen::VectorXd& momentum_terms(const RobotModel& model, Data& data, const JointVector& q, const JointVector& qd);
 
+/// Everything a control tick needs at (q, q̇), with the joint transforms computed once (as
+/// Pinocchio's computeAllTerms): the body poses data.T_body, the tip pose data.T_sb, the body
+/// Jacobian data.J_b, the body twists data.V, the mass matrix data.M (full, symmetric), the bias
+/// data.bias = c + g with data.c and data.g apart, and the momentum-balance terms data.p = M q̇ and
+/// data.ct_qd = Cᵀ q̇ (see momentum_terms). One forward pass, one backward pass and the mass
+/// matrix's O(n²) columns; allocates nothing. Returns data.
+const Data& compute_tick_terms(const RobotModel& model, Data& data, const JointVector& q, const JointVector& qd);
+
 /// M(q) by the composite-rigid-body algorithm; the full symmetric matrix.
 const Eigen::MatrixXd& mass_matrix(const RobotModel& model, Data& data, const JointVector& q);
 

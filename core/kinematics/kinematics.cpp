@@ -1,5 +1,6 @@
 #include "chasles/core/kinematics/kinematics.hpp"
 
+#include <cassert>
 #include <cmath>
 #include <string>
 
@@ -35,6 +36,8 @@ CHASLES_ALWAYS_INLINE void rotate_about_axis(const Matrix3d& R, const Vector3d& 
 
 void local_transforms(const RobotModel& model, Data& data, const JointVector& q) {
   check_joint_vector(model, q, "q");
+  assert(model.check(data) && "a Data sized for another model");
+  ++data.passes.joint_transforms;
   for (int i = 0; i < model.dof(); ++i) {
     const Joint& joint = model.joint(i);
     Transform& T = data.T_local[static_cast<size_t>(i) + 1];
@@ -90,6 +93,11 @@ const Matrix6Xd& space_jacobian(const RobotModel& model, Data& data, const Joint
 
 const Matrix6Xd& body_jacobian(const RobotModel& model, Data& data, const JointVector& q) {
   forward_kinematics(model, data, q);
+  return body_jacobian_from_poses(model, data);
+}
+
+const Matrix6Xd& body_jacobian_from_poses(const RobotModel& model, Data& data) {
+  ++data.passes.body_jacobians;
   for (int i = 0; i < model.dof(); ++i) {
     // Joint i's axis seen from the tip: [Ad_{T_sb⁻¹ T_0i}] A_i.
     const Vector6d A_s = adjoint_times(data.T_body[static_cast<size_t>(i) + 1], model.local_axis(i));

@@ -37,4 +37,8 @@ const Matrix6Xd& space_jacobian(const RobotModel& model, Data& data, const Joint
 /// forward_kinematics.
 const Matrix6Xd& body_jacobian(const RobotModel& model, Data& data, const JointVector& q);
 
+/// The same from the poses already in data (data.T_body and data.T_sb, as forward_kinematics or
+/// compute_tick_terms leave them), without computing them again.
+const Matrix6Xd& body_jacobian_from_poses(const RobotModel& model, Data& data);
+
 }  // namespace chasles

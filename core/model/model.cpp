@@ -101,6 +101,16 @@ int RobotModel::joint_index(const std::string& name) const {
   return -1;
 }
 
+bool RobotModel::check(const Data& data) const {
+  const auto bodies = static_cast<size_t>(dof()) + 1;
+  return data.T_local.size() == bodies && data.T_body.size() == bodies && data.V.size() == bodies &&
+         data.Vd.size() == bodies && data.F.size() == bodies && data.composite.size() == bodies &&
+         data.T_link.size() == links().size() && data.J_s.cols() == dof() && data.J_b.cols() == dof() &&
+         data.M.rows() == dof() && data.M.cols() == dof() && data.tau.size() == dof() && data.g.size() == dof() &&
+         data.c.size() == dof() && data.qdd.size() == dof() && data.p.size() == dof() &&
+         data.ct_qd.size() == dof() && data.bias.size() == dof();
+}
+
 Data::Data(const RobotModel& model)
     : T_local(static_cast<size_t>(model.dof()) + 1, Transform::Identity()),
       T_body(static_cast<size_t>(model.dof()) + 1, Transform::Identity()),
@@ -119,6 +129,7 @@ Data::Data(const RobotModel& model)
       qdd(Eigen::VectorXd::Zero(model.dof())),
       p(Eigen::VectorXd::Zero(model.dof())),
       ct_qd(Eigen::VectorXd::Zero(model.dof())),
+      bias(Eigen::VectorXd::Zero(model.dof())),
       M_llt(model.dof()) {}
 
 }  // namespace chasles

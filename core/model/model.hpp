@@ -4,6 +4,7 @@
 #pragma once
 
 #include <Eigen/Cholesky>
+#include <cstdint>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -94,6 +95,8 @@ struct ChainDescription {
   std::vector<std::string> warnings;
 };
 
+struct Data;
+
 /// The immutable model of a serial chain, with the quantities of Modern Robotics ch. 4 and 8
 /// derived once: home tip pose M, home body frames M_i, space and body screw axes S_i and B_i.
 class RobotModel {
@@ -130,6 +133,11 @@ class RobotModel {
   /// Index of the joint with this name, or −1.
   int joint_index(const std::string& name) const;
 
+  /// Whether `data` was sized for a model of this shape (Pinocchio's model.check(data)): the same
+  /// number of joints and of chain links. A Data serves every model of the same chain, so one of
+  /// another payload passes. The algorithms assert it in debug builds.
+  bool check(const Data& data) const;
+
  private:
   ChainDescription d_;
   Transform M_;
@@ -164,7 +172,15 @@ struct Data {
   Eigen::VectorXd qdd;  ///< forward dynamics
   Eigen::VectorXd p;      ///< generalized momentum M(q) q̇
   Eigen::VectorXd ct_qd;  ///< Cᵀ(q, q̇) q̇, the momentum balance's velocity term
+  Eigen::VectorXd bias;   ///< c(q, q̇) + g(q): the torque that holds the arm at q̈ = 0
   Eigen::LLT<Eigen::MatrixXd> M_llt;
+
+  /// How often the joint transforms and the body Jacobian were computed into this Data since it was
+  /// built: one increment each, so a test can count what a control tick costs.
+  struct Passes {
+    int64_t joint_transforms = 0;
+    int64_t body_jacobians = 0;
+  } passes;
 };
 
 }  // namespace chasles

@@ -86,6 +86,7 @@ Matrix6d random_spd(std::mt19937& rng, double scale) {
 
 Transform tip_pose(const RobotModel& model, const VectorXd& q) {
   Data data(model);
+  Data data_ref(model);
   return forward_kinematics(model, data, q);
 }
 
@@ -93,6 +94,7 @@ Transform tip_pose(const RobotModel& model, const VectorXd& q) {
 // space Jacobian moved into frame c, J_c = [Ad_{T_sc⁻¹}] J_s.
 Matrix6Xd frame_jacobian(const RobotModel& model, const VectorXd& q, const Transform& T_bc) {
   Data data(model);
+  Data data_ref(model);
   const Matrix6Xd J_s = space_jacobian(model, data, q);
   const Transform T_sc = Transform(data.T_sb) * T_bc;
   return adjoint(inverse(T_sc)) * J_s;
@@ -100,18 +102,21 @@ Matrix6Xd frame_jacobian(const RobotModel& model, const VectorXd& q, const Trans
 
 VectorXd gravity_of(const RobotModel& model, const VectorXd& q) {
   Data data(model);
+  Data data_ref(model);
   return gravity_torques(model, data, q);
 }
 
 // c(q, q̇) + g(q) as the velocity product and the gravity torques, each by its own algorithm.
 VectorXd bias_of(const RobotModel& model, const VectorXd& q, const VectorXd& qd) {
   Data data(model);
+  Data data_ref(model);
   const VectorXd c = velocity_product(model, data, q, qd);
   return c + gravity_torques(model, data, q);
 }
 
 MatrixXd mass_of(const RobotModel& model, const VectorXd& q) {
   Data data(model);
+  Data data_ref(model);
   return mass_matrix(model, data, q);
 }
 
@@ -203,6 +208,7 @@ TEST(LawCartesianImpedance, AtRestOnTheReferenceIsGravityCompensation) {
       SCOPED_TRACE(model->name());
       const int n = model->dof();
       Data data(*model);
+      Data data_ref(*model);
       LawWorkspace work(n);
       LawSettings s = cartesian_settings(n);
       s.T_tip_frame = T_bc;
@@ -211,7 +217,9 @@ TEST(LawCartesianImpedance, AtRestOnTheReferenceIsGravityCompensation) {
       Reference ref(n);
       ref.hold(q);
       VectorXd tau(n);
-      cartesian_impedance(*model, data, work, s, ref, q, qd, tau);
+      compute_tick_terms(*model, data, q, qd);
+      body_jacobian(*model, data_ref, ref.q);
+      cartesian_impedance(*model, data, data_ref, work, s, ref, q, qd, tau);
       EXPECT_TRUE(matrices_near(tau, gravity_of(*model, q), 1e-9));
       EXPECT_TRUE(matrices_near(work.xi, Vector6d::Zero(), 1e-12));
     }
@@ -227,6 +235,7 @@ TEST(LawCartesianImpedance, StaticsAreTheJacobianTransposeOfTheSpringWrench) {
       SCOPED_TRACE(model->name());
       const int n = model->dof();
       Data data(*model);
+      Data data_ref(*model);
       LawWorkspace work(n);
       LawSettings s = cartesian_settings(n);
       s.cartesian_stiffness = coupled_stiffness();
@@ -239,7 +248,9 @@ TEST(LawCartesianImpedance, StaticsAreTheJacobianTransposeOfTheSpringWrench) {
       Reference ref(n);
       ref.hold(q_d);
       VectorXd tau(n);
-      cartesian_impedance(*model, data, work, s, ref, q, qd, tau);
+      compute_tick_terms(*model, data, q, qd);
+      body_jacobian(*model, data_ref, ref.q);
+      cartesian_impedance(*model, data, data_ref, work, s, ref, q, qd, tau);
 
       const Transform T_sc = tip_pose(*model, q) * T_bc, T_sd = tip_pose(*model, q_d) * T_bc;
       const Vector6d xi = log6(inverse(T_sc) * T_sd);
@@ -261,6 +272,7 @@ TEST(LawCartesianImpedance, TheNullspaceTorqueNeverAcceleratesFrameC) {
   const RobotModel& model = panda();
   const int n = model.dof();
   Data data(model);
+  Data data_ref(model);
   LawWorkspace work(n);
   LawSettings s = cartesian_settings(n);
   s.T_tip_frame = offset_frame();
@@ -280,7 +292,9 @@ TEST(LawCartesianImpedance, TheNullspaceTorqueNeverAcceleratesFrameC) {
     ref.hold(q);
     ref.qd = qd;  // moving with the reference: no Cartesian error and no error rate
     VectorXd tau(n);
-    cartesian_impedance(model, data, work, s, ref, q, qd, tau);
+    compute_tick_terms(model, data, q, qd);
+    body_jacobian(model, data_ref, ref.q);
+    cartesian_impedance(model, data, data_ref, work, s, ref, q, qd, tau);
     const VectorXd posture_part = tau - bias_of(model, q, qd);
     const VectorXd tau_0 =
         s.nullspace_stiffness * (s.nullspace_posture - q) -
@@ -297,6 +311,7 @@ TEST(LawCartesianImpedance, ASixJointArmHasNoNullspace) {
   const RobotModel& model = ur5();
   const int n = model.dof();
   Data data(model);
+  Data data_ref(model);
   LawWorkspace work(n);
   LawSettings s = cartesian_settings(n);
   s.fixed_posture = true;
@@ -307,7 +322,9 @@ TEST(LawCartesianImpedance, ASixJointArmHasNoNullspace) {
   Reference ref(n);
   ref.hold(q);
   VectorXd tau(n);
-  cartesian_impedance(model, data, work, s, ref, q, qd, tau);
+  compute_tick_terms(model, data, q, qd);
+  body_jacobian(model, data_ref, ref.q);
+  cartesian_impedance(model, data, data_ref, work, s, ref, q, qd, tau);
   EXPECT_TRUE(matrices_near(tau, gravity_of(model, q), 1e-9));
 }
 
@@ -335,9 +352,12 @@ TEST(LawCartesianImpedance, StaysBoundedNearAndAtTheUr5WristSingularity) {
     Reference ref(n);
     ref.hold(q_d);
     Data data(model);
+    Data data_ref(model);
     LawWorkspace work(n);
     VectorXd tau(n);
-    cartesian_impedance(model, data, work, s, ref, q, qd, tau);
+    compute_tick_terms(model, data, q, qd);
+    body_jacobian(model, data_ref, ref.q);
+    cartesian_impedance(model, data, data_ref, work, s, ref, q, qd, tau);
     ASSERT_TRUE(tau.allFinite());
 
     const Eigen::SelfAdjointEigenSolver<Matrix6d> inertia(work.Lambda);
@@ -393,9 +413,12 @@ TEST(LawCartesianImpedance, APureRotationAboutAnOffsetFrameGivesAPureMoment) {
       Reference ref(n);
       ref.hold(q_d);
       Data data(*model);
+      Data data_ref(*model);
       LawWorkspace work(n);
       VectorXd tau(n);
-      cartesian_impedance(*model, data, work, s, ref, q, qd, tau);
+      compute_tick_terms(*model, data, q, qd);
+      body_jacobian(*model, data_ref, ref.q);
+      cartesian_impedance(*model, data, data_ref, work, s, ref, q, qd, tau);
 
       const Vector3d rotation = std::abs(theta) * (R_bc.transpose() * a);
       Vector6d xi;
@@ -430,10 +453,12 @@ TEST(LawJointImpedance, IsStiffnessDampingFeedforwardAndBias) {
     const MatrixXd M = mass_of(*model, q);
     const VectorXd bias = bias_of(*model, q, qd), e = ref.q - q, e_dot = ref.qd - qd;
     Data data(*model);
+    Data data_ref(*model);
     LawWorkspace work(n);
     VectorXd tau(n);
 
     const VectorXd D = 2.0 * 0.8 * (s.joint_stiffness.cwiseProduct(M.diagonal())).cwiseSqrt();
+    compute_tick_terms(*model, data, q, qd);
     joint_impedance(*model, data, work, s, ref, q, qd, tau);
     const VectorXd expected = s.joint_stiffness.cwiseProduct(e) + D.cwiseProduct(e_dot) + M * ref.qdd + bias;
     EXPECT_TRUE(matrices_near(tau, expected, 1e-9));
@@ -441,6 +466,7 @@ TEST(LawJointImpedance, IsStiffnessDampingFeedforwardAndBias) {
     s.damping_from_ratio = false;
     s.joint_damping = seeded(n, 27, 0.0, 30.0);
     ASSERT_EQ(problem(*model, s), "");
+    compute_tick_terms(*model, data, q, qd);
     joint_impedance(*model, data, work, s, ref, q, qd, tau);
     const VectorXd explicit_expected =
         s.joint_stiffness.cwiseProduct(e) + s.joint_damping.cwiseProduct(e_dot) + M * ref.qdd + bias;
@@ -459,18 +485,22 @@ TEST(LawFreeDrive, IsBiasCompensationMinusDamping) {
     s.law = Law::kFreeDrive;
     ASSERT_EQ(problem(*model, s), "");
     Data data(*model);
+    Data data_ref(*model);
     LawWorkspace work(n);
     VectorXd tau(n);
-    free_drive(*model, data, work, s, q, qd, tau);
+    compute_tick_terms(*model, data, q, qd);
+    free_drive(*model, data, s, qd, tau);
     EXPECT_TRUE(matrices_near(tau, bias - LawSettings::kFreeDriveRate * M.diagonal().cwiseProduct(qd), 1e-9));
 
     s.damping_from_ratio = false;
     s.joint_damping = seeded(n, 33, 0.5, 20.0);
     ASSERT_EQ(problem(*model, s), "");
-    free_drive(*model, data, work, s, q, qd, tau);
+    compute_tick_terms(*model, data, q, qd);
+    free_drive(*model, data, s, qd, tau);
     EXPECT_TRUE(matrices_near(tau, bias - s.joint_damping.cwiseProduct(qd), 1e-9));
 
-    free_drive(*model, data, work, s, q, VectorXd::Zero(n), tau);
+    compute_tick_terms(*model, data, q, VectorXd::Zero(n));
+    free_drive(*model, data, s, VectorXd::Zero(n), tau);
     EXPECT_TRUE(matrices_near(tau, gravity_of(*model, q), 1e-9)) << "at rest it only holds the arm up";
   }
 }
@@ -495,6 +525,7 @@ TEST(LawFunctions, NoneAllocates) {
     posture.nullspace_posture = q;
     posture.T_tip_frame = offset_frame();
     Data data(*model);
+    Data data_ref(*model);
     LawWorkspace work(n);
     VectorXd tau(n), scratch(n);
     const char* const names[] = {"computed torque", "joint impedance", "Cartesian impedance",
@@ -506,19 +537,26 @@ TEST(LawFunctions, NoneAllocates) {
         for (int k = 0; k < 10; ++k) {
           switch (law) {
             case 0:
+              compute_tick_terms(*model, data, q, qd);
               computed_torque(*model, data, kp, kd, ref, q, qd, scratch, tau);
               break;
             case 1:
+              compute_tick_terms(*model, data, q, qd);
               joint_impedance(*model, data, work, joint, ref, q, qd, tau);
               break;
             case 2:
-              cartesian_impedance(*model, data, work, cartesian, ref, q, qd, tau);
+              compute_tick_terms(*model, data, q, qd);
+              body_jacobian(*model, data_ref, ref.q);
+              cartesian_impedance(*model, data, data_ref, work, cartesian, ref, q, qd, tau);
               break;
             case 3:
-              cartesian_impedance(*model, data, work, posture, ref, q, qd, tau);
+              compute_tick_terms(*model, data, q, qd);
+              body_jacobian(*model, data_ref, ref.q);
+              cartesian_impedance(*model, data, data_ref, work, posture, ref, q, qd, tau);
               break;
             default:
-              free_drive(*model, data, work, drive, q, qd, tau);
+              compute_tick_terms(*model, data, q, qd);
+              free_drive(*model, data, drive, qd, tau);
           }
         }
         allocations = counter.count();
@@ -700,20 +738,26 @@ class LawController : public ::testing::Test {
   // The torque `settings` commands at this state and reference, computed afresh.
   VectorXd law_torque(const LawSettings& s, const Reference& ref, const VectorXd& q, const VectorXd& qd) const {
     Data data(model_);
+    Data data_ref(model_);
     LawWorkspace work(7);
     VectorXd tau(7), scratch(7);
     switch (s.law) {
       case Law::kComputedTorque:
+        compute_tick_terms(model_, data, q, qd);
         computed_torque(model_, data, config_.kp, config_.kd, ref, q, qd, scratch, tau);
         break;
       case Law::kJointImpedance:
+        compute_tick_terms(model_, data, q, qd);
         joint_impedance(model_, data, work, s, ref, q, qd, tau);
         break;
       case Law::kCartesianImpedance:
-        cartesian_impedance(model_, data, work, s, ref, q, qd, tau);
+        compute_tick_terms(model_, data, q, qd);
+        body_jacobian(model_, data_ref, ref.q);
+        cartesian_impedance(model_, data, data_ref, work, s, ref, q, qd, tau);
         break;
       case Law::kFreeDrive:
-        free_drive(model_, data, work, s, q, qd, tau);
+        compute_tick_terms(model_, data, q, qd);
+        free_drive(model_, data, s, qd, tau);
         break;
     }
     return tau;
@@ -779,6 +823,31 @@ TEST_F(LawController, ASwitchBetweenAnyTwoLawsMidMotionFadesInWithoutAJump) {
         EXPECT_GT(largest_offset, 0.01) << "the laws must differ for the fade to be tested";
       }
     }
+  }
+}
+
+// What a tick costs in the model's terms: the joint transforms and J_b once at the state, for every
+// law, and once more at the reference under the Cartesian law (frame c's desired pose), whatever the
+// observer, the contact monitor and the law read of them.
+TEST_F(LawController, EveryTickComputesTheJointTransformsOnceAndJbOnce) {
+  VectorXd goal = q0_;
+  goal(1) += 0.3;
+  for (Law law : kLaws) {
+    SCOPED_TRACE(to_string(law));
+    Controller controller(model_, config_);
+    ASSERT_TRUE(controller.tick(0, moving(0)));
+    ASSERT_TRUE(controller.set_law(settings(law), 0)) << controller.mode_rejection();
+    if (law != Law::kFreeDrive) {
+      ASSERT_TRUE(controller.set_target(joint_target(goal, 2.0), 0));
+    }
+    const Data::Passes at_state = controller.data().passes, at_reference = controller.reference_data().passes;
+    for (int64_t t = kMs; t <= 200 * kMs; t += kMs) ASSERT_TRUE(controller.tick(t, moving(t)));
+    ASSERT_NE(controller.mode(), Mode::kReflex) << controller.reflex_reason();
+    const bool cartesian = law == Law::kCartesianImpedance;
+    EXPECT_EQ(controller.data().passes.joint_transforms - at_state.joint_transforms, 200);
+    EXPECT_EQ(controller.data().passes.body_jacobians - at_state.body_jacobians, 200);
+    EXPECT_EQ(controller.reference_data().passes.joint_transforms - at_reference.joint_transforms, cartesian ? 200 : 0);
+    EXPECT_EQ(controller.reference_data().passes.body_jacobians - at_reference.body_jacobians, cartesian ? 200 : 0);
   }
 }
 
@@ -882,6 +951,7 @@ TEST_F(LawController, ADurationOfZeroStepsTheEquilibriumOnlyUnderAnImpedanceLaw)
 // m g, and τ_i = −m (v_i + ω_i × p) · g with (ω_i, v_i) the i-th column of J_s.
 VectorXd payload_gravity(const RobotModel& model, const VectorXd& q, const Payload& payload) {
   Data data(model);
+  Data data_ref(model);
   const Matrix6Xd J_s = space_jacobian(model, data, q);
   const Vector3d p = Transform(data.T_sb) * payload.centre;
   VectorXd tau(model.dof());

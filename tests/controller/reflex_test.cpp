@@ -56,6 +56,9 @@ class Reflexes : public ::testing::Test {
     return &state_;
   }
 
+  // The terms at a state, as the controller computes them before its monitor reads them.
+  const Data& terms(const JointState& s) { return compute_tick_terms(model_, data_, s.q, s.qd); }
+
   RobotModel model_;
   Data data_;
   Config config_;
@@ -74,10 +77,10 @@ TEST_F(Reflexes, ThresholdsAreCrossedWhenTheLagOfAForceStepSaysAndTheReasonNames
   F.tail<3>() << 0.0, 20.0, 0.0;
   const VectorXd tau_ext = torque_of(q0_, F);
   const JointState* s = still(0, q0_, VectorXd::Zero(7));
-  monitor.update(s->q, s->qd, s->effort, 0);
+  monitor.update(terms(*s), s->q, s->qd, s->effort, 0.0);
   for (int k = 1; k <= 20; ++k) {
     s = still(k, q0_, tau_ext);
-    monitor.update(s->q, s->qd, s->effort, 1);
+    monitor.update(terms(*s), s->q, s->qd, s->effort, 1e-3);
     const ContactEstimate& e = monitor.estimate();
     const double expected = 20.0 * (1.0 - std::exp(-0.2 * k));
     EXPECT_NEAR(e.wrench_base(4), expected, 1e-9) << "sample " << k;
@@ -103,7 +106,7 @@ TEST_F(Reflexes, AJointOverItsThresholdIsNamed) {
   tau_ext(4) = -4.0;
   for (int k = 0; k <= 50; ++k) {
     const JointState* s = still(k, q0_, k == 0 ? VectorXd::Zero(7) : tau_ext);
-    monitor.update(s->q, s->qd, s->effort, k == 0 ? 0 : 1);
+    monitor.update(terms(*s), s->q, s->qd, s->effort, k == 0 ? 0.0 : 1e-3);
   }
   EXPECT_TRUE(monitor.estimate().collision);
   EXPECT_EQ(std::string(monitor.reason()).rfind("collision: joint " + model_.joint(4).name + " external torque 4 over 1.8",
@@ -223,6 +226,59 @@ TEST_F(Reflexes, TheRetractReflexGoesBackAlongTheTipsPath) {
   EXPECT_TRUE(matrices_near(controller.reference().q, path[back], 1e-12));
   EXPECT_GE((tips.back() - forward_kinematics(model_, data_, controller.reference().q).translation()).norm(), 0.01);
   EXPECT_EQ(controller.mode(), Mode::kReflex) << "holds there until a new target";
+}
+
+// The observer steps by the time between the states, from their utime, not by the configured
+// period: a plant at 200 Hz under a controller configured for 1 kHz (ticking five times a state)
+// still gives τ̂_ext = (1 − e^{−K t}) τ_ext at every state, and is reported once the mean of 100
+// intervals is in. A sender that leaves utime at 0 is timed by the states' arrival.
+TEST_F(Reflexes, TheObserverStepsByTheStatesOwnClockAndAnotherRateIsReported) {
+  config_.contact.contact_torque = config_.contact.collision_torque = VectorXd::Constant(7, kInf);
+  config_.contact.contact_force = config_.contact.collision_force = kInf;
+  config_.contact.contact_moment = config_.contact.collision_moment = kInf;
+  VectorXd tau_ext = VectorXd::Zero(7);
+  tau_ext << 2.0, -3.0, 1.5, 4.0, -0.5, 0.7, 0.2;
+  for (const bool with_utime : {true, false}) {
+    SCOPED_TRACE(with_utime ? "timed by utime" : "timed by arrival");
+    Controller controller(model_, config_);
+    for (int64_t k = 0; k <= 120; ++k) {
+      JointState s = *still(k, q0_, k == 0 ? VectorXd::Zero(7) : tau_ext);
+      s.utime = with_utime ? 1'700'000'000'000'000 + 5000 * k : 0;
+      s.arrival_ns = 5 * k * kMs;
+      for (int64_t tick = 0; tick < 5; ++tick) ASSERT_TRUE(controller.tick(s.arrival_ns + tick * kMs, &s));
+      const double t = 0.005 * static_cast<double>(k);
+      ASSERT_TRUE(matrices_near(controller.contact().tau_ext, (1.0 - std::exp(-200.0 * t)) * tau_ext, 1e-9))
+          << "state " << k;
+      EXPECT_STREQ(controller.period_warning(), k < 100 ? "" : "the robot states come every 5 ms (200 Hz), the "
+                                                              "configured period is 1 ms")
+          << "state " << k;
+    }
+    EXPECT_NEAR(controller.state_period(), 0.005, 1e-15);
+  }
+}
+
+// Moving at constant velocity through states 5 ms apart, the applied effort the trapezoid of the
+// torque that moves it so: no external torque, to the trapezoid rule's error. Stepping by the
+// configured 1 ms instead would read five times the change of momentum per second.
+TEST_F(Reflexes, AMovingArmAt200HzFeelsNoExternalTorque) {
+  Controller controller(model_, config_);
+  const VectorXd qd = VectorXd::LinSpaced(7, 0.3, -0.3);
+  const VectorXd zero = VectorXd::Zero(7);
+  VectorXd previous_bias;
+  double worst = 0.0;
+  for (int64_t k = 0; k <= 200; ++k) {
+    JointState s = *still(k, q0_ + 0.005 * static_cast<double>(k) * qd, zero);
+    s.qd = qd;
+    const VectorXd bias = inverse_dynamics(model_, data_, s.q, s.qd, zero);
+    s.effort = k == 0 ? bias : VectorXd(0.5 * (previous_bias + bias));
+    previous_bias = bias;
+    s.utime = 5000 * k;
+    s.arrival_ns = 5 * k * kMs;
+    ASSERT_TRUE(controller.tick(s.arrival_ns, &s));
+    worst = std::max(worst, controller.contact().tau_ext.cwiseAbs().maxCoeff());
+  }
+  EXPECT_LT(worst, 2e-4) << "N*m";
+  EXPECT_NE(std::string(controller.period_warning()), "");
 }
 
 TEST_F(Reflexes, ObservingAndReflexesAllocateNothing) {

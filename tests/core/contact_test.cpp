@@ -29,6 +29,7 @@ class Contact : public ::testing::TestWithParam<Robot> {
     options.tip_link = GetParam().tip;
     model_ = std::make_unique<RobotModel>(load_urdf_file(testing::data_path(GetParam().name + ".urdf"), options));
     data_ = std::make_unique<Data>(*model_);
+    sample_data_ = std::make_unique<Data>(*model_);
   }
   int n() const { return model_->dof(); }
 
@@ -62,8 +63,14 @@ class Contact : public ::testing::TestWithParam<Robot> {
     }
   }
 
+  // The observer's input at a sample: p, Cᵀq̇ and g in a Data of its own.
+  const Data& sample(const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
+    momentum_terms(*model_, *sample_data_, q, qd);
+    return *sample_data_;
+  }
+
   std::unique_ptr<RobotModel> model_;
-  std::unique_ptr<Data> data_;
+  std::unique_ptr<Data> data_, sample_data_;
 };
 
 TEST_P(Contact, MomentumTermsAreMqdTheTransposedCoriolisTermAndGravity) {
@@ -105,7 +112,7 @@ TEST_P(Contact, ResidualFollowsTheFirstOrderLagOfTheExternalTorque) {
   const Eigen::VectorXd damping = 0.3 * M_diagonal;  // velocity time constants of about 3 s
   const Eigen::VectorXd gain = Eigen::VectorXd::Constant(n(), 40.0);
   MomentumObserver observer(*model_, gain, damping);
-  observer.reset(q, qd);
+  observer.reset(sample(q, qd), qd);
 
   const double T = 1e-3;
   double t = 0.0, worst = 0.0, sample_dt = 0.0;
@@ -119,7 +126,7 @@ TEST_P(Contact, ResidualFollowsTheFirstOrderLagOfTheExternalTorque) {
     integrate(q, qd, tau + tau_ext, damping, T, 8);
     t += T, sample_dt += T;
     if (k % 7 == 3) continue;  // a lost sample: the controller holds its torque another step
-    observer.update(q, qd, tau, sample_dt);
+    observer.update(sample(q, qd), qd, tau, sample_dt);
     sample_dt = 0.0;
     const Eigen::VectorXd expected = (1.0 - std::exp(-40.0 * t)) * tau_ext;
     worst = std::max(worst, (observer.external_torque() - expected).cwiseAbs().maxCoeff());
@@ -152,7 +159,7 @@ TEST_P(Contact, TipWrenchRecoversThePushOnAnArmAtRest) {
   const Eigen::VectorXd tau_ext = J_b.transpose() * F_tip;
 
   MomentumObserver observer(*model_, Eigen::VectorXd::Constant(n(), 50.0));
-  observer.reset(q, qd);
+  observer.reset(sample(q, qd), qd);
   const Eigen::VectorXd g = gravity_torques(*model_, *data_, q);
   for (int k = 0; k < 1000; ++k) {
     // Held by g − τ_ext: the arm stays where it is, so the estimate is the lag of τ_ext alone.
@@ -160,7 +167,7 @@ TEST_P(Contact, TipWrenchRecoversThePushOnAnArmAtRest) {
     Eigen::VectorXd q_next = q, qd_next = qd;
     integrate(q_next, qd_next, tau + tau_ext, Eigen::VectorXd::Zero(n()), 1e-3, 1);
     ASSERT_LT((q_next - q).norm(), 1e-12);
-    observer.update(q_next, qd_next, tau, 1e-3);
+    observer.update(sample(q_next, qd_next), qd_next, tau, 1e-3);
   }
   const Eigen::VectorXd& r = observer.external_torque();
   EXPECT_LT((r - tau_ext).norm(), 1e-9 * (1.0 + tau_ext.norm()));  // e^{−50} of the way left
@@ -184,13 +191,13 @@ TEST_P(Contact, ObserverAndWrenchAllocateNothing) {
   std::mt19937_64 rng(2);
   random_state(rng, q, qd);
   MomentumObserver observer(*model_, Eigen::VectorXd::Constant(n(), 30.0));
-  observer.reset(q, qd);
+  observer.reset(sample(q, qd), qd);
   const Eigen::VectorXd tau = Eigen::VectorXd::Ones(n());
   body_jacobian(*model_, *data_, q);
   Vector6d F = Vector6d::Zero();
   {
     testing::AllocationCounter counter;
-    observer.update(q, qd, tau, 1e-3);
+    observer.update(sample(q, qd), qd, tau, 1e-3);
     F = tip_wrench_from_torque(data_->J_b, observer.external_torque());
     EXPECT_EQ(counter.count(), 0);
   }

@@ -86,6 +86,58 @@ TEST_P(ReferenceDynamics, MatchesTheReference) {
   std::cout << GetParam().name << ": max relative error over tau, M, g, c = " << worst << "\n";
 }
 
+// One pass gives what the control tick needs, each term as the independent library computes it.
+TEST_P(ReferenceDynamics, TickTermsMatchTheReference) {
+  const auto ref = testing::load_reference(GetParam().name);
+  for (size_t k = 0; k < ref.cases.size(); ++k) {
+    SCOPED_TRACE("case " + std::to_string(k));
+    const auto& c = ref.cases[k];
+    const Data& d = compute_tick_terms(*model_, *data_, c.q, c.qd);
+    EXPECT_TRUE(matrices_near_relative(d.M, c.M, 1e-9));
+    EXPECT_TRUE(matrices_near_relative(d.g, c.g, 1e-9));
+    EXPECT_TRUE(matrices_near_relative(d.c, c.c, 1e-9));
+    EXPECT_TRUE(matrices_near_relative(d.bias, c.c + c.g, 1e-9));
+    EXPECT_TRUE(matrices_near_relative(Eigen::VectorXd(d.M * c.qdd + d.bias), c.tau, 1e-9));
+    EXPECT_TRUE(matrices_near_relative(d.J_b, c.J_b, 1e-9));
+    EXPECT_TRUE(matrices_near_relative(d.p, c.M * c.qd, 1e-9));
+  }
+}
+
+// compute_tick_terms against the algorithms one by one, and what it costs: one pass of the joint
+// transforms and one body Jacobian, however many terms it fills.
+TEST_P(Dynamics, TickTermsAreTheSeparateAlgorithmsInOnePass) {
+  Data separate(*model_);
+  for (const auto& s : random_states(20)) {
+    const Data::Passes before = data_->passes;
+    const Data& d = compute_tick_terms(*model_, *data_, s.q, s.qd);
+    EXPECT_EQ(d.passes.joint_transforms - before.joint_transforms, 1);
+    EXPECT_EQ(d.passes.body_jacobians - before.body_jacobians, 1);
+    const double scale = 1.0 + s.qd.squaredNorm();
+    EXPECT_TRUE(matrices_near_relative(d.M, mass_matrix(*model_, separate, s.q), 1e-12));
+    EXPECT_TRUE(matrices_near(d.M, d.M.transpose(), 0.0));
+    EXPECT_TRUE(matrices_near_relative(d.g, gravity_torques(*model_, separate, s.q), 1e-12));
+    EXPECT_TRUE(matrices_near_relative(d.c, velocity_product(*model_, separate, s.q, s.qd), 1e-12 * scale));
+    const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model_->dof());
+    EXPECT_TRUE(matrices_near_relative(d.bias, inverse_dynamics(*model_, separate, s.q, s.qd, zero), 1e-12 * scale));
+    momentum_terms(*model_, separate, s.q, s.qd);
+    EXPECT_TRUE(matrices_near_relative(d.p, separate.p, 1e-12));
+    EXPECT_TRUE(matrices_near_relative(d.ct_qd, separate.ct_qd, 1e-12 * scale));
+    EXPECT_TRUE(matrices_near_relative(d.J_b, body_jacobian(*model_, separate, s.q), 1e-12));
+    EXPECT_TRUE(matrices_near(d.T_sb.matrix(), separate.T_sb.matrix(), 1e-12));
+    for (size_t i = 0; i < d.T_body.size(); ++i) {
+      EXPECT_TRUE(matrices_near(d.T_body[i].matrix(), separate.T_body[i].matrix(), 1e-12)) << "body " << i;
+    }
+  }
+}
+
+TEST_P(Dynamics, ModelChecksTheSizesOfData) {
+  EXPECT_TRUE(model_->check(*data_));
+  const RobotModel other = load_urdf_file(testing::data_path(model_->dof() == 6 ? "panda.urdf" : "ur5.urdf"),
+                                          UrdfOptions{model_->dof() == 6 ? "panda_hand" : "tool0"});
+  EXPECT_FALSE(other.check(*data_)) << "a Data of " << model_->dof() << " joints passed for " << other.dof();
+  EXPECT_TRUE(other.check(Data(other)));
+}
+
 TEST_P(Dynamics, MassMatrixIsSymmetricPositiveDefiniteAndEqualsRneaColumns) {
   const int n = model_->dof();
   for (const auto& s : random_states(20)) {
@@ -196,6 +248,7 @@ TEST_P(Dynamics, AllocatesNothing) {
     forward_dynamics(*model_, *data_, s.q, s.qd, s.qdd, F_tip);
     kinetic_energy(*model_, *data_, s.q, s.qd);
     potential_energy(*model_, *data_, s.q);
+    compute_tick_terms(*model_, *data_, s.q, s.qd);
   }
   EXPECT_EQ(counter.count(), 0);
 }

@@ -54,12 +54,16 @@ int64_t Simulation::max_command_lag() const {
   return static_cast<int64_t>(std::ceil(lag_ms * 1e-3 * options_.rate_hz));
 }
 
-void Simulation::start() { publish_state(clock_.now_ns()); }
+void Simulation::start() {
+  start_utime_ = clock_.utime_us();
+  publish_state(clock_.now_ns());
+}
 
 // The truth goes out right after the state it belongs to is produced, whatever the faults do to
 // that state: a dropped or delayed state still has its truth, on time.
 void Simulation::publish_state(int64_t now_ns) {
-  const int64_t utime = clock_.utime_us();
+  // The time of the sample: seq steps of the integrator after the start, whenever it was computed.
+  const int64_t utime = start_utime_ + std::llround(1e6 * static_cast<double>(seq_) * dt_);
   publisher_.encode(utime, seq_, plant_.q(), plant_.qd(), plant_.effort());
   publisher_.send(now_ns);
   last_send_ns_ = now_ns;

@@ -114,6 +114,7 @@ class Simulation {
   const int64_t period_ns_;
   const double brake_time_constant_;
   int64_t last_send_ns_ = 0;
+  int64_t start_utime_ = 0;  // the wall-clock time of the first state, µs
   int64_t seq_ = 0, stale_ = 0, overruns_ = 0, brakes_ = 0;
   int64_t late_cycles_ = 0, late_in_a_row_ = 0, late_stops_ = 0, unjudged_ = 0;
   // The account as it stood when the latest command arrived (see print_summary).
