@@ -226,6 +226,8 @@ void Node::publish_snapshot() {
   s.rejected_targets = controller_.rejected_targets();
   s.law = controller_.law().law;
   s.payload_mass = payload_mass_;
+  s.state_period = controller_.state_period();
+  std::snprintf(s.period_warning, sizeof(s.period_warning), "%s", controller_.period_warning());
   std::memcpy(s.mode_rejection, controller_.mode_rejection(), sizeof(s.mode_rejection));
   // Which refusal is the newer, for the status message (targets are judged after modes in a tick).
   if (controller_.rejected_modes() != modes_seen_) mode_refused_last_ = true;
@@ -311,6 +313,14 @@ int64_t Node::report() {
     std::fprintf(stderr, "chasles_controller: control mode refused: %s\n", s.mode_rejection);
     reported_modes_ = s.rejected_modes;
   }
+  if (const bool mismatch = *s.period_warning != '\0'; mismatch != period_warned_) {
+    if (mismatch) {
+      std::fprintf(stderr, "chasles_controller: warning: %s (give --rate the plant's)\n", s.period_warning);
+    } else {
+      std::fprintf(stderr, "chasles_controller: the robot states come at the configured period again\n");
+    }
+    period_warned_ = mismatch;
+  }
   if (rejections_.count() != reported_wire_) {
     std::fprintf(stderr, "chasles_controller: rejected %lld message(s), last: %s\n",
                  static_cast<long long>(rejections_.count() - reported_wire_), rejections_.last());
@@ -334,6 +344,7 @@ void Node::fill_status() {
   status.state = static_cast<int8_t>(s.mode);
   status.message = s.mode == Mode::kFault    ? s.fault
                    : s.mode == Mode::kReflex ? s.reflex
+                   : *s.period_warning != '\0' ? s.period_warning
                    : s.mode_refused_last     ? std::string("last control mode refused: ") + s.mode_rejection
                    : s.rejected_targets > 0  ? std::string("last target refused: ") + s.rejection
                                              : "";
@@ -350,6 +361,7 @@ void Node::fill_status() {
   status.reflexes = s.reflexes;
   status.law = static_cast<int8_t>(s.law);
   status.payload_mass = s.payload_mass;
+  status.state_period = s.state_period;
   const Transform& T = forward_kinematics(model_, data_, s.q);
   const Eigen::Quaterniond quaternion(T.linear());
   for (int i = 0; i < 3; ++i) status.tip_position[i] = T.translation()(i);

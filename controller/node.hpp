@@ -119,6 +119,8 @@ class Node {
     int64_t stale = 0, faults = 0, rejected_targets = 0, foreign_commands = 0;
     Law law = Law::kComputedTorque;
     double payload_mass = 0.0;
+    double state_period = 0.0;
+    char period_warning[160] = {};
     char mode_rejection[192] = {};
     int64_t rejected_modes = 0;
     bool mode_refused_last = false;  // the newer of the two refusals is the law's
@@ -208,6 +210,7 @@ class Node {
   std::vector<uint8_t> status_bytes_;
   Mode reported_mode_ = Mode::kWaiting;
   int64_t reported_rejections_ = 0, reported_wire_ = 0, reported_modes_ = 0, reported_faults_ = 0;
+  bool period_warned_ = false;
   int64_t last_status_ns_ = INT64_MIN / 2;
 };
 

@@ -134,6 +134,7 @@ controller_status_t make_status() {
   status.reflexes = 1;
   status.law = control_mode_t::CARTESIAN_IMPEDANCE;
   status.payload_mass = 1.375;
+  status.state_period = 0.005;
   return status;
 }
 
@@ -276,10 +277,10 @@ TEST(lcmtypes, ControllerStatusRoundTrips) {
   const size_t string_size = 4 + status.message.size() + 1;  // length (with the NUL), bytes, NUL
   // fingerprint, utime, state, message, num_joints, q, q_desired, tracking_error, tip position
   // and quaternion, torque, ik (int32, double, boolean), nine timing doubles, five counters,
-  // tau_ext, the tip wrench, contact and collision, two counters, the law (int8) and the payload's
-  // mass (double)
+  // tau_ext, the tip wrench, contact and collision, two counters, the law (int8), the payload's
+  // mass and the state period (doubles)
   EXPECT_EQ(buffer.size(), kHash + 8 + 1 + string_size + 4 + 3 * 8 * kJoints + 8 * 3 + 8 * 4 + 8 * kJoints +
-                               (4 + 8 + 1) + 9 * 8 + 5 * 8 + 8 * kJoints + 6 * 8 + 2 + 2 * 8 + 1 + 8);
+                               (4 + 8 + 1) + 9 * 8 + 5 * 8 + 8 * kJoints + 6 * 8 + 2 + 2 * 8 + 1 + 8 + 8);
   const auto back = decode<controller_status_t>(buffer);
   EXPECT_EQ(back.utime, status.utime);
   EXPECT_EQ(back.state, controller_status_t::FAULT);
@@ -316,6 +317,7 @@ TEST(lcmtypes, ControllerStatusRoundTrips) {
   EXPECT_EQ(back.reflexes, 1);
   EXPECT_EQ(back.law, control_mode_t::CARTESIAN_IMPEDANCE);
   EXPECT_EQ(back.payload_mass, status.payload_mass);
+  EXPECT_EQ(back.state_period, status.state_period);
   expect_damage_refused<controller_status_t>(buffer);
 }
 
@@ -506,9 +508,9 @@ TEST(lcmtypes, FingerprintsArePinned) {
   EXPECT_EQ(static_cast<uint64_t>(joint_torque_command_t::getHash()), 0xd037d1c904e0e80fu);
   EXPECT_EQ(static_cast<uint64_t>(arm_target_t::getHash()), 0x309277be8aae6666u);
   // controller_status_t gained the contact fields at its end ([K]), then the law and the payload's
-  // mass at its end; no field changed meaning, and a reader built on an older contract refuses the
+  // mass, then the state period ([M]) at its end; no field changed meaning, and a reader built on an older contract refuses the
   // new one by its fingerprint.
-  EXPECT_EQ(static_cast<uint64_t>(controller_status_t::getHash()), 0x56f7446d2a9f26bfu);
+  EXPECT_EQ(static_cast<uint64_t>(controller_status_t::getHash()), 0x21239e954eb81f7fu);
   EXPECT_EQ(static_cast<uint64_t>(control_mode_t::getHash()), 0xe4a15f556715af84u);
   EXPECT_EQ(static_cast<uint64_t>(payload_t::getHash()), 0x38b055cd3dfdfa1fu);
 }

@@ -111,6 +111,7 @@ void lay_out(const controller_status_t& m, Row& row) {
   row.add("reflexes", m.reflexes);
   row.add("law", int64_t{m.law});
   row.add("payload_mass", m.payload_mass);
+  row.add("state_period", m.state_period);
 }
 
 void lay_out(const control_mode_t& m, Row& row) {

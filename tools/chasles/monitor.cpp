@@ -238,7 +238,8 @@ std::string Monitor::frame(int64_t now_ns) {
     const bool known = s.law >= 0 && s.law <= 3;
     if (known) law = static_cast<controller::Law>(s.law);
     out << "law         " << (known ? controller::to_string(law) : "law " + std::to_string(int{s.law}))
-        << printf_text("; payload %.3f kg at the tip\n\n", s.payload_mass);
+        << printf_text("; payload %.3f kg at the tip; states every %.3f ms\n\n", s.payload_mass,
+                       1e3 * s.state_period);
     joint_table(out);
     double worst = 0.0;
     for (const double e : s.tracking_error) worst = std::max(worst, std::abs(e));
