@@ -25,8 +25,9 @@ chasles_packages_monitor=(
 )
 
 # The benchmarks (tools/bench.sh): Google Benchmark, and Orocos KDL (1.5.1 in Debian 12, which has
-# ChainExternalWrenchEstimator) with kdl_parser, the library chasles is timed against.
-chasles_packages_bench=(libbenchmark-dev liborocos-kdl-dev libkdl-parser-dev)
+# ChainExternalWrenchEstimator) with kdl_parser, the library chasles is timed against; and
+# python3-venv, for the venv tools/pinocchio.sh makes to get Pinocchio's C++ from pip.
+chasles_packages_bench=(libbenchmark-dev liborocos-kdl-dev libkdl-parser-dev python3-venv)
 
 # The fuzz targets (tools/fuzz.sh, and the fuzz stage of tools/test.sh): clang with libFuzzer and
 # the sanitizer runtimes.
