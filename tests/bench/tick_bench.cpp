@@ -1,0 +1,207 @@
+// chasles_tick_bench: the time of one control tick, Controller::tick, under each control law, on
+// an arm moving in closed loop, as the daemon's loop calls it (a new state every tick: the model's
+// terms, the contact observer and monitor, the reference, the law and the safety pipeline). The
+// loop's own statistics in the demo say the same, with the machine's scheduling noise on top; this
+// measures the computation alone, in one process, with nothing else between the ticks but the
+// simulated arm.
+//
+// Each law runs the same programme: the arm starts at rest at a bent pose, and a JOINT target moves
+// it back and forth between two poses (2 s each way), the Cartesian law following the same joint
+// reference through its stiffness frame; free drive follows no target, so a torque that turns
+// slowly pushes the arm around instead. The arm is the controller's own model integrated by
+// semi-implicit Euler (four substeps per 1 ms tick) on its forward dynamics, the torque held over
+// the tick as a plant holds it. Every tick is timed with CLOCK_MONOTONIC around tick() alone; the
+// first second of each law is warm-up and not counted. Heap allocations during the counted ticks
+// are counted too (they must be 0).
+//
+//   chasles_tick_bench [--robot panda|ur5|FILE.urdf] [--tip LINK] [--seconds S] [--json]
+//
+// Prints a table (law, ticks, p50, p99, max, mean µs, allocations) or, with --json, one object
+// {"<law>": {"ticks", "p50_us", "p99_us", "max_us", "mean_us", "allocations"}}.
+#include <time.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "chasles/controller/controller.hpp"
+#include "chasles/core/dynamics/dynamics.hpp"
+#include "chasles/core/model/urdf.hpp"
+#include "support/allocation_counter.hpp"
+
+namespace {
+
+using chasles::controller::Controller;
+using chasles::controller::JointState;
+using chasles::controller::Law;
+using chasles::controller::LawSettings;
+using chasles::controller::Mode;
+using chasles::controller::Target;
+using Eigen::VectorXd;
+
+constexpr int64_t kPeriodNs = 1'000'000;
+constexpr int kSubsteps = 4;
+constexpr double kLegSeconds = 2.0;
+constexpr double kWarmUpSeconds = 1.0;
+
+int64_t now_ns() {
+  timespec t{};
+  clock_gettime(CLOCK_MONOTONIC, &t);
+  return static_cast<int64_t>(t.tv_sec) * 1'000'000'000 + t.tv_nsec;
+}
+
+// A pose a fraction `s` of the way between the middle of each joint's range and its upper limit.
+VectorXd pose(const chasles::RobotModel& model, double s) {
+  VectorXd q(model.dof());
+  for (int i = 0; i < model.dof(); ++i) {
+    const auto& l = model.joint(i).limits;
+    const double lower = std::max(l.lower, -3.0), upper = std::min(l.upper, 3.0);
+    q(i) = 0.5 * (lower + upper) + s * 0.5 * (upper - lower);
+  }
+  return q;
+}
+
+LawSettings settings_of(Law law, int n) {
+  LawSettings s(n);
+  s.law = law;
+  s.joint_stiffness.setConstant(300.0);
+  return s;
+}
+
+struct Figures {
+  int64_t ticks = 0;
+  double p50 = 0, p99 = 0, max = 0, mean = 0;
+  long allocations = 0;
+};
+
+double percentile(std::vector<int64_t> sorted, double p) {
+  const auto k = static_cast<size_t>(std::ceil(p * static_cast<double>(sorted.size()))) - 1;
+  return 1e-3 * static_cast<double>(sorted[std::min(k, sorted.size() - 1)]);
+}
+
+Figures run(const chasles::RobotModel& model, Law law, double seconds) {
+  const int n = model.dof();
+  Controller controller(model, chasles::controller::Config::critically_damped(n, 20.0));
+  chasles::Data plant(model);
+  JointState state(n);
+  state.q = pose(model, 0.1);
+  VectorXd tau = VectorXd::Zero(n), push = VectorXd::Zero(n);
+  const VectorXd poses[2] = {pose(model, 0.3), pose(model, -0.1)};
+
+  const auto total_ticks = static_cast<int64_t>((seconds + kWarmUpSeconds) * 1e9 / kPeriodNs);
+  const auto warm_up = static_cast<int64_t>(kWarmUpSeconds * 1e9 / kPeriodNs);
+  std::vector<int64_t> times;
+  times.reserve(static_cast<size_t>(total_ticks - warm_up));
+  Target target(n);
+  target.mode = Target::kJoint;
+  target.num_joints = n;
+  target.duration = kLegSeconds;
+  const auto leg_ticks = static_cast<int64_t>(kLegSeconds * 1e9 / kPeriodNs);
+  long allocations = 0;
+  for (int64_t k = 0; k < total_ticks; ++k) {
+    const int64_t t = k * kPeriodNs;
+    state.seq = k;
+    state.utime = t / 1000;
+    state.arrival_ns = t;
+    state.effort = tau;
+    if (k == 1 && !controller.set_law(settings_of(law, n), t)) {
+      std::fprintf(stderr, "chasles_tick_bench: %s refused: %s\n", to_string(law), controller.mode_rejection());
+      std::exit(1);
+    }
+    if (law != Law::kFreeDrive && k >= 1 && k % leg_ticks == 1) {
+      target.q = poses[(k / leg_ticks) % 2];
+      controller.set_target(target, t);
+    }
+    const bool counted = k >= warm_up;
+    const chasles::testing::AllocationCounter counter;
+    const int64_t start = now_ns();
+    const bool command = controller.tick(t, &state);
+    const int64_t end = now_ns();
+    if (counted) {
+      times.push_back(end - start);
+      allocations += counter.count();
+    }
+    if (controller.mode() == Mode::kFault || controller.mode() == Mode::kReflex) {
+      std::fprintf(stderr, "chasles_tick_bench: %s: the arm went to %s (%s%s)\n", to_string(law),
+                   to_string(controller.mode()), controller.fault_reason(), controller.reflex_reason());
+      std::exit(1);
+    }
+    if (command) tau = controller.torque();
+    // Free drive: a push that turns slowly through the joints, a few percent of their effort.
+    for (int i = 0; i < n && law == Law::kFreeDrive; ++i) {
+      push(i) = 0.03 * std::min(model.joint(i).limits.effort, 50.0) * std::sin(0.5 * 1e-9 * double(t) + i);
+    }
+    const double h = 1e-9 * kPeriodNs / kSubsteps;
+    for (int s = 0; s < kSubsteps; ++s) {
+      state.qd += h * chasles::forward_dynamics(model, plant, state.q, state.qd, tau + push);
+      state.q += h * state.qd;
+    }
+  }
+  Figures f;
+  f.ticks = static_cast<int64_t>(times.size());
+  std::sort(times.begin(), times.end());
+  f.p50 = percentile(times, 0.50);
+  f.p99 = percentile(times, 0.99);
+  f.max = 1e-3 * static_cast<double>(times.back());
+  double sum = 0;
+  for (int64_t x : times) sum += static_cast<double>(x);
+  f.mean = 1e-3 * sum / static_cast<double>(times.size());
+  f.allocations = allocations;
+  return f;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"chasles_tick_bench: the time of Controller::tick under each control law, on an arm in closed loop"};
+  std::string robot = "panda", tip;
+  double seconds = 20.0;
+  bool json = false;
+  app.add_option("--robot", robot, "panda or ur5 (tests/data), or a URDF file (default panda)");
+  app.add_option("--tip", tip, "the chain's tip (default: panda_hand for panda, tool0 for ur5)");
+  app.add_option("--seconds", seconds, "simulated seconds timed per law, after 1 s of warm-up (default 20)")
+      ->check(CLI::PositiveNumber);
+  app.add_flag("--json", json, "one JSON object on stdout instead of the table");
+  CLI11_PARSE(app, argc, argv);
+  std::string path = robot;
+  if (robot == "panda" || robot == "ur5") {
+    path = std::string(CHASLES_BENCH_DATA) + "/" + robot + ".urdf";
+    if (tip.empty()) tip = robot == "panda" ? "panda_hand" : "tool0";
+  }
+  try {
+    chasles::UrdfOptions options;
+    options.tip_link = tip;
+    const chasles::RobotModel model = chasles::load_urdf_file(path, options);
+    const Law laws[] = {Law::kComputedTorque, Law::kJointImpedance, Law::kCartesianImpedance, Law::kFreeDrive};
+    if (!json) {
+      std::printf("%s: %d joints to %s; %.0f s per law at 1 kHz after %.0f s of warm-up\n\n", model.name().c_str(),
+                  model.dof(), model.tip_link().c_str(), seconds, kWarmUpSeconds);
+      std::printf("%-20s %8s %8s %8s %8s %8s %12s\n", "law", "ticks", "p50 us", "p99 us", "max us", "mean us",
+                  "allocations");
+    } else {
+      std::printf("{");
+    }
+    const char* separator = "";
+    for (Law law : laws) {
+      const Figures f = run(model, law, seconds);
+      if (json) {
+        std::printf("%s\"%s\": {\"ticks\": %lld, \"p50_us\": %.3f, \"p99_us\": %.3f, \"max_us\": %.3f, "
+                    "\"mean_us\": %.3f, \"allocations\": %ld}",
+                    separator, to_string(law), static_cast<long long>(f.ticks), f.p50, f.p99, f.max, f.mean,
+                    f.allocations);
+        separator = ", ";
+      } else {
+        std::printf("%-20s %8lld %8.2f %8.2f %8.2f %8.2f %12ld\n", to_string(law), static_cast<long long>(f.ticks),
+                    f.p50, f.p99, f.max, f.mean, f.allocations);
+      }
+    }
+    std::printf(json ? "}\n" : "\n");
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "chasles_tick_bench: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
