@@ -65,7 +65,8 @@ LawSettings::LawSettings(int n)
     : joint_stiffness(Eigen::VectorXd::Zero(n)),
       joint_damping(Eigen::VectorXd::Zero(n)),
       nullspace_posture(Eigen::VectorXd::Zero(n)) {
-  cartesian_stiffness.diagonal() << 50.0, 50.0, 50.0, 1000.0, 1000.0, 1000.0;
+  cartesian_stiffness.diagonal().head<3>().setConstant(LawDefaults::kRotationalStiffness);
+  cartesian_stiffness.diagonal().tail<3>().setConstant(LawDefaults::kTranslationalStiffness);
 }
 
 LawWorkspace::LawWorkspace(int n)
@@ -238,7 +239,7 @@ void cartesian_impedance(const RobotModel& model, const Data& data, const Data& 
 void free_drive(const RobotModel& /*model*/, const Data& data, const LawSettings& s, const Eigen::VectorXd& qd,
                 Eigen::VectorXd& tau) {
   if (s.damping_from_ratio) {
-    tau = data.bias - LawSettings::kFreeDriveRate * data.M.diagonal().cwiseProduct(qd);
+    tau = data.bias - LawDefaults::kFreeDriveRate * data.M.diagonal().cwiseProduct(qd);
   } else {
     tau = data.bias - s.joint_damping.cwiseProduct(qd);
   }

@@ -42,6 +42,18 @@ struct LawBounds {
   static constexpr double kMaxFrameOffset = 1.0;  ///< m from the tip link's origin
 };
 
+/// What a law's settings are when a sender leaves them out: LawSettings starts from them, the wire
+/// (control_mode_t) and `chasles mode` fall back to them, and `chasles mode --help` quotes them.
+struct LawDefaults {
+  static constexpr double kDampingRatio = 1.0;              ///< ζ, critical
+  static constexpr double kRotationalStiffness = 50.0;      ///< N·m/rad about each axis of frame c
+  static constexpr double kTranslationalStiffness = 1000.0;  ///< N/m along each axis of frame c
+  static constexpr double kNullspaceStiffness = 10.0;       ///< N·m/rad per joint
+  /// The decay rate of free drive's default damping, 1/s: unpushed, each joint's speed decays as
+  /// if alone, in about 1/rate (50 ms); a 10 N push on a Panda's hand moves it at about 0.15 m/s.
+  static constexpr double kFreeDriveRate = 20.0;
+};
+
 /// A law and its parameters. Every vector is sized for the arm when built, so settings are copied
 /// between threads and into the controller without allocating.
 struct LawSettings {
@@ -51,9 +63,9 @@ struct LawSettings {
   /// Joint impedance (when !damping_from_ratio) and free drive: D per joint, N·m·s/rad or N·s/m.
   Eigen::VectorXd joint_damping;
   /// Joint impedance: D_i = 2ζ√(K_i M_ii(q)) instead of joint_damping. Free drive: D_i =
-  /// kFreeDriveRate · M_ii(q) instead of joint_damping.
+  /// LawDefaults::kFreeDriveRate · M_ii(q) instead of joint_damping.
   bool damping_from_ratio = true;
-  double damping_ratio = 1.0;  ///< ζ
+  double damping_ratio = LawDefaults::kDampingRatio;  ///< ζ
   /// Cartesian impedance: K_c, (ω, v) order, about and in the axes of frame c.
   Matrix6d cartesian_stiffness = Matrix6d::Zero();
   /// Cartesian impedance: frame c in the tip frame, T_bc.
@@ -62,14 +74,10 @@ struct LawSettings {
   /// toward the reference q_d, with nullspace_stiffness N·m/rad per joint.
   bool fixed_posture = false;
   Eigen::VectorXd nullspace_posture;
-  double nullspace_stiffness = 10.0;
+  double nullspace_stiffness = LawDefaults::kNullspaceStiffness;
 
-  /// The decay rate of free drive's default damping, 1/s: unpushed, each joint's speed decays as
-  /// if alone, in about 1/rate (50 ms); a 10 N push on a Panda's hand moves it at about 0.15 m/s.
-  static constexpr double kFreeDriveRate = 20.0;
-
-  /// Computed torque, with defaults for the other laws' parameters: joint stiffness 0 (a joint
-  /// impedance must be given its K), Cartesian stiffness 50 N·m/rad and 1000 N/m, ζ = 1.
+  /// Computed torque, with LawDefaults for the other laws' parameters (a diagonal Cartesian
+  /// stiffness); joint stiffness 0: a joint impedance must be given its K.
   explicit LawSettings(int n = 0);
 };
 

@@ -63,23 +63,37 @@ std::string TargetReceiver::receive(const void* data, size_t size) {
   return {};
 }
 
+namespace {
+constexpr std::pair<Law, int8_t> kWireLaws[] = {
+    {Law::kComputedTorque, control_mode_t::COMPUTED_TORQUE},
+    {Law::kJointImpedance, control_mode_t::JOINT_IMPEDANCE},
+    {Law::kCartesianImpedance, control_mode_t::CARTESIAN_IMPEDANCE},
+    {Law::kFreeDrive, control_mode_t::FREE_DRIVE},
+};
+}  // namespace
+
+int8_t law_to_wire(Law law) {
+  for (const auto& [l, wire] : kWireLaws) {
+    if (l == law) return wire;
+  }
+  return -1;
+}
+
+bool law_from_wire(int8_t wire, Law& law) {
+  for (const auto& [l, w] : kWireLaws) {
+    if (w == wire) {
+      law = l;
+      return true;
+    }
+  }
+  return false;
+}
+
 std::string law_from_message(const control_mode_t& m, int n, LawSettings& s) {
-  switch (m.law) {
-    case control_mode_t::COMPUTED_TORQUE:
-      s.law = Law::kComputedTorque;
-      break;
-    case control_mode_t::JOINT_IMPEDANCE:
-      s.law = Law::kJointImpedance;
-      break;
-    case control_mode_t::CARTESIAN_IMPEDANCE:
-      s.law = Law::kCartesianImpedance;
-      break;
-    case control_mode_t::FREE_DRIVE:
-      s.law = Law::kFreeDrive;
-      break;
-    default:
-      return "unknown law " + std::to_string(m.law) + " (0 computed torque, 1 joint impedance, 2 Cartesian impedance, "
-             "3 free drive)";
+  if (!law_from_wire(m.law, s.law)) {
+    std::string known;
+    for (const auto& [l, w] : kWireLaws) known += (known.empty() ? "" : ", ") + std::to_string(w) + " " + to_string(l);
+    return "unknown law " + std::to_string(m.law) + " (" + known + ")";
   }
   if (s.law == Law::kJointImpedance && m.num_joints != n) {
     return "a joint impedance needs joint_stiffness for each of the " + std::to_string(n) + " joints";

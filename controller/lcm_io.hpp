@@ -92,6 +92,11 @@ class TargetReceiver {
   SpscRing<Target>& queue_;
 };
 
+/// A law's value on the wire (control_mode_t.law, controller_status_t.law), and back: false for a
+/// value no law has. The one mapping between the two.
+int8_t law_to_wire(Law law);
+bool law_from_wire(int8_t wire, Law& law);
+
 /// A decoded control_mode_t (counts already checked against the arm: 0 or n) as LawSettings sized for
 /// n joints: an empty string, or why its structure cannot be a law (an unknown law, a quaternion not
 /// of unit norm, a joint impedance without stiffness). What the numbers mean — bounds, positive

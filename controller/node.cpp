@@ -359,7 +359,7 @@ void Node::fill_status() {
   status.collision = s.collision;
   status.contacts = s.contacts;
   status.reflexes = s.reflexes;
-  status.law = static_cast<int8_t>(s.law);
+  status.law = law_to_wire(s.law);
   status.payload_mass = s.payload_mass;
   status.state_period = s.state_period;
   const Transform& T = forward_kinematics(model_, data_, s.q);

@@ -272,6 +272,13 @@ PY
     stderr_tail loop_bench
     exit 1
   fi
+  echo "Reference: chasles_tick_bench (Controller::tick alone under each law, 5 s each) ..."
+  if ! "$DEMO_BUILD/tools/chasles_tick_bench" --robot "$DEMO_URDF" ${DEMO_TIP:+--tip "$DEMO_TIP"} --seconds 5 --json \
+    >"$dir/tick_bench.json" 2>"$dir/tick_bench.err"; then
+    echo "demo.sh: chasles_tick_bench failed:" >&2
+    stderr_tail tick_bench
+    exit 1
+  fi
 }
 
 # The report: the controller's summary beside the reference, and what the log holds.
@@ -338,6 +345,11 @@ if rtt.get("sent"):
 print(f"  jitter  p99: controller / bare loop       = {ratio(jit['p99'], sleep['p99'])}")
 print(f"  latency p50: controller / LCM round trip  = {ratio(lat['p50'], rtt['p50'])}")
 print(f"  latency p99: controller / LCM round trip  = {ratio(lat['p99'], rtt['p99'])}")
+ticks = json.load(open(os.path.join(d, "tick_bench.json")))
+print("Controller::tick alone, in closed loop with no other work between ticks (chasles_tick_bench, 5 s per law):")
+for law, t in ticks.items():
+    print(f"  {law:<20} p50 {f(t['p50_us'], 2):>6}  p99 {f(t['p99_us'], 2):>6}  max {f(t['max_us'], 1):>7} us, "
+          f"{t['allocations']} allocations")
 
 # The LCM log: events are (sync 0xEDA1DA01, number, utime, channel length, data length, channel, data).
 log = os.path.join(d, "chasles.lcmlog")
@@ -458,8 +470,8 @@ source "$root/tools/deps.sh"
 chasles_install_missing "${chasles_packages_build[@]}" "${chasles_packages_plots[@]}"
 
 build=${CHASLES_BUILD_DIR:-$root/build}
-echo "Building chasles, chasles_plant, chasles_controller and chasles_loop_bench in $build ..."
-chasles_build demo "$build" chasles chasles_plant chasles_controller_daemon chasles_loop_bench || exit 1
+echo "Building chasles, chasles_plant, chasles_controller, chasles_loop_bench and chasles_tick_bench in $build ..."
+chasles_build demo "$build" chasles chasles_plant chasles_controller_daemon chasles_loop_bench chasles_tick_bench || exit 1
 
 dir="$build/demo/$(date +%Y%m%d-%H%M%S)"
 mkdir -p "$dir"

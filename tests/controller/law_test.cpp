@@ -490,7 +490,7 @@ TEST(LawFreeDrive, IsBiasCompensationMinusDamping) {
     VectorXd tau(n);
     compute_tick_terms(*model, data, q, qd);
     free_drive(*model, data, s, qd, tau);
-    EXPECT_TRUE(matrices_near(tau, bias - LawSettings::kFreeDriveRate * M.diagonal().cwiseProduct(qd), 1e-9));
+    EXPECT_TRUE(matrices_near(tau, bias - LawDefaults::kFreeDriveRate * M.diagonal().cwiseProduct(qd), 1e-9));
 
     s.damping_from_ratio = false;
     s.joint_damping = seeded(n, 33, 0.5, 20.0);

@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <memory>
 #include <stdexcept>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -31,6 +32,15 @@ namespace chasles::cli {
 namespace {
 
 using controller::Law;
+using controller::LawBounds;
+using controller::LawDefaults;
+
+// A bound or default as the help text quotes it.
+std::string quote(double x) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%g", x);
+  return text;
+}
 
 std::vector<double> numbers(const std::string& text, const std::string& option) {
   try {
@@ -110,23 +120,13 @@ std::string law_names(const std::vector<Law>& laws) {
   return names;
 }
 
-int8_t wire_law(Law law) {
-  switch (law) {
-    case Law::kComputedTorque: return control_mode_t::COMPUTED_TORQUE;
-    case Law::kJointImpedance: return control_mode_t::JOINT_IMPEDANCE;
-    case Law::kCartesianImpedance: return control_mode_t::CARTESIAN_IMPEDANCE;
-    case Law::kFreeDrive: return control_mode_t::FREE_DRIVE;
-  }
-  throw std::logic_error("a law without a wire value");
-}
-
 // The message the options ask for, not yet judged (the bounds and the meaning are law_problem's).
 control_mode_t mode_message(const ModeOptions& o, Law law, const RobotModel& model) {
   const int n = model.dof();
   control_mode_t m{};
-  m.law = wire_law(law);
+  m.law = controller::law_to_wire(law);
   m.num_joints = 0;
-  m.damping_ratio = o.damping_ratio.empty() ? 1.0 : one_number(o.damping_ratio, "--damping-ratio");
+  m.damping_ratio = o.damping_ratio.empty() ? LawDefaults::kDampingRatio : one_number(o.damping_ratio, "--damping-ratio");
   m.stiffness_frame_quaternion[0] = 1.0;  // the tip frame itself, for every law
   m.num_posture = 0;
   m.nullspace_stiffness = 0.0;
@@ -173,9 +173,10 @@ control_mode_t mode_message(const ModeOptions& o, Law law, const RobotModel& mod
                            " entries; give 6 (the diagonal, rotational first) or 36 (the matrix, row by row)");
         }
       } else {
-        const double rotational = o.rotational.empty() ? 50.0 : one_number(o.rotational, "--rotational");
-        const double translational =
-            o.translational.empty() ? 1000.0 : one_number(o.translational, "--translational");
+        const double rotational =
+            o.rotational.empty() ? LawDefaults::kRotationalStiffness : one_number(o.rotational, "--rotational");
+        const double translational = o.translational.empty() ? LawDefaults::kTranslationalStiffness
+                                                             : one_number(o.translational, "--translational");
         for (int i = 0; i < 3; ++i) {
           m.cartesian_stiffness[i][i] = rotational;
           m.cartesian_stiffness[i + 3][i + 3] = translational;
@@ -196,7 +197,8 @@ control_mode_t mode_message(const ModeOptions& o, Law law, const RobotModel& mod
         m.nullspace_posture.assign(q.data(), q.data() + n);
       }
       m.nullspace_stiffness =
-          o.nullspace_stiffness.empty() ? 10.0 : one_number(o.nullspace_stiffness, "--nullspace-stiffness");
+          o.nullspace_stiffness.empty() ? LawDefaults::kNullspaceStiffness
+                                        : one_number(o.nullspace_stiffness, "--nullspace-stiffness");
       break;
     }
   }
@@ -369,30 +371,35 @@ Command register_mode(CLI::App& app) {
   CLI::Option* stiffness =
       command
           ->add_option("--stiffness", options->stiffness,
-                       "joint-impedance (required): joint stiffness K, N*m/rad (N/m for a prismatic joint), in "
-                       "(0, 5000]; one for every joint or one per joint, root to tip")
+                       "joint-impedance (required): joint stiffness K, N*m/rad (N/m for a prismatic joint), in (0, " +
+                           quote(LawBounds::kMaxJointStiffness) + "]; one for every joint or one per joint, root to tip")
           ->type_name("K[,K...]");
   CLI::Option* damping =
       command
           ->add_option("--damping", options->damping,
                        "joint-impedance: joint damping D, N*m*s/rad, >= 0 (default: 2 Z sqrt(K M_ii(q)) from "
-                       "--damping-ratio); free-drive: its damping, > 0 (default: D_i = 20/s * M_ii(q))")
+                       "--damping-ratio); free-drive: its damping, > 0 (default: D_i = " +
+                           quote(LawDefaults::kFreeDriveRate) + "/s * M_ii(q))")
           ->type_name("D[,D...]");
   CLI::Option* ratio = command
                            ->add_option("--damping-ratio", options->damping_ratio,
-                                        "joint- and cartesian-impedance: damping ratio Z in [0.1, 2], 1 critical "
-                                        "(default 1)")
+                                        "joint- and cartesian-impedance: damping ratio Z in [" +
+                                            quote(LawBounds::kMinDampingRatio) + ", " +
+                                            quote(LawBounds::kMaxDampingRatio) + "], 1 critical (default " +
+                                            quote(LawDefaults::kDampingRatio) + ")")
                            ->type_name("Z");
   CLI::Option* translational =
       command
           ->add_option("--translational", options->translational,
                        "cartesian-impedance: translational stiffness along each axis of the stiffness frame, N/m, "
-                       "at most 5000 (default 1000)")
+                       "at most " + quote(LawBounds::kMaxTranslationalStiffness) + " (default " +
+                           quote(LawDefaults::kTranslationalStiffness) + ")")
           ->type_name("K");
   CLI::Option* rotational = command
                                 ->add_option("--rotational", options->rotational,
                                              "cartesian-impedance: rotational stiffness about each axis, N*m/rad, "
-                                             "at most 500 (default 50)")
+                                             "at most " + quote(LawBounds::kMaxRotationalStiffness) + " (default " +
+                                                 quote(LawDefaults::kRotationalStiffness) + ")")
                                 ->type_name("K");
   CLI::Option* cartesian =
       command
@@ -406,8 +413,8 @@ Command register_mode(CLI::App& app) {
   CLI::Option* frame =
       command
           ->add_option("--frame", options->frame,
-                       "cartesian-impedance: the stiffness frame in the tip frame: origin x,y,z (m, within 1 m) and "
-                       "unit quaternion qw,qx,qy,qz (default: the tip frame)")
+                       "cartesian-impedance: the stiffness frame in the tip frame: origin x,y,z (m, within " +
+                           quote(LawBounds::kMaxFrameOffset) + " m) and unit quaternion qw,qx,qy,qz (default: the tip frame)")
           ->type_name("X,Y,Z[,QW,QX,QY,QZ]");
   CLI::Option* posture =
       command
@@ -417,8 +424,9 @@ Command register_mode(CLI::App& app) {
           ->type_name("Q,Q,...");
   CLI::Option* nullspace = command
                                ->add_option("--nullspace-stiffness", options->nullspace_stiffness,
-                                            "cartesian-impedance: nullspace stiffness, N*m/rad per joint, in [0, 500] "
-                                            "(default 10)")
+                                            "cartesian-impedance: nullspace stiffness, N*m/rad per joint, in [0, " +
+                                                quote(LawBounds::kMaxNullspaceStiffness) + "] (default " +
+                                                quote(LawDefaults::kNullspaceStiffness) + ")")
                                ->type_name("K");
   add_wire_options(*command, options->wire, "mode", "MODE");
   damping->excludes(ratio);  // explicit damping replaces the ratio; free drive has none
@@ -442,9 +450,13 @@ Command register_mode(CLI::App& app) {
       "   \"nullspace_stiffness\"}\n"
       "Refused, with nothing sent, exactly as the controller would refuse it: an unknown law, an option the law\n"
       "does not read, a wrong number of values, a non-finite number, a stiffness not positive or over its bound\n"
-      "(joint 5000, rotational 500, translational 5000, nullspace 500), a Cartesian stiffness not symmetric or not\n"
-      "positive definite, a damping ratio outside [0.1, 2], a negative damping (free drive: not positive), a frame\n"
-      "quaternion whose norm is more than 1e-3 from 1 or a frame origin over 1 m from the tip, a posture outside\n"
+      "(joint " + quote(LawBounds::kMaxJointStiffness) + ", rotational " + quote(LawBounds::kMaxRotationalStiffness) +
+      ", translational " + quote(LawBounds::kMaxTranslationalStiffness) + ", nullspace " +
+      quote(LawBounds::kMaxNullspaceStiffness) + "), a Cartesian stiffness not symmetric or not\n"
+      "positive definite, a damping ratio outside [" + quote(LawBounds::kMinDampingRatio) + ", " +
+      quote(LawBounds::kMaxDampingRatio) + "], a negative damping (free drive: not positive), a frame\n"
+      "quaternion whose norm is more than 1e-3 from 1 or a frame origin over " + quote(LawBounds::kMaxFrameOffset) +
+      " m from the tip, a posture outside\n"
       "the joint limits.\n"
       "Examples:\n"
       "  chasles mode computed-torque --robot panda.urdf --tip panda_hand\n"

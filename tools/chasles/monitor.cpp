@@ -23,6 +23,7 @@
 
 #include "chasles/controller/clock.hpp"
 #include "chasles/controller/law.hpp"
+#include "chasles/controller/lcm_io.hpp"
 #include "command.hpp"
 #include "lcm_start.hpp"
 #include "messages.hpp"
@@ -235,8 +236,7 @@ std::string Monitor::frame(int64_t now_ns) {
                        status_rate_.rate(now_ns, start_ns_))
         << bus << "\n";
     controller::Law law = controller::Law::kComputedTorque;
-    const bool known = s.law >= 0 && s.law <= 3;
-    if (known) law = static_cast<controller::Law>(s.law);
+    const bool known = controller::law_from_wire(s.law, law);
     out << "law         " << (known ? controller::to_string(law) : "law " + std::to_string(int{s.law}))
         << printf_text("; payload %.3f kg at the tip; states every %.3f ms\n\n", s.payload_mass,
                        1e3 * s.state_period);
