@@ -24,6 +24,7 @@
 #include "chasles/core/model/payload.hpp"
 #include "chasles/core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
+#include "support/arm.hpp"
 #include "support/reference.hpp"
 
 namespace chasles::controller {
@@ -32,16 +33,11 @@ namespace {
 using Eigen::VectorXd;
 using testing::AllocationCounter;
 using testing::data_path;
+using testing::panda;
 using testing::matrices_near;
 
 constexpr int64_t kMs = 1'000'000;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-RobotModel panda() {
-  UrdfOptions options;
-  options.tip_link = "panda_hand_tcp";
-  return load_urdf_file(data_path("panda.urdf"), options);
-}
 
 VectorXd bent_pose() {
   VectorXd q(7);

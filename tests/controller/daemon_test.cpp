@@ -44,15 +44,10 @@ using testing::list;
 using testing::vector_of;
 using testing::ChildProcess;
 using testing::data_path;
+using testing::panda;  // to kTip
 
 constexpr char kLcmUrl[] = "udpm://239.255.76.67:7667?ttl=0";  // the URL tools/netns.sh documents
 constexpr char kTip[] = "panda_hand_tcp";
-
-RobotModel panda() {
-  UrdfOptions options;
-  options.tip_link = kTip;
-  return load_urdf_file(data_path("panda.urdf"), options);
-}
 
 std::vector<std::string> plant_args(std::vector<std::string> extra) {
   std::vector<std::string> argv{CHASLES_PLANT, "--robot", data_path("panda.urdf"), "--tip", kTip, "--lcm-url", kLcmUrl};

@@ -21,6 +21,7 @@
 #include "chasles/core/model/payload.hpp"
 #include "chasles/core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
+#include "support/arm.hpp"
 #include "support/reference.hpp"
 
 namespace chasles::controller {
@@ -31,28 +32,12 @@ using Eigen::VectorXd;
 using testing::AllocationCounter;
 using testing::data_path;
 using testing::matrices_near;
+using testing::panda;
+using testing::ur5;
 
 constexpr int64_t kMs = 1'000'000;
 constexpr std::array<Law, 4> kLaws = {Law::kComputedTorque, Law::kJointImpedance, Law::kCartesianImpedance,
                                       Law::kFreeDrive};
-
-const RobotModel& panda() {
-  static const RobotModel model = [] {
-    UrdfOptions options;
-    options.tip_link = "panda_hand_tcp";
-    return load_urdf_file(data_path("panda.urdf"), options);
-  }();
-  return model;
-}
-
-const RobotModel& ur5() {
-  static const RobotModel model = [] {
-    UrdfOptions options;
-    options.tip_link = "tool0";
-    return load_urdf_file(data_path("ur5.urdf"), options);
-  }();
-  return model;
-}
 
 // A bent pose of each arm, inside its limits and away from its singularities.
 VectorXd pose_of(const RobotModel& model) {

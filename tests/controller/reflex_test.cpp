@@ -13,6 +13,7 @@
 #include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
+#include "support/arm.hpp"
 #include "support/reference.hpp"
 
 namespace chasles::controller {
@@ -26,14 +27,9 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 class Reflexes : public ::testing::Test {
  protected:
-  Reflexes() : model_(load()), data_(model_), state_(7) {
+  Reflexes() : model_(testing::panda()), data_(model_), state_(7) {
     config_ = Config::critically_damped(7, 20.0);
     q0_ << 0.1, 0.5, -0.2, -1.2, 0.1, 1.0, 0.3;
-  }
-  static RobotModel load() {
-    UrdfOptions options;
-    options.tip_link = "panda_hand_tcp";
-    return load_urdf_file(testing::data_path("panda.urdf"), options);
   }
 
   // The joint torque of a wrench on the tip given base-aligned at the tip's origin, (m, f).
@@ -59,7 +55,7 @@ class Reflexes : public ::testing::Test {
   // The terms at a state, as the controller computes them before its monitor reads them.
   const Data& terms(const JointState& s) { return compute_tick_terms(model_, data_, s.q, s.qd); }
 
-  RobotModel model_;
+  const RobotModel& model_;
   Data data_;
   Config config_;
   JointState state_;

@@ -150,14 +150,6 @@ std::string table_row(const std::string& fault, const CommandReport& c, const St
   return text;
 }
 
-const RobotModel& panda() {
-  static const RobotModel model = [] {
-    UrdfOptions options;
-    options.tip_link = "panda_hand_tcp";
-    return load_urdf_file(testing::data_path("panda.urdf"), options);
-  }();
-  return model;
-}
 
 joint_torque_command_t command_of(int64_t seq, int64_t utime, int64_t state_seq, const Eigen::VectorXd& tau) {
   joint_torque_command_t command{};

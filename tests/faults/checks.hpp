@@ -67,7 +67,8 @@ std::string table_row(const std::string& fault, const CommandReport& c, const St
 double percentile(std::vector<double> v, double p);
 
 /// The arm's model as the tests run it (the Panda to its TCP).
-const RobotModel& panda();
+using testing::panda;
+using testing::ur5;
 using testing::bent_pose;
 using testing::joint_target;
 using testing::list;

@@ -35,11 +35,6 @@ constexpr bool kSanitized = true;
 constexpr bool kSanitized = false;
 #endif
 
-const RobotModel& ur5() {
-  static const RobotModel model = load_urdf_file(testing::data_path("ur5.urdf"), UrdfOptions{"tool0"});
-  return model;
-}
-
 DaemonOptions options_for(const RobotModel& model, double omega = 20.0) {
   DaemonOptions o;
   o.control = controller::Config::critically_damped(model.dof(), omega);

@@ -3,7 +3,20 @@
 #include <chrono>
 #include <sstream>
 
+#include "chasles/core/model/urdf.hpp"
+#include "support/reference.hpp"
+
 namespace chasles::testing {
+
+const RobotModel& panda() {
+  static const RobotModel model = load_urdf_file(data_path("panda.urdf"), UrdfOptions{"panda_hand_tcp"});
+  return model;
+}
+
+const RobotModel& ur5() {
+  static const RobotModel model = load_urdf_file(data_path("ur5.urdf"), UrdfOptions{"tool0"});
+  return model;
+}
 
 Eigen::VectorXd bent_pose() {
   Eigen::VectorXd q(7);

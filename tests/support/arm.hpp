@@ -1,5 +1,6 @@
-// What the tests that run the plant and the controller as processes say to them: the Panda pose
-// they start from, joint vectors as command-line lists and back from messages, JOINT targets.
+// The arms the controller's tests drive — the Panda to its hand's TCP, the UR5 to tool0, loaded once
+// — and what the tests that run the plant and the controller as processes say to them: the Panda
+// pose they start from, joint vectors as command-line lists and back from messages, JOINT targets.
 #pragma once
 
 #include <Eigen/Core>
@@ -7,7 +8,14 @@
 #include <string>
 #include <vector>
 
+#include "chasles/core/model/model.hpp"
+
 namespace chasles::testing {
+
+/// tests/data/panda.urdf to panda_hand_tcp (the controller's tests' arm) and ur5.urdf to tool0,
+/// each loaded on first use and kept.
+const RobotModel& panda();
+const RobotModel& ur5();
 
 /// A bent Panda pose, within its limits, where gravity pulls hard on the shoulder and elbow.
 Eigen::VectorXd bent_pose();
