@@ -94,6 +94,11 @@ class Seat {
   void listen(double seconds) { until([] { return false; }, seconds); }
 
   bool status_is(int8_t mode) const { return status.has_value() && status->state == mode; }
+  // The latest state within `tolerance` of q (rad), and moving slower than `speed` (rad/s).
+  bool state_near(const Eigen::VectorXd& q, double tolerance, double speed = INFINITY) const {
+    return state.has_value() && (vector_of(state->position) - q).cwiseAbs().maxCoeff() < tolerance &&
+           vector_of(state->velocity).cwiseAbs().maxCoeff() < speed;
+  }
 
   void send_target(const arm_target_t& target) { send("CHASLES_TARGET", target); }
 
@@ -158,7 +163,8 @@ TEST(daemon, LockstepJointMoveReachesTheTargetAndSettles) {
   bus.send_target(joint_target(goal, 1.0));
   ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::RUNNING); }, 2.0)) << controller.stderr_text();
   ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
-  bus.listen(0.5);  // settle
+  // Settled: the arm at rest at its goal, waited for (the loop's own tail, a few hundred ms).
+  bus.until([&] { return bus.state_near(goal, 1e-3, 1e-3); }, 5.0);
   ASSERT_TRUE(bus.state.has_value());
   const VectorXd q = vector_of(bus.state->position), qd = vector_of(bus.state->velocity);
   EXPECT_LT((q - goal).cwiseAbs().maxCoeff(), 1e-3) << "q " << q.transpose();
@@ -193,7 +199,7 @@ TEST_P(RealTime, AJointMoveReachesItsGoalAndEveryCommandAnswersAState) {
   bus.send_target(joint_target(goal, 1.0));
   ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::RUNNING); }, 2.0)) << controller.stderr_text();
   ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 4.0)) << controller.stderr_text();
-  bus.listen(0.3);
+  bus.until([&] { return bus.state_near(goal, 2e-3); }, 5.0);
   ASSERT_TRUE(bus.state.has_value());
   EXPECT_LT((vector_of(bus.state->position) - goal).cwiseAbs().maxCoeff(), 2e-3);
   EXPECT_EQ(controller.stop(SIGTERM), 0) << controller.stderr_text();
@@ -242,7 +248,12 @@ TEST(daemon, LockstepCartesianMoveEndsAtTheGoalPose) {
   bus.send_target(target);
   ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::RUNNING); }, 3.0)) << controller.stderr_text();
   ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
-  bus.listen(0.5);
+  const auto tip_error = [&] {
+    const Transform T = forward_kinematics(model, data, vector_of(bus.state->position));
+    return std::max((T.translation() - T_goal.translation()).norm(),
+                    log3(T.linear().transpose() * T_goal.linear()).norm());
+  };
+  bus.until([&] { return tip_error() < 1e-3; }, 5.0);
   EXPECT_TRUE(bus.status->ik_converged);
   EXPECT_GT(bus.status->ik_iterations, 0);
   const Transform T = forward_kinematics(model, data, vector_of(bus.state->position));
@@ -297,7 +308,9 @@ TEST(daemon, MalformedStatesAndTargetsAreRejectedAndCounted) {
   bus.send_target(joint_target(bent_pose().head(6), 1.0));
   EXPECT_TRUE(bus.until([&] { return bus.status && bus.status->rejected_messages >= 4; }, 3.0))
       << controller.stderr_text();
-  bus.listen(0.2);
+  // Two statuses later (20 ms at 100 Hz), nothing has stopped or faulted over the bad messages.
+  const size_t heard = bus.statuses.size();
+  bus.until([&] { return bus.statuses.size() >= heard + 2; }, 3.0);
   EXPECT_TRUE(controller.running());
   EXPECT_TRUE(plant.running());
   EXPECT_EQ(bus.status->state, controller_status_t::HOLDING);

@@ -26,6 +26,12 @@ using testing::data_path;
 
 constexpr char kLcmUrl[] = "udpm://239.255.76.67:7667?ttl=1";  // one hop: across the veth
 
+// Inside Seat::until: the latest state heard is within `tolerance` of q, rad.
+bool near(const Seat& seat, const VectorXd& q, double tolerance) {
+  const auto& state = seat.state_locked();
+  return state && (vector_of(state->position) - q).cwiseAbs().maxCoeff() < tolerance;
+}
+
 std::vector<std::string> plant_args(const std::string& prefix, const VectorXd& q0) {
   return {CHASLES_PLANT, "--robot", data_path("panda.urdf"), "--tip", "panda_hand_tcp", "--lcm-url", kLcmUrl,
           "--channel-prefix", prefix, "--q0", list(q0)};
@@ -73,7 +79,7 @@ TEST(twohost, JointMoveAcrossTheVethPair) {
   bus.publish("TARGET", joint_target(goal, 1.0));
   ASSERT_TRUE(bus.wait_for(controller_status_t::RUNNING, 2.0)) << controller.stderr_text();
   ASSERT_TRUE(bus.wait_for(controller_status_t::HOLDING, 4.0)) << controller.stderr_text();
-  bus.listen(0.3);
+  bus.until([&](const Seat& s) { return near(s, goal, 2e-3); }, 5.0);
   const VectorXd q = vector_of(bus.state()->position);
   EXPECT_LT((q - goal).cwiseAbs().maxCoeff(), 2e-3) << q.transpose();
   EXPECT_EQ(controller.stop(SIGTERM), 0) << controller.stderr_text();
@@ -141,7 +147,8 @@ TEST(twohost, TwoArmsWithDifferentPrefixesDoNotInterfere) {
   arm2.publish("TARGET", joint_target(goal2, 1.0));
   ASSERT_TRUE(arm2.wait_for(controller_status_t::RUNNING, 2.0));
   ASSERT_TRUE(arm2.wait_for(controller_status_t::HOLDING, 4.0));
-  arm1.listen(0.3);
+  arm1.until([&](const Seat& s) { return near(s, goal1, 2e-3); }, 5.0);
+  arm2.until([&](const Seat& s) { return near(s, goal2, 2e-3); }, 5.0);
   EXPECT_LT((vector_of(arm1.state()->position) - goal1).cwiseAbs().maxCoeff(), 2e-3);
   EXPECT_LT((vector_of(arm2.state()->position) - goal2).cwiseAbs().maxCoeff(), 2e-3);
   EXPECT_EQ(controller1.stop(SIGTERM), 0);
