@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "chasles/lcmtypes/checked.hpp"
-#include "support/channel_listener.hpp"
+#include "support/bus_listener.hpp"
 #include "support/process.hpp"
 #include "support/reference.hpp"
 
@@ -44,8 +44,8 @@ Result run_cli(const std::vector<std::string>& args, const std::vector<std::stri
 }
 
 // The raw bytes of every message `chasles` sent on `channel` of the test's bus.
-struct Listener : testing::ChannelListener {
-  explicit Listener(const std::string& channel) : ChannelListener(kLcmUrl, channel) {}
+struct Listener : testing::BusListener {
+  explicit Listener(const std::string& channel) : BusListener(kLcmUrl, channel) {}
 };
 
 // As the controller's ModeReceiver and PayloadReceiver decode them.

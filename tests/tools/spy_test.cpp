@@ -23,7 +23,7 @@
 #include <vector>
 
 #include "support/process.hpp"
-#include "support/status_listener.hpp"
+#include "support/bus_listener.hpp"
 #include "support/reference.hpp"
 
 namespace chasles::testing {

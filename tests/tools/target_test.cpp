@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "support/channel_listener.hpp"
+#include "support/bus_listener.hpp"
 #include "support/process.hpp"
 #include "support/reference.hpp"
 
@@ -57,7 +57,7 @@ class Listener {
   }
 
  private:
-  testing::ChannelListener ear_;
+  testing::BusListener ear_;
   std::vector<arm_target_t> targets_;
 };
 
