@@ -22,10 +22,10 @@
 #include <type_traits>
 #include <vector>
 
-#include "chasles/controller/bus.hpp"
-#include "chasles/controller/clock.hpp"
 #include "chasles/controller/controller.hpp"
 #include "chasles/controller/lcm_io.hpp"
+#include "chasles/controller/realtime/bus.hpp"
+#include "chasles/controller/realtime/clock.hpp"
 #include "chasles/core/model/urdf.hpp"
 #include "chasles/tools/chasles/messages.hpp"
 #include "chasles/tools/plant/messaging.hpp"

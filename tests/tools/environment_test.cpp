@@ -21,8 +21,8 @@
 #include <string>
 #include <vector>
 
-#include "chasles/controller/bus.hpp"
-#include "chasles/controller/clock.hpp"
+#include "chasles/controller/realtime/bus.hpp"
+#include "chasles/controller/realtime/clock.hpp"
 #include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/lie/so3.hpp"
 #include "chasles/core/model/urdf.hpp"

@@ -18,9 +18,9 @@
 #include <string>
 #include <vector>
 
-#include "chasles/controller/clock.hpp"
 #include "chasles/controller/law.hpp"
 #include "chasles/controller/lcm_io.hpp"
+#include "chasles/controller/realtime/clock.hpp"
 #include "chasles/core/model/payload.hpp"
 #include "chasles/lcmtypes/checked.hpp"
 #include "chasles/tools/number_list.hpp"

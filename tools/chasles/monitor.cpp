@@ -21,8 +21,8 @@
 #include <optional>
 #include <sstream>
 
-#include "chasles/controller/clock.hpp"
 #include "chasles/controller/law.hpp"
+#include "chasles/controller/realtime/clock.hpp"
 #include "command.hpp"
 #include "lcm_start.hpp"
 #include "messages.hpp"

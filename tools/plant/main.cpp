@@ -24,10 +24,10 @@
 #include <string>
 #include <vector>
 
+#include "chasles/controller/realtime/clock.hpp"
+#include "chasles/controller/realtime/realtime.hpp"
 #include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/model/urdf.hpp"
-#include "chasles/controller/clock.hpp"
-#include "chasles/controller/realtime.hpp"
 #include "chasles/tools/error_line.hpp"
 #include "chasles/tools/number_list.hpp"
 #include "simulation.hpp"

@@ -9,8 +9,8 @@
 #include <cstdint>
 #include <string>
 
-#include "chasles/controller/bus.hpp"
-#include "chasles/controller/clock.hpp"
+#include "chasles/controller/realtime/bus.hpp"
+#include "chasles/controller/realtime/clock.hpp"
 #include "chasles/core/model/model.hpp"
 #include "messaging.hpp"
 #include "plant.hpp"
