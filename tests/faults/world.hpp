@@ -27,8 +27,8 @@
 #include "chasles/controller/node.hpp"
 #include "chasles/controller/realtime/bus.hpp"
 #include "chasles/controller/realtime/clock.hpp"
+#include "chasles/tools/simulation/simulation.hpp"
 #include "checks.hpp"
-#include "simulation.hpp"
 
 namespace chasles::faults {
 

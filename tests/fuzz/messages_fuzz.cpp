@@ -28,7 +28,7 @@
 #include "chasles/controller/realtime/clock.hpp"
 #include "chasles/core/model/urdf.hpp"
 #include "chasles/tools/chasles/messages.hpp"
-#include "chasles/tools/plant/messaging.hpp"
+#include "chasles/tools/simulation/messaging.hpp"
 #include "fuzz/check.hpp"
 
 namespace {

@@ -30,7 +30,8 @@
 #include "chasles/core/model/urdf.hpp"
 #include "chasles/tools/error_line.hpp"
 #include "chasles/tools/number_list.hpp"
-#include "simulation.hpp"
+#include "chasles/tools/simulation/environment_forms.hpp"
+#include "chasles/tools/simulation/simulation.hpp"
 
 namespace chasles::plant {
 
@@ -126,7 +127,8 @@ Eigen::VectorXd joint_damping(const RobotModel& model, const std::string& text) 
   return damping;
 }
 
-// --push, --wall, --payload and --friction, each checked (environment.hpp says what is refused).
+// --push, --wall, --payload and --friction, each checked (environment_forms.hpp and
+// core/simulation/environment.hpp say what is refused).
 EnvironmentOptions environment(const RobotModel& model, const Options& o) {
   try {
     EnvironmentOptions env;
@@ -136,6 +138,8 @@ EnvironmentOptions environment(const RobotModel& model, const Options& o) {
     if (!o.friction.empty()) env.friction = parse_friction(o.friction, model);
     return env;
   } catch (const std::invalid_argument& e) {
+    throw InputError(e.what());
+  } catch (const chasles::ArgumentError& e) {
     throw InputError(e.what());
   }
 }
