@@ -24,7 +24,7 @@
 #include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/model/payload.hpp"
 #include "chasles/core/model/urdf.hpp"
-#include "chasles/tools/number_list.hpp"
+#include "chasles/core/number_list.hpp"
 
 namespace {
 

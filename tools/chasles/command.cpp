@@ -5,8 +5,8 @@
 #include <vector>
 
 #include "chasles/core/model/urdf.hpp"
+#include "chasles/core/number_list.hpp"
 #include "chasles/tools/error_line.hpp"
-#include "chasles/tools/number_list.hpp"
 
 namespace chasles::cli {
 

@@ -22,8 +22,8 @@
 #include "chasles/controller/lcm_io.hpp"
 #include "chasles/controller/realtime/clock.hpp"
 #include "chasles/core/model/payload.hpp"
+#include "chasles/core/number_list.hpp"
 #include "chasles/lcmtypes/checked.hpp"
-#include "chasles/tools/number_list.hpp"
 #include "command.hpp"
 #include "lcm_start.hpp"
 

@@ -28,8 +28,8 @@
 #include "chasles/controller/realtime/realtime.hpp"
 #include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/model/urdf.hpp"
+#include "chasles/core/number_list.hpp"
 #include "chasles/tools/error_line.hpp"
-#include "chasles/tools/number_list.hpp"
 #include "chasles/tools/simulation/environment_forms.hpp"
 #include "chasles/tools/simulation/simulation.hpp"
 

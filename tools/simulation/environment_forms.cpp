@@ -3,7 +3,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "chasles/tools/number_list.hpp"
+#include "chasles/core/number_list.hpp"
 
 namespace chasles::plant {
 namespace {
