@@ -647,7 +647,7 @@ TEST(environment, SpecsAreParsedAndCheckedWithSpecificMessages) {
     try {
       parse();
       ADD_FAILURE() << "accepted; expected a refusal containing: " << needle;
-    } catch (const std::exception& e) {  // a malformed number list or an item the checks refuse
+    } catch (const chasles::ArgumentError& e) {
       EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
     }
   };

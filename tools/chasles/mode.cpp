@@ -34,8 +34,8 @@ using controller::Law;
 
 std::vector<double> numbers(const std::string& text, const std::string& option) {
   try {
-    return tools::parse_number_list(text, option);
-  } catch (const std::invalid_argument& e) {
+    return parse_number_list(text, option);
+  } catch (const ArgumentError& e) {
     throw InputError(e.what());
   }
 }

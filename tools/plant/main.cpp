@@ -81,8 +81,8 @@ const CLI::Validator kNonNegative = at_least(0.0, true, "a non-negative number")
 
 std::vector<double> parse_numbers(const std::string& text, const std::string& option) {
   try {
-    return tools::parse_number_list(text, option);
-  } catch (const std::invalid_argument& e) {
+    return chasles::parse_number_list(text, option);
+  } catch (const chasles::ArgumentError& e) {
     throw InputError(e.what());
   }
 }
@@ -137,8 +137,6 @@ EnvironmentOptions environment(const RobotModel& model, const Options& o) {
     if (!o.payload.empty()) env.payload = parse_payload(o.payload);
     if (!o.friction.empty()) env.friction = parse_friction(o.friction, model);
     return env;
-  } catch (const std::invalid_argument& e) {
-    throw InputError(e.what());
   } catch (const chasles::ArgumentError& e) {
     throw InputError(e.what());
   }

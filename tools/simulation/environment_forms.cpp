@@ -1,15 +1,15 @@
 #include "chasles/tools/simulation/environment_forms.hpp"
 
-#include <stdexcept>
 #include <vector>
 
+#include "chasles/core/error.hpp"
 #include "chasles/core/number_list.hpp"
 
 namespace chasles::plant {
 namespace {
 
 std::vector<double> numbers(const std::string& text, const std::string& option) {
-  return tools::parse_number_list(text, option);  // names the entry that is not a finite number
+  return parse_number_list(text, option);  // names the entry that is not a finite number
 }
 
 std::string count_error(const std::string& form, const std::string& counts, size_t got) {
@@ -21,7 +21,7 @@ std::string count_error(const std::string& form, const std::string& counts, size
 Push parse_push(const std::string& text) {
   const std::vector<double> v = numbers(text, "--push");
   if (v.size() != 9) {
-    throw std::invalid_argument(
+    throw ArgumentError(
         count_error("--push takes START,DURATION,RAMP,mx,my,mz,fx,fy,fz", "9 numbers: s, s, s, N*m, N", v.size()));
   }
   Push push;
@@ -36,7 +36,7 @@ Push parse_push(const std::string& text) {
 Wall parse_wall(const std::string& text) {
   const std::vector<double> v = numbers(text, "--wall");
   if (v.size() != 6 && v.size() != 8) {
-    throw std::invalid_argument(
+    throw ArgumentError(
         count_error("--wall takes PX,PY,PZ,NX,NY,NZ[,K,D]", "6 or 8 numbers: m, unit normal, N/m, N*s/m", v.size()));
   }
   Wall wall;
@@ -50,13 +50,13 @@ Wall parse_wall(const std::string& text) {
   return wall;
 }
 
-Payload parse_payload(const std::string& text) { return tools::parse_payload(text, "--payload"); }
+Payload parse_payload(const std::string& text) { return chasles::parse_payload(text, "--payload"); }
 
 Friction parse_friction(const std::string& text, const RobotModel& model) {
   const std::vector<double> v = numbers(text, "--friction");
   const int n = model.dof();
   if (v.size() != 2 && v.size() != 2 * static_cast<size_t>(n)) {
-    throw std::invalid_argument(count_error(
+    throw ArgumentError(count_error(
         "--friction takes VISCOUS,COULOMB for every joint or a pair per joint",
         "2 or " + std::to_string(2 * n) + " numbers for " + std::to_string(n) + " joints: N*m*s/rad, N*m", v.size()));
   }

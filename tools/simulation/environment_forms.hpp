@@ -1,7 +1,6 @@
 // chasles_plant's command-line forms of the environment (environment.hpp in core/simulation):
-// --push, --wall, --payload and --friction as text. Each throws std::invalid_argument or
-// chasles::ArgumentError with a one-line message that starts with the option and says what to give
-// instead.
+// --push, --wall, --payload and --friction as text. Each throws chasles::ArgumentError with a
+// one-line message that starts with the option and says what to give instead.
 #pragma once
 
 #include <string>
