@@ -24,8 +24,8 @@
 #include <vector>
 
 #include "chasles/controller/controller.hpp"
-#include "chasles/controller/daemon.hpp"
 #include "chasles/controller/lcm_io.hpp"
+#include "chasles/controller/options.hpp"
 #include "chasles/controller/realtime/bus.hpp"
 #include "chasles/controller/realtime/clock.hpp"
 #include "chasles/controller/realtime/mailbox.hpp"
