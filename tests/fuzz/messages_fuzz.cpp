@@ -27,7 +27,7 @@
 #include "chasles/controller/realtime/bus.hpp"
 #include "chasles/controller/realtime/clock.hpp"
 #include "chasles/core/model/urdf.hpp"
-#include "chasles/tools/chasles/messages.hpp"
+#include "chasles/tools/cli/messages.hpp"
 #include "chasles/tools/simulation/messaging.hpp"
 #include "fuzz/check.hpp"
 

@@ -23,9 +23,9 @@
 
 #include "chasles/controller/law.hpp"
 #include "chasles/controller/realtime/clock.hpp"
+#include "chasles/tools/cli/messages.hpp"
 #include "command.hpp"
 #include "lcm_start.hpp"
-#include "messages.hpp"
 
 namespace chasles::cli {
 namespace {
