@@ -30,6 +30,7 @@
 #include "chasles/core/model/urdf.hpp"
 #include "chasles/core/number_list.hpp"
 #include "chasles/tools/error_line.hpp"
+#include "chasles/tools/run_main.hpp"
 #include "chasles/tools/simulation/environment_forms.hpp"
 #include "chasles/tools/simulation/simulation.hpp"
 
@@ -37,10 +38,10 @@ namespace chasles::plant {
 
 namespace {
 
-/// A bad value in an option that parsed (exit 1, like a bad URDF).
-class InputError : public std::runtime_error {
+/// A bad value in an option that parsed (exit 1, like a bad URDF: run_main reports it).
+class InputError : public chasles::Error {
  public:
-  using std::runtime_error::runtime_error;
+  using chasles::Error::Error;
 };
 
 struct Options {
@@ -309,7 +310,7 @@ int main(int argc, char** argv) {
     return fail(std::string(e.what()) + " (see 'chasles_plant --help')", 2);
   }
 
-  try {
+  return chasles::tools::run_main("chasles_plant", [&] {
     chasles::UrdfOptions urdf_options;
     urdf_options.tip_link = options.tip;
     const chasles::RobotModel model = chasles::load_urdf_file(options.robot, urdf_options);
@@ -370,15 +371,5 @@ int main(int argc, char** argv) {
     }
     simulation.print_summary();
     return 0;
-  } catch (const chasles::TipNotChosenError& e) {
-    return fail(std::string(e.what()) + " with --tip", 1);
-  } catch (const chasles::ModelError& e) {
-    return fail(e.what(), 1);
-  } catch (const InputError& e) {
-    return fail(e.what(), 1);
-  } catch (const std::bad_alloc&) {
-    return fail("out of memory", 1);
-  } catch (const std::exception& e) {
-    return fail(std::string("internal error: ") + e.what(), 1);
-  }
+  });
 }
