@@ -8,10 +8,6 @@
 namespace chasles::plant {
 namespace {
 
-std::vector<double> numbers(const std::string& text, const std::string& option) {
-  return parse_number_list(text, option);  // names the entry that is not a finite number
-}
-
 std::string count_error(const std::string& form, const std::string& counts, size_t got) {
   return form + " (" + counts + "); got " + std::to_string(got);
 }
@@ -19,7 +15,7 @@ std::string count_error(const std::string& form, const std::string& counts, size
 }  // namespace
 
 Push parse_push(const std::string& text) {
-  const std::vector<double> v = numbers(text, "--push");
+  const std::vector<double> v = parse_number_list(text, "--push");
   if (v.size() != 9) {
     throw ArgumentError(
         count_error("--push takes START,DURATION,RAMP,mx,my,mz,fx,fy,fz", "9 numbers: s, s, s, N*m, N", v.size()));
@@ -34,7 +30,7 @@ Push parse_push(const std::string& text) {
 }
 
 Wall parse_wall(const std::string& text) {
-  const std::vector<double> v = numbers(text, "--wall");
+  const std::vector<double> v = parse_number_list(text, "--wall");
   if (v.size() != 6 && v.size() != 8) {
     throw ArgumentError(
         count_error("--wall takes PX,PY,PZ,NX,NY,NZ[,K,D]", "6 or 8 numbers: m, unit normal, N/m, N*s/m", v.size()));
@@ -53,7 +49,7 @@ Wall parse_wall(const std::string& text) {
 Payload parse_payload(const std::string& text) { return chasles::parse_payload(text, "--payload"); }
 
 Friction parse_friction(const std::string& text, const RobotModel& model) {
-  const std::vector<double> v = numbers(text, "--friction");
+  const std::vector<double> v = parse_number_list(text, "--friction");
   const int n = model.dof();
   if (v.size() != 2 && v.size() != 2 * static_cast<size_t>(n)) {
     throw ArgumentError(count_error(
