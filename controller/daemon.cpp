@@ -4,10 +4,10 @@
 #include <cstdio>
 #include <thread>
 
-#include "chasles/controller/bus.hpp"
-#include "chasles/controller/clock.hpp"
 #include "chasles/controller/node.hpp"
-#include "chasles/controller/realtime.hpp"
+#include "chasles/controller/realtime/bus.hpp"
+#include "chasles/controller/realtime/clock.hpp"
+#include "chasles/controller/realtime/realtime.hpp"
 
 namespace chasles::controller {
 namespace {

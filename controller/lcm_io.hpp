@@ -20,8 +20,8 @@
 
 #include "chasles/controller/controller.hpp"
 #include "chasles/controller/law.hpp"
-#include "chasles/controller/mailbox.hpp"
-#include "chasles/controller/realtime.hpp"
+#include "chasles/controller/realtime/mailbox.hpp"
+#include "chasles/controller/realtime/realtime.hpp"
 #include "chasles/core/model/payload.hpp"
 
 namespace chasles::controller {

@@ -24,7 +24,7 @@
 #include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/model/payload.hpp"
 #include "chasles/core/model/urdf.hpp"
-#include "chasles/tools/number_list.hpp"
+#include "chasles/core/number_list.hpp"
 
 namespace {
 
@@ -278,7 +278,7 @@ int main(int argc, char** argv) {
     // The daemon is given the model as loaded and the payload apart, so that a payload_t received
     // at run time replaces the payload rather than adds to it.
     const chasles::RobotModel model = chasles::load_urdf_file(flags.robot, urdf);
-    if (!flags.payload.empty()) options.payload = chasles::tools::parse_payload(flags.payload, "--payload");
+    if (!flags.payload.empty()) options.payload = chasles::parse_payload(flags.payload, "--payload");
     const chasles::RobotModel carried = options.payload ? chasles::with_payload(model, *options.payload) : model;
     for (const std::string& warning : model.warnings()) {
       std::fprintf(stderr, "chasles_controller: warning: %s: %s\n", flags.robot.c_str(), warning.c_str());

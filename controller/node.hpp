@@ -23,13 +23,13 @@
 #include <string>
 #include <vector>
 
-#include "chasles/controller/bus.hpp"
-#include "chasles/controller/clock.hpp"
 #include "chasles/controller/controller.hpp"
-#include "chasles/controller/daemon.hpp"
 #include "chasles/controller/lcm_io.hpp"
-#include "chasles/controller/mailbox.hpp"
-#include "chasles/controller/realtime.hpp"
+#include "chasles/controller/options.hpp"
+#include "chasles/controller/realtime/bus.hpp"
+#include "chasles/controller/realtime/clock.hpp"
+#include "chasles/controller/realtime/mailbox.hpp"
+#include "chasles/controller/realtime/realtime.hpp"
 #include "chasles/controller/statistics.hpp"
 #include "chasles/core/kinematics/kinematics.hpp"
 

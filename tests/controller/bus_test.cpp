@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "chasles/controller/bus.hpp"
+#include "chasles/controller/realtime/bus.hpp"
 #include "chasles/core/error.hpp"
 #include "support/allocation_counter.hpp"
 

@@ -16,7 +16,7 @@
 
 #include "chasles/controller/controller.hpp"
 #include "chasles/controller/lcm_io.hpp"
-#include "chasles/controller/mailbox.hpp"
+#include "chasles/controller/realtime/mailbox.hpp"
 #include "chasles/controller/statistics.hpp"
 #include "chasles/controller/trajectory.hpp"
 #include "chasles/core/dynamics/dynamics.hpp"

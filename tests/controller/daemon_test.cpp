@@ -22,10 +22,10 @@
 #include <thread>
 #include <vector>
 
-#include "chasles/controller/bus.hpp"
-#include "chasles/controller/clock.hpp"
 #include "chasles/controller/controller.hpp"
 #include "chasles/controller/lcm_io.hpp"
+#include "chasles/controller/realtime/bus.hpp"
+#include "chasles/controller/realtime/clock.hpp"
 #include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/lie/se3.hpp"
 #include "chasles/core/model/urdf.hpp"

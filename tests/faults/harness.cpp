@@ -4,7 +4,7 @@
 #include <stdexcept>
 #include <type_traits>
 
-#include "chasles/controller/clock.hpp"
+#include "chasles/controller/realtime/clock.hpp"
 #include "chasles/lcmtypes/checked.hpp"
 
 namespace chasles::faults {

@@ -24,11 +24,11 @@
 #include <utility>
 #include <vector>
 
-#include "chasles/controller/bus.hpp"
-#include "chasles/controller/clock.hpp"
 #include "chasles/controller/node.hpp"
+#include "chasles/controller/realtime/bus.hpp"
+#include "chasles/controller/realtime/clock.hpp"
+#include "chasles/tools/simulation/simulation.hpp"
 #include "checks.hpp"
-#include "simulation.hpp"
 
 namespace chasles::faults {
 

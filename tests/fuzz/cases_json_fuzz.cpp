@@ -6,7 +6,7 @@
 
 #include "chasles/core/ik/ik.hpp"
 #include "chasles/core/model/urdf.hpp"
-#include "chasles/tools/chasles/cases.hpp"
+#include "chasles/tools/cli/cases.hpp"
 #include "fuzz/check.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

@@ -22,13 +22,13 @@
 #include <type_traits>
 #include <vector>
 
-#include "chasles/controller/bus.hpp"
-#include "chasles/controller/clock.hpp"
 #include "chasles/controller/controller.hpp"
 #include "chasles/controller/lcm_io.hpp"
+#include "chasles/controller/realtime/bus.hpp"
+#include "chasles/controller/realtime/clock.hpp"
 #include "chasles/core/model/urdf.hpp"
-#include "chasles/tools/chasles/messages.hpp"
-#include "chasles/tools/plant/messaging.hpp"
+#include "chasles/tools/cli/messages.hpp"
+#include "chasles/tools/simulation/messaging.hpp"
 #include "fuzz/check.hpp"
 
 namespace {

@@ -4,7 +4,7 @@
 // not come from the plant's code: statics (τ = g − J_bᵀ F holds an arm against a wrench F), a
 // trapezoid drawn by hand, a spring's rest length, energy, a point mass's kinetic and potential
 // energy, the friction law.
-#include "environment.hpp"
+#include "chasles/core/simulation/environment.hpp"
 
 #include <gtest/gtest.h>
 
@@ -21,14 +21,15 @@
 #include <string>
 #include <vector>
 
-#include "chasles/controller/bus.hpp"
-#include "chasles/controller/clock.hpp"
+#include "chasles/controller/realtime/bus.hpp"
+#include "chasles/controller/realtime/clock.hpp"
 #include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/lie/so3.hpp"
 #include "chasles/core/model/urdf.hpp"
+#include "chasles/core/simulation/plant.hpp"
 #include "chasles/lcmtypes/checked.hpp"
-#include "plant.hpp"
-#include "simulation.hpp"
+#include "chasles/tools/simulation/environment_forms.hpp"
+#include "chasles/tools/simulation/simulation.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/arm.hpp"
 #include "support/reference.hpp"
@@ -646,7 +647,7 @@ TEST(environment, SpecsAreParsedAndCheckedWithSpecificMessages) {
     try {
       parse();
       ADD_FAILURE() << "accepted; expected a refusal containing: " << needle;
-    } catch (const std::invalid_argument& e) {
+    } catch (const chasles::ArgumentError& e) {
       EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
     }
   };

@@ -8,7 +8,7 @@
 #include <utility>
 #include <vector>
 
-#include "../chasles/json_io.hpp"
+#include "chasles/tools/cli/json_io.hpp"
 
 namespace chasles::calibrate_cli {
 

@@ -7,9 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "chasles/core/calibration/calibration.hpp"
-#include "chasles/core/model/urdf.hpp"
 #include "chasles/tools/error_line.hpp"
+#include "chasles/tools/run_main.hpp"
 #include "commands.hpp"
 
 namespace {
@@ -45,7 +44,7 @@ int main(int argc, char** argv) {
     return fail(std::string(e.what()) + " (see '" + help + "')", 2);
   }
 
-  try {
+  return chasles::tools::run_main("chasles_calibrate", [&] {
     for (const Command& command : commands) {
       if (!command.app->parsed()) continue;
       command.run();
@@ -53,17 +52,5 @@ int main(int argc, char** argv) {
       return 0;
     }
     return fail("no command given (see 'chasles_calibrate --help')", 2);
-  } catch (const chasles::TipNotChosenError& e) {
-    return fail(std::string(e.what()) + " with --tip", 1);
-  } catch (const chasles::ModelError& e) {
-    return fail(e.what(), 1);
-  } catch (const chasles::CalibrationError& e) {
-    return fail(e.what(), 1);
-  } catch (const InputError& e) {
-    return fail(e.what(), 1);
-  } catch (const std::bad_alloc&) {
-    return fail("out of memory", 1);
-  } catch (const std::exception& e) {
-    return fail(std::string("internal error: ") + e.what(), 1);
-  }
+  });
 }

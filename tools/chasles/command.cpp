@@ -5,8 +5,8 @@
 #include <vector>
 
 #include "chasles/core/model/urdf.hpp"
+#include "chasles/core/number_list.hpp"
 #include "chasles/tools/error_line.hpp"
-#include "chasles/tools/number_list.hpp"
 
 namespace chasles::cli {
 
@@ -31,8 +31,8 @@ namespace chasles::cli {
 Eigen::VectorXd parse_list(const std::string& text, Eigen::Index n, const std::string& option) {
   std::vector<double> values;
   try {
-    values = tools::parse_number_list(text, option);
-  } catch (const std::invalid_argument& e) {
+    values = parse_number_list(text, option);
+  } catch (const ArgumentError& e) {
     throw InputError(e.what());
   }
   if (static_cast<Eigen::Index>(values.size()) != n) {

@@ -10,7 +10,7 @@
 #include <string>
 
 #include "chasles/core/model/model.hpp"
-#include "json_io.hpp"
+#include "chasles/tools/cli/json_io.hpp"
 
 namespace chasles::cli {
 

@@ -2,7 +2,7 @@
 #include <memory>
 
 #include "chasles/core/dynamics/dynamics.hpp"
-#include "cases.hpp"
+#include "chasles/tools/cli/cases.hpp"
 #include "command.hpp"
 
 namespace chasles::cli {

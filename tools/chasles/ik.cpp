@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "chasles/core/ik/ik.hpp"
-#include "cases.hpp"
+#include "chasles/tools/cli/cases.hpp"
 #include "command.hpp"
 
 namespace chasles::cli {

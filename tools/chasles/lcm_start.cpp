@@ -4,7 +4,7 @@
 
 #include <cstdio>
 
-#include "json_io.hpp"
+#include "chasles/tools/cli/json_io.hpp"
 
 namespace chasles::cli {
 

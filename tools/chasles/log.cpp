@@ -23,9 +23,9 @@
 #include <optional>
 #include <sstream>
 
+#include "chasles/tools/cli/lcm_log.hpp"
+#include "chasles/tools/cli/messages.hpp"
 #include "command.hpp"
-#include "lcm_log.hpp"
-#include "messages.hpp"
 
 extern char** environ;
 

@@ -19,12 +19,12 @@
 #include <string>
 #include <vector>
 
-#include "chasles/controller/clock.hpp"
 #include "chasles/controller/law.hpp"
 #include "chasles/controller/lcm_io.hpp"
+#include "chasles/controller/realtime/clock.hpp"
 #include "chasles/core/model/payload.hpp"
+#include "chasles/core/number_list.hpp"
 #include "chasles/lcmtypes/checked.hpp"
-#include "chasles/tools/number_list.hpp"
 #include "command.hpp"
 #include "lcm_start.hpp"
 
@@ -44,8 +44,8 @@ std::string quote(double x) {
 
 std::vector<double> numbers(const std::string& text, const std::string& option) {
   try {
-    return tools::parse_number_list(text, option);
-  } catch (const std::invalid_argument& e) {
+    return parse_number_list(text, option);
+  } catch (const ArgumentError& e) {
     throw InputError(e.what());
   }
 }

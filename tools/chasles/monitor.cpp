@@ -21,12 +21,12 @@
 #include <optional>
 #include <sstream>
 
-#include "chasles/controller/clock.hpp"
 #include "chasles/controller/law.hpp"
 #include "chasles/controller/lcm_io.hpp"
+#include "chasles/controller/realtime/clock.hpp"
+#include "chasles/tools/cli/messages.hpp"
 #include "command.hpp"
 #include "lcm_start.hpp"
-#include "messages.hpp"
 
 namespace chasles::cli {
 namespace {

@@ -12,7 +12,7 @@
 #include <memory>
 #include <optional>
 
-#include "chasles/controller/clock.hpp"
+#include "chasles/controller/realtime/clock.hpp"
 #include "command.hpp"
 
 namespace chasles::cli {

@@ -24,22 +24,24 @@
 #include <string>
 #include <vector>
 
+#include "chasles/controller/realtime/clock.hpp"
+#include "chasles/controller/realtime/realtime.hpp"
 #include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/model/urdf.hpp"
-#include "chasles/controller/clock.hpp"
-#include "chasles/controller/realtime.hpp"
+#include "chasles/core/number_list.hpp"
 #include "chasles/tools/error_line.hpp"
-#include "chasles/tools/number_list.hpp"
-#include "simulation.hpp"
+#include "chasles/tools/run_main.hpp"
+#include "chasles/tools/simulation/environment_forms.hpp"
+#include "chasles/tools/simulation/simulation.hpp"
 
 namespace chasles::plant {
 
 namespace {
 
-/// A bad value in an option that parsed (exit 1, like a bad URDF).
-class InputError : public std::runtime_error {
+/// A bad value in an option that parsed (exit 1, like a bad URDF: run_main reports it).
+class InputError : public chasles::Error {
  public:
-  using std::runtime_error::runtime_error;
+  using chasles::Error::Error;
 };
 
 struct Options {
@@ -80,8 +82,8 @@ const CLI::Validator kNonNegative = at_least(0.0, true, "a non-negative number")
 
 std::vector<double> parse_numbers(const std::string& text, const std::string& option) {
   try {
-    return tools::parse_number_list(text, option);
-  } catch (const std::invalid_argument& e) {
+    return chasles::parse_number_list(text, option);
+  } catch (const chasles::ArgumentError& e) {
     throw InputError(e.what());
   }
 }
@@ -126,7 +128,8 @@ Eigen::VectorXd joint_damping(const RobotModel& model, const std::string& text) 
   return damping;
 }
 
-// --push, --wall, --payload and --friction, each checked (environment.hpp says what is refused).
+// --push, --wall, --payload and --friction, each checked (environment_forms.hpp and
+// core/simulation/environment.hpp say what is refused).
 EnvironmentOptions environment(const RobotModel& model, const Options& o) {
   try {
     EnvironmentOptions env;
@@ -135,7 +138,7 @@ EnvironmentOptions environment(const RobotModel& model, const Options& o) {
     if (!o.payload.empty()) env.payload = parse_payload(o.payload);
     if (!o.friction.empty()) env.friction = parse_friction(o.friction, model);
     return env;
-  } catch (const std::invalid_argument& e) {
+  } catch (const chasles::ArgumentError& e) {
     throw InputError(e.what());
   }
 }
@@ -307,7 +310,7 @@ int main(int argc, char** argv) {
     return fail(std::string(e.what()) + " (see 'chasles_plant --help')", 2);
   }
 
-  try {
+  return chasles::tools::run_main("chasles_plant", [&] {
     chasles::UrdfOptions urdf_options;
     urdf_options.tip_link = options.tip;
     const chasles::RobotModel model = chasles::load_urdf_file(options.robot, urdf_options);
@@ -368,15 +371,5 @@ int main(int argc, char** argv) {
     }
     simulation.print_summary();
     return 0;
-  } catch (const chasles::TipNotChosenError& e) {
-    return fail(std::string(e.what()) + " with --tip", 1);
-  } catch (const chasles::ModelError& e) {
-    return fail(e.what(), 1);
-  } catch (const InputError& e) {
-    return fail(e.what(), 1);
-  } catch (const std::bad_alloc&) {
-    return fail("out of memory", 1);
-  } catch (const std::exception& e) {
-    return fail(std::string("internal error: ") + e.what(), 1);
-  }
+  });
 }

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "chasles/core/model/model.hpp"
-#include "json_io.hpp"
+#include "chasles/tools/cli/json_io.hpp"
 
 namespace chasles::cli {
 

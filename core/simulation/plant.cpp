@@ -1,4 +1,4 @@
-#include "plant.hpp"
+#include "chasles/core/simulation/plant.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>

@@ -1,4 +1,4 @@
-#include "messaging.hpp"
+#include "chasles/tools/simulation/messaging.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "chasles/controller/bus.hpp"
-#include "chasles/controller/clock.hpp"
+#include "chasles/controller/realtime/bus.hpp"
+#include "chasles/controller/realtime/clock.hpp"
 #include "chasles/core/lie/types.hpp"
 
 namespace chasles::plant {

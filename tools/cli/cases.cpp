@@ -1,4 +1,4 @@
-#include "cases.hpp"
+#include "chasles/tools/cli/cases.hpp"
 
 #include <stdexcept>
 

@@ -20,7 +20,7 @@
 #include <memory>
 
 #include "chasles/core/model/model.hpp"
-#include "environment.hpp"
+#include "chasles/core/simulation/environment.hpp"
 
 namespace chasles::plant {
 
@@ -38,7 +38,7 @@ class Plant {
  public:
   /// Starts at rest at q0. `damping` is the viscous joint damping D, one entry per joint
   /// (N·m·s/rad or N·s/m), which the controller knows. Every step() is `dt` seconds long, in
-  /// `substeps` RK4 steps. Throws std::invalid_argument when the environment is not valid (see
+  /// `substeps` RK4 steps. Throws chasles::ArgumentError when the environment is not valid (see
   /// checked_environment). Keeps a reference to `model`, the nominal model; with a payload it
   /// integrates a model of its own (true_model()).
   Plant(const RobotModel& model, const Eigen::VectorXd& q0, const Eigen::VectorXd& damping, double dt, int substeps = 1,

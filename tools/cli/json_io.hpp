@@ -3,9 +3,9 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
-#include <stdexcept>
 #include <string>
 
+#include "chasles/core/error.hpp"
 #include "chasles/core/lie/types.hpp"
 
 namespace chasles::cli {
@@ -13,11 +13,11 @@ namespace chasles::cli {
 /// Keys keep the order they were added in, so output reads in the documented order.
 using Json = nlohmann::ordered_json;
 
-/// Bad input (a file, its JSON, a value in it). The CLI prints "chasles: <what>" and exits 1;
-/// what() names the file and the place in it.
-class InputError : public std::runtime_error {
+/// Bad input (a file, its JSON, a value in it): a chasles::Error, which the tools' run_main
+/// prints as "chasles: <what>" with exit status 1; what() names the file and the place in it.
+class InputError : public Error {
  public:
-  using std::runtime_error::runtime_error;
+  using Error::Error;
 };
 
 /// A double, or null when it is not finite (JSON has no ∞ or NaN).

@@ -1,4 +1,4 @@
-#include "simulation.hpp"
+#include "chasles/tools/simulation/simulation.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "messages.hpp"
+#include "chasles/tools/cli/messages.hpp"
 
 #include <algorithm>
 #include <charconv>

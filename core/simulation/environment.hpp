@@ -1,7 +1,8 @@
 // What the simulated arm meets that its controller does not know: wrenches pushed onto the tip,
 // one-sided walls, a payload at the tip and joint friction, each given as a plain spec
 // (EnvironmentOptions, from chasles_plant's --push, --wall, --payload and --friction or set by an
-// in-process test) and applied by Plant (plant.hpp).
+// in-process test) and applied by Plant (plant.hpp). Physics only: the command-line forms are
+// chasles_plant's (tools/simulation/environment_forms.hpp).
 //
 // Frames: a wrench is (m, f), N·m then N. A push is given and the contact is reported with the
 // base frame's orientation at the tip frame's origin (libfranka's O_F_ext_hat_K, in Modern
@@ -64,24 +65,22 @@ struct EnvironmentOptions {
   bool any() const { return !pushes.empty() || !walls.empty() || payload.has_value() || !friction.empty(); }
 };
 
-/// The options with every wall's normal made unit, checked: throws std::invalid_argument naming the
+/// The options with every wall's normal made unit, checked: throws chasles::ArgumentError naming the
 /// item ("push 2: ...", "wall 1: ...", "payload: ...", "friction: joint panda_joint3 ...") when a
 /// number is not finite, a push's duration is not positive or its ramp does not fit in half of it,
 /// a normal is zero, a stiffness is not positive, or a damping, mass or friction coefficient is
 /// negative, or the friction does not have one entry per joint. Plant calls it.
 EnvironmentOptions checked_environment(const EnvironmentOptions& options, const RobotModel& model);
 
-// The command-line forms. Each throws std::invalid_argument with a one-line message that starts
-// with the option and says what to give instead.
+// The checks checked_environment makes, one item at a time, for a caller that builds the items
+// itself (chasles_plant's command-line forms, tools/simulation/environment_forms.hpp). Each throws
+// chasles::ArgumentError "<what>: <why>".
 
-/// "START,DURATION,RAMP,mx,my,mz,fx,fy,fz" (--push).
-Push parse_push(const std::string& text);
-/// "PX,PY,PZ,NX,NY,NZ[,K,D]" (--wall); the normal is normalised.
-Wall parse_wall(const std::string& text);
-/// "KG[,CX,CY,CZ]" (--payload).
-Payload parse_payload(const std::string& text);
-/// "VISCOUS,COULOMB" for every joint, or one such pair per joint, root to tip (--friction).
-Friction parse_friction(const std::string& text, const RobotModel& model);
-
+/// A push's numbers finite, START ≥ 0, DURATION > 0, 0 ≤ RAMP ≤ DURATION / 2.
+void check_push(const Push& push, const std::string& what);
+/// A wall's numbers finite, its normal not zero (normalised here), K > 0, D ≥ 0.
+void check_wall(Wall& wall, const std::string& what);
+/// One viscous and one Coulomb coefficient per joint of `model`, finite and ≥ 0.
+void check_friction(const Friction& friction, const RobotModel& model, const std::string& what);
 
 }  // namespace chasles::plant

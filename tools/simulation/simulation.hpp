@@ -9,11 +9,11 @@
 #include <cstdint>
 #include <string>
 
-#include "chasles/controller/bus.hpp"
-#include "chasles/controller/clock.hpp"
+#include "chasles/controller/realtime/bus.hpp"
+#include "chasles/controller/realtime/clock.hpp"
 #include "chasles/core/model/model.hpp"
-#include "messaging.hpp"
-#include "plant.hpp"
+#include "chasles/core/simulation/plant.hpp"
+#include "chasles/tools/simulation/messaging.hpp"
 
 namespace chasles::plant {
 
@@ -31,7 +31,7 @@ struct SimulationOptions {
   int max_late = 20;
   std::string prefix = "CHASLES_";  ///< channels PREFIX STATE, PREFIX COMMAND and PREFIX TRUTH
   Faults faults;
-  /// Pushes, walls, a hidden payload, hidden friction (environment.hpp).
+  /// Pushes, walls, a hidden payload, hidden friction (core/simulation/environment.hpp).
   EnvironmentOptions environment;
   /// Publish chasles.sim_truth_t on PREFIX TRUTH after every state even with an empty environment
   /// (with anything in it, always). Off by default: a fleet of arms pays no extra datagram per step.
@@ -42,7 +42,7 @@ class Simulation {
  public:
   /// Starts at rest at q0 with viscous joint damping `damping`; subscribes to the command channel.
   /// Keeps references to model (the nominal model; see Plant), bus and clock. Throws
-  /// std::invalid_argument when options.environment is not valid (checked_environment).
+  /// chasles::ArgumentError when options.environment is not valid (checked_environment).
   Simulation(const RobotModel& model, const SimulationOptions& options, const Eigen::VectorXd& q0,
              const Eigen::VectorXd& damping, Bus& bus, const Clock& clock);
   Simulation(const Simulation&) = delete;

@@ -1,4 +1,4 @@
-#include "chasles/controller/bus.hpp"
+#include "chasles/controller/realtime/bus.hpp"
 
 #include <arpa/inet.h>
 #include <lcm/lcm.h>
@@ -14,7 +14,7 @@
 #include <thread>
 #include <vector>
 
-#include "chasles/controller/realtime.hpp"
+#include "chasles/controller/realtime/realtime.hpp"
 #include "chasles/core/error.hpp"
 
 namespace chasles::controller {

@@ -1,4 +1,4 @@
-#include "json_io.hpp"
+#include "chasles/tools/cli/json_io.hpp"
 
 #include <cerrno>
 #include <cmath>

@@ -1,0 +1,22 @@
+// chasles_plant's command-line forms of the environment (environment.hpp in core/simulation):
+// --push, --wall, --payload and --friction as text. Each throws chasles::ArgumentError with a
+// one-line message that starts with the option and says what to give instead.
+#pragma once
+
+#include <string>
+
+#include "chasles/core/model/model.hpp"
+#include "chasles/core/simulation/environment.hpp"
+
+namespace chasles::plant {
+
+/// "START,DURATION,RAMP,mx,my,mz,fx,fy,fz" (--push).
+Push parse_push(const std::string& text);
+/// "PX,PY,PZ,NX,NY,NZ[,K,D]" (--wall); the normal is normalised.
+Wall parse_wall(const std::string& text);
+/// "KG[,CX,CY,CZ]" (--payload).
+Payload parse_payload(const std::string& text);
+/// "VISCOUS,COULOMB" for every joint, or one such pair per joint, root to tip (--friction).
+Friction parse_friction(const std::string& text, const RobotModel& model);
+
+}  // namespace chasles::plant
