@@ -77,7 +77,7 @@ class Node {
   Summary summary(double seconds);
 
   void set_realtime_granted(bool granted) { realtime_granted_ = granted; }
-  const Controller& controller() const { return controller_; }
+  const Controller& controller() const { return loop_.controller; }
   /// Rung when plan() has work: a Cartesian request or room for a waiting path (by the loop), a
   /// payload (by the bus's handler).
   Doorbell& planner_bell() { return planner_bell_; }
@@ -173,45 +173,57 @@ class Node {
   PayloadReceiver payload_receiver_;
   SentCommands sent_commands_;
   CommandWatch command_watch_;
-  CommandEncoder command_encoder_;
-  Controller controller_;
   std::vector<Bus::Subscription> subscriptions_;  // after what they feed: ended first
   bool realtime_granted_ = false;
 
-  // The loop's side.
-  JointState state_;
-  Target target_;
-  LawSettings mode_;
-  double payload_mass_ = 0.0;
-  int64_t modes_seen_ = 0, targets_seen_ = 0;  // refused, to tell which refusal came last
-  bool mode_refused_last_ = false;
-  CartesianRequest request_;
-  JointPath path_;
-  LoopCounters counters_;
-  bool have_state_ = false;
-  int64_t answered_seq_ = -1, seq_ = 0;
-  int64_t noticed_rejections_ = 0, noticed_foreign_ = 0;  // what the reporter was last rung for
+  // Each thread's own state, touched by its step alone; the threads meet only in the mailboxes,
+  // rings and doorbells above.
 
-  // The IK worker's side.
-  Payload payload_;
-  IkSolver solver_;
-  CartesianRequest ik_request_;
-  JointPath ik_path_;
-  bool ik_path_waiting_ = false;  // planned, not yet taken by the loop
+  // The real-time loop's: tick() and what it calls.
+  struct Loop {
+    Loop(const RobotModel& model, const Config& control, double payload_mass);
+    Controller controller;
+    CommandEncoder command_encoder;
+    JointState state;
+    Target target;
+    LawSettings mode;
+    double payload_mass;
+    int64_t modes_seen = 0, targets_seen = 0;  // refused, to tell which refusal came last
+    bool mode_refused_last = false;
+    CartesianRequest request;
+    JointPath path;
+    LoopCounters counters;
+    bool have_state = false;
+    int64_t answered_seq = -1, seq = 0;
+    int64_t noticed_rejections = 0, noticed_foreign = 0;  // what the reporter was last rung for
+  } loop_;
 
-  // The status step's side.
-  Data data_;
-  Snapshot last_;
-  bool have_snapshot_ = false;
-  Timing window_, total_;
-  double error_sq_sum_ = 0.0, error_max_ = 0.0;
-  int64_t error_samples_ = 0;
-  controller_status_t status_;
-  std::vector<uint8_t> status_bytes_;
-  Mode reported_mode_ = Mode::kWaiting;
-  int64_t reported_rejections_ = 0, reported_wire_ = 0, reported_modes_ = 0, reported_faults_ = 0;
-  bool period_warned_ = false;
-  int64_t last_status_ns_ = INT64_MIN / 2;
+  // The IK worker's: plan().
+  struct Planner {
+    explicit Planner(const RobotModel& model);
+    Payload payload;
+    IkSolver solver;
+    CartesianRequest request;
+    JointPath path;
+    bool path_waiting = false;  // planned, not yet taken by the loop
+  } planner_;
+
+  // The status step's: report() and summary().
+  struct Reporter {
+    explicit Reporter(const RobotModel& model);
+    Data data;
+    Snapshot last;
+    bool have_snapshot = false;
+    Timing window, total;
+    double error_sq_sum = 0.0, error_max = 0.0;
+    int64_t error_samples = 0;
+    controller_status_t status;
+    std::vector<uint8_t> status_bytes;
+    Mode reported_mode = Mode::kWaiting;
+    int64_t reported_rejections = 0, reported_wire = 0, reported_modes = 0, reported_faults = 0;
+    bool period_warned = false;
+    int64_t last_status_ns = INT64_MIN / 2;
+  } reporter_;
 };
 
 }  // namespace chasles::controller

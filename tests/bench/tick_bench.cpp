@@ -11,9 +11,9 @@
 // slowly pushes the arm around instead. The arm is the controller's own model integrated by
 // semi-implicit Euler (four substeps per 1 ms tick) on its forward dynamics, the torque held over
 // the tick as a plant holds it. The contact monitor runs every tick, with its thresholds at
-// infinity (free drive's push would otherwise start a reflex and end the programme). Every tick is timed with CLOCK_MONOTONIC around tick() alone; the
-// first second of each law is warm-up and not counted. Heap allocations during the counted ticks
-// are counted too (they must be 0).
+// infinity (free drive's push would otherwise start a reflex and end the programme). Every tick is
+// timed with CLOCK_MONOTONIC around tick() alone; the first second of each law is warm-up and not
+// counted. Heap allocations during the counted ticks are counted too (they must be 0).
 //
 //   chasles_tick_bench [--robot panda|ur5|FILE.urdf] [--tip LINK] [--seconds S] [--json]
 //

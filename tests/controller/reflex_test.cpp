@@ -215,7 +215,9 @@ TEST_F(Reflexes, TheRetractReflexGoesBackAlongTheTipsPath) {
   VectorXd tau_ext = VectorXd::Zero(7);
   tau_ext(3) = 40.0;
   int64_t k = 41;
-  for (; controller.mode() != Mode::kReflex && k < 100; ++k) ASSERT_TRUE(controller.tick(k * kMs, still(k, q, tau_ext)));
+  for (; controller.mode() != Mode::kReflex && k < 100; ++k) {
+    ASSERT_TRUE(controller.tick(k * kMs, still(k, q, tau_ext)));
+  }
   ASSERT_EQ(controller.mode(), Mode::kReflex);
   const int64_t start = (k - 1) * kMs;
   ASSERT_TRUE(controller.tick(start + 300 * kMs, still(k + 300, q, tau_ext)));
