@@ -20,8 +20,8 @@ CHASLES_ALWAYS_INLINE double axis_dot(const RobotModel& model, int i, const Vect
 // RNEA (MR eq. 8.50–8.53) with the terms that are zero left out at compile time. Gravity enters
 // as a base acceleration V̇_0 = (0, −g). Expects data.T_local to be current.
 template <bool kVelocity, bool kAcceleration>
-void rnea(const RobotModel& model, Data& data, const double* qd, const double* qdd, const Vector3d& gravity,
-          const Vector6d& F_tip, Eigen::VectorXd& tau) {
+CHASLES_FLATTEN void rnea(const RobotModel& model, Data& data, const double* qd, const double* qdd,
+                          const Vector3d& gravity, const Vector6d& F_tip, Eigen::VectorXd& tau) {
   const int n = model.dof();
   data.Vd[0] << Vector3d::Zero(), -gravity;
   for (int i = 0; i < n; ++i) {
@@ -104,7 +104,7 @@ CHASLES_ALWAYS_INLINE Vector6d inertia_times_axis(const SpatialInertia& G, const
 
 // M from the composite inertias in data.composite: column i is the wrench that accelerates joint i
 // alone, carried down toward the base.
-void mass_matrix_from_composites(const RobotModel& model, Data& data) {
+CHASLES_FLATTEN void mass_matrix_from_composites(const RobotModel& model, Data& data) {
   for (int i = 0; i < model.dof(); ++i) {
     Vector6d F = visit_axis(model, i, [&](auto axis) {
       return inertia_times_axis(data.composite[body(i)], model.joint(i), axis);
@@ -120,6 +120,24 @@ void mass_matrix_from_composites(const RobotModel& model, Data& data) {
 // The largest Cholesky pivot of M that is still rounding: n ε max_i M_ii.
 double singular_pivot(const Eigen::MatrixXd& M) {
   return static_cast<double>(M.rows()) * std::numeric_limits<double>::epsilon() * M.diagonal().cwiseAbs().maxCoeff();
+}
+
+// x ← (L Lᵀ)⁻¹ x by forward then back substitution on the lower factor L, by hand: at n = 6 or 7
+// Eigen's dynamic-size triangular solves spend more in dispatch and blocking than in their n² flops.
+// Each pivot's reciprocal does not wait for the substitution, so only a product stays on its chain
+// of dependent entries, not a division.
+void cholesky_solve_in_place(const Eigen::MatrixXd& L, Eigen::VectorXd& x) {
+  const Eigen::Index n = L.rows();
+  for (Eigen::Index i = 0; i < n; ++i) {  // L y = x
+    double sum = x(i);
+    for (Eigen::Index k = 0; k < i; ++k) sum -= L(i, k) * x(k);
+    x(i) = sum * (1.0 / L(i, i));
+  }
+  for (Eigen::Index i = n - 1; i >= 0; --i) {  // Lᵀ x = y
+    double sum = x(i);
+    for (Eigen::Index k = i + 1; k < n; ++k) sum -= L(k, i) * x(k);
+    x(i) = sum * (1.0 / L(i, i));
+  }
 }
 
 }  // namespace
@@ -147,7 +165,7 @@ const Eigen::VectorXd& velocity_product(const RobotModel& model, Data& data, con
   return data.c;
 }
 
-const Eigen::VectorXd& momentum_terms(const RobotModel& model, Data& data, const JointVector& q,
+CHASLES_FLATTEN const Eigen::VectorXd& momentum_terms(const RobotModel& model, Data& data, const JointVector& q,
                                       const JointVector& qd) {
   check_joint_vector(model, qd, "qd");
   local_transforms(model, data, q);
@@ -177,7 +195,8 @@ const Eigen::VectorXd& momentum_terms(const RobotModel& model, Data& data, const
   return data.p;
 }
 
-const Data& compute_tick_terms(const RobotModel& model, Data& data, const JointVector& q, const JointVector& qd) {
+CHASLES_FLATTEN const Data& compute_tick_terms(const RobotModel& model, Data& data, const JointVector& q,
+                                               const JointVector& qd) {
   check_joint_vector(model, qd, "qd");
   local_transforms(model, data, q);
   const int n = model.dof();
@@ -221,7 +240,7 @@ const Data& compute_tick_terms(const RobotModel& model, Data& data, const JointV
   return data;
 }
 
-const Eigen::MatrixXd& mass_matrix(const RobotModel& model, Data& data, const JointVector& q) {
+CHASLES_FLATTEN const Eigen::MatrixXd& mass_matrix(const RobotModel& model, Data& data, const JointVector& q) {
   local_transforms(model, data, q);
   const int n = model.dof();
   // Composite inertias, tip to base (MR §8.4, Featherstone's CRBA).
@@ -249,7 +268,7 @@ const Eigen::VectorXd& forward_dynamics(const RobotModel& model, Data& data, con
     const std::string defect = mass_matrix_defect(model, data, q);
     throw DynamicsError(defect.empty() ? "the mass matrix is not positive definite" : defect);
   }
-  data.M_llt.solveInPlace(data.qdd);
+  cholesky_solve_in_place(data.M_llt.matrixLLT(), data.qdd);
   return data.qdd;
 }
 
@@ -283,7 +302,8 @@ std::string mass_matrix_defect(const RobotModel& model) {
   return mass_matrix_defect(model, data, q);
 }
 
-double kinetic_energy(const RobotModel& model, Data& data, const JointVector& q, const JointVector& qd) {
+CHASLES_FLATTEN double kinetic_energy(const RobotModel& model, Data& data, const JointVector& q,
+                                      const JointVector& qd) {
   check_joint_vector(model, qd, "qd");
   local_transforms(model, data, q);
   double energy = 0.0;

@@ -8,7 +8,8 @@
 #include "chasles/core/model/joint_axis.hpp"
 
 namespace chasles {
-void check_joint_vector(const RobotModel& model, const JointVector& v, const char* name) {
+// Out of line: the cold throwing path stays out of the flattened algorithms that call this.
+__attribute__((noinline)) void check_joint_vector(const RobotModel& model, const JointVector& v, const char* name) {
   if (v.size() != model.dof()) {
     throw ArgumentError(std::string(name) + " has " + std::to_string(v.size()) + " entries, the model has " +
                                 std::to_string(model.dof()) + " joints");
@@ -42,14 +43,14 @@ CHASLES_ALWAYS_INLINE void local_transform(const RobotModel& model, int i, doubl
 
 }  // namespace
 
-void local_transforms(const RobotModel& model, Data& data, const JointVector& q) {
+CHASLES_FLATTEN void local_transforms(const RobotModel& model, Data& data, const JointVector& q) {
   check_joint_vector(model, q, "q");
   assert(model.check(data) && "a Data sized for another model");
   ++data.passes.joint_transforms;
   for (int i = 0; i < model.dof(); ++i) local_transform(model, i, q(i), data.T_local[static_cast<size_t>(i) + 1]);
 }
 
-const Transform& forward_kinematics(const RobotModel& model, Data& data, const JointVector& q) {
+CHASLES_FLATTEN const Transform& forward_kinematics(const RobotModel& model, Data& data, const JointVector& q) {
   check_joint_vector(model, q, "q");
   assert(model.check(data) && "a Data sized for another model");
   ++data.passes.joint_transforms;
@@ -86,7 +87,7 @@ Transform forward_kinematics_body(const RobotModel& model, const JointVector& q)
   return T;
 }
 
-const Matrix6Xd& space_jacobian(const RobotModel& model, Data& data, const JointVector& q) {
+CHASLES_FLATTEN const Matrix6Xd& space_jacobian(const RobotModel& model, Data& data, const JointVector& q) {
   forward_kinematics(model, data, q);
   for (int i = 0; i < model.dof(); ++i) {
     const Transform& T = data.T_body[static_cast<size_t>(i) + 1];
@@ -100,7 +101,7 @@ const Matrix6Xd& body_jacobian(const RobotModel& model, Data& data, const JointV
   return body_jacobian_from_poses(model, data);
 }
 
-const Matrix6Xd& body_jacobian_from_poses(const RobotModel& model, Data& data) {
+CHASLES_FLATTEN const Matrix6Xd& body_jacobian_from_poses(const RobotModel& model, Data& data) {
   ++data.passes.body_jacobians;
   const Matrix3d& R_sb = data.T_sb.linear();
   const Vector3d& p_sb = data.T_sb.translation();
