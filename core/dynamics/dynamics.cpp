@@ -4,48 +4,42 @@
 #include <limits>
 
 #include "chasles/core/lie/se3.hpp"
+#include "chasles/core/model/joint_axis.hpp"
 
 namespace chasles {
 namespace {
 
 size_t body(int joint_index) { return static_cast<size_t>(joint_index) + 1; }
 
-// The local screw axis A_i = (axis, 0) or (0, axis) applied to a joint rate: A_i x.
-Vector6d axis_times(const Joint& joint, double x) {
-  Vector6d V;
-  if (joint.type == JointType::Prismatic) {
-    V << Vector3d::Zero(), joint.axis * x;
-  } else {
-    V << joint.axis * x, Vector3d::Zero();
-  }
-  return V;
-}
-
-// A_iᵀ F: the joint's share of a wrench.
-double axis_dot(const Joint& joint, const Vector6d& F) {
-  return joint.type == JointType::Prismatic ? joint.axis.dot(F.tail<3>()) : joint.axis.dot(F.head<3>());
+// A_iᵀ F: joint i's share of a wrench; one entry of F for an axis-aligned revolute joint.
+CHASLES_ALWAYS_INLINE double axis_dot(const RobotModel& model, int i, const Vector6d& F) {
+  const JointAxis& a = model.joint_axis(i);
+  return a.kind != AxisKind::General ? a.sign * F(static_cast<int>(a.kind)) : model.local_axis(i).dot(F);
 }
 
 // RNEA (MR eq. 8.50–8.53) with the terms that are zero left out at compile time. Gravity enters
 // as a base acceleration V̇_0 = (0, −g). Expects data.T_local to be current.
 template <bool kVelocity, bool kAcceleration>
-void rnea(const RobotModel& model, Data& data, const double* qd, const double* qdd, const Vector3d& gravity,
-          const Vector6d& F_tip, Eigen::VectorXd& tau) {
+CHASLES_FLATTEN void rnea(const RobotModel& model, Data& data, const double* qd, const double* qdd,
+                          const Vector3d& gravity, const Vector6d& F_tip, Eigen::VectorXd& tau) {
   const int n = model.dof();
   data.Vd[0] << Vector3d::Zero(), -gravity;
   for (int i = 0; i < n; ++i) {
-    const Joint& joint = model.joint(i);
     const Transform& T = data.T_local[body(i)];
     Vector6d& Vd = data.Vd[body(i)];
     Vd = adjoint_inverse_times(T, data.Vd[body(i) - 1]);
-    if constexpr (kVelocity) {
-      const Vector6d A_qd = axis_times(joint, qd[i]);
-      data.V[body(i)] = adjoint_inverse_times(T, data.V[body(i) - 1]) + A_qd;
-      Vd += ad_times(data.V[body(i)], A_qd);
-    }
-    if constexpr (kAcceleration) Vd += axis_times(joint, qdd[i]);
+    visit_axis(model, i, [&](auto axis) {
+      if constexpr (kVelocity) {
+        Vector6d& V = data.V[body(i)];
+        V = adjoint_inverse_times(T, data.V[body(i) - 1]) + axis.times(qd[i]);
+        Vd += axis.ad_times(V, qd[i]);
+      }
+      if constexpr (kAcceleration) Vd += axis.times(qdd[i]);
+    });
   }
-  Vector6d F = adjoint_inverse_transpose_times(model.T_last_tip(), F_tip);
+  // A zero tip wrench (the common call) needs no transform.
+  Vector6d F = Vector6d::Zero();
+  if (!(F_tip.array() == 0.0).all()) F = adjoint_inverse_transpose_times(model.T_last_tip(), F_tip);
   for (int i = n - 1; i >= 0; --i) {
     const SpatialInertia& G = model.body_inertia(i);
     F += G * data.Vd[body(i)];
@@ -54,8 +48,8 @@ void rnea(const RobotModel& model, Data& data, const double* qd, const double* q
       F -= ad_transpose_times(V, G * V);
     }
     data.F[body(i)] = F;
-    tau(i) = axis_dot(model.joint(i), F);
-    F = adjoint_inverse_transpose_times(data.T_local[body(i)], F);
+    tau(i) = axis_dot(model, i, F);
+    if (i > 0) F = adjoint_inverse_transpose_times(data.T_local[body(i)], F);  // the base's is unused
   }
 }
 
@@ -84,8 +78,20 @@ void add(SpatialInertia& a, const SpatialInertia& b) {
   a.I += b.I;
 }
 
-// G A_i: the momentum of a body moving with unit rate about joint i.
-Vector6d inertia_times_axis(const SpatialInertia& G, const Joint& joint) {
+// G A_i: the momentum of a body moving with unit rate about joint i, (I a, a × h) for a revolute
+// joint (MR eq. 8.32 with v = 0): a column of I and two entries of h for an axis-aligned one.
+template <int K>
+CHASLES_ALWAYS_INLINE Vector6d inertia_times_axis(const SpatialInertia& G, const Joint&, AlignedRevoluteAxis<K> a) {
+  constexpr int I = AlignedRevoluteAxis<K>::I, J = AlignedRevoluteAxis<K>::J;
+  Vector6d P;
+  P.head<3>() = a.sign * G.I.col(K);
+  P(3 + I) = -a.sign * G.h(J);
+  P(3 + J) = a.sign * G.h(I);
+  P(3 + K) = 0.0;
+  return P;
+}
+
+CHASLES_ALWAYS_INLINE Vector6d inertia_times_axis(const SpatialInertia& G, const Joint& joint, GeneralAxis) {
   const Vector3d& a = joint.axis;
   Vector6d P;
   if (joint.type == JointType::Prismatic) {
@@ -98,13 +104,15 @@ Vector6d inertia_times_axis(const SpatialInertia& G, const Joint& joint) {
 
 // M from the composite inertias in data.composite: column i is the wrench that accelerates joint i
 // alone, carried down toward the base.
-void mass_matrix_from_composites(const RobotModel& model, Data& data) {
+CHASLES_FLATTEN void mass_matrix_from_composites(const RobotModel& model, Data& data) {
   for (int i = 0; i < model.dof(); ++i) {
-    Vector6d F = inertia_times_axis(data.composite[body(i)], model.joint(i));
-    data.M(i, i) = axis_dot(model.joint(i), F);
+    Vector6d F = visit_axis(model, i, [&](auto axis) {
+      return inertia_times_axis(data.composite[body(i)], model.joint(i), axis);
+    });
+    data.M(i, i) = axis_dot(model, i, F);
     for (int j = i; j > 0; --j) {
       F = adjoint_inverse_transpose_times(data.T_local[body(j)], F);
-      data.M(j - 1, i) = data.M(i, j - 1) = axis_dot(model.joint(j - 1), F);
+      data.M(j - 1, i) = data.M(i, j - 1) = axis_dot(model, j - 1, F);
     }
   }
 }
@@ -112,6 +120,24 @@ void mass_matrix_from_composites(const RobotModel& model, Data& data) {
 // The largest Cholesky pivot of M that is still rounding: n ε max_i M_ii.
 double singular_pivot(const Eigen::MatrixXd& M) {
   return static_cast<double>(M.rows()) * std::numeric_limits<double>::epsilon() * M.diagonal().cwiseAbs().maxCoeff();
+}
+
+// x ← (L Lᵀ)⁻¹ x by forward then back substitution on the lower factor L, by hand: at n = 6 or 7
+// Eigen's dynamic-size triangular solves spend more in dispatch and blocking than in their n² flops.
+// Each pivot's reciprocal does not wait for the substitution, so only a product stays on its chain
+// of dependent entries, not a division.
+void cholesky_solve_in_place(const Eigen::MatrixXd& L, Eigen::VectorXd& x) {
+  const Eigen::Index n = L.rows();
+  for (Eigen::Index i = 0; i < n; ++i) {  // L y = x
+    double sum = x(i);
+    for (Eigen::Index k = 0; k < i; ++k) sum -= L(i, k) * x(k);
+    x(i) = sum * (1.0 / L(i, i));
+  }
+  for (Eigen::Index i = n - 1; i >= 0; --i) {  // Lᵀ x = y
+    double sum = x(i);
+    for (Eigen::Index k = i + 1; k < n; ++k) sum -= L(k, i) * x(k);
+    x(i) = sum * (1.0 / L(i, i));
+  }
 }
 
 }  // namespace
@@ -139,7 +165,7 @@ const Eigen::VectorXd& velocity_product(const RobotModel& model, Data& data, con
   return data.c;
 }
 
-const Eigen::VectorXd& momentum_terms(const RobotModel& model, Data& data, const JointVector& q,
+CHASLES_FLATTEN const Eigen::VectorXd& momentum_terms(const RobotModel& model, Data& data, const JointVector& q,
                                       const JointVector& qd) {
   check_joint_vector(model, qd, "qd");
   local_transforms(model, data, q);
@@ -149,27 +175,28 @@ const Eigen::VectorXd& momentum_terms(const RobotModel& model, Data& data, const
   data.Vd[0] << Vector3d::Zero(), -model.gravity();
   for (int i = 0; i < n; ++i) {
     const Transform& T = data.T_local[body(i)];
-    data.V[body(i)] = adjoint_inverse_times(T, data.V[body(i) - 1]) + axis_times(model.joint(i), qd(i));
+    data.V[body(i)] = adjoint_inverse_times(T, data.V[body(i) - 1]) +
+                      visit_axis(model, i, [&](auto axis) { return axis.times(qd(i)); });
     data.Vd[body(i)] = adjoint_inverse_times(T, data.Vd[body(i) - 1]);
   }
   // Backward: subtree momentum H and gravity wrench W, carried toward the base as wrenches are.
   Vector6d H = Vector6d::Zero(), W = Vector6d::Zero();
   for (int i = n - 1; i >= 0; --i) {
     const SpatialInertia& G = model.body_inertia(i);
-    const Joint& joint = model.joint(i);
     const Vector6d& V = data.V[body(i)];
     H += G * V;
     W += G * data.Vd[body(i)];
-    data.p(i) = axis_dot(joint, H);
-    data.ct_qd(i) = axis_dot(joint, ad_transpose_times(V, H));
-    data.g(i) = axis_dot(joint, W);
+    data.p(i) = axis_dot(model, i, H);
+    data.ct_qd(i) = axis_dot(model, i, ad_transpose_times(V, H));
+    data.g(i) = axis_dot(model, i, W);
     H = adjoint_inverse_transpose_times(data.T_local[body(i)], H);
     W = adjoint_inverse_transpose_times(data.T_local[body(i)], W);
   }
   return data.p;
 }
 
-const Data& compute_tick_terms(const RobotModel& model, Data& data, const JointVector& q, const JointVector& qd) {
+CHASLES_FLATTEN const Data& compute_tick_terms(const RobotModel& model, Data& data, const JointVector& q,
+                                               const JointVector& qd) {
   check_joint_vector(model, qd, "qd");
   local_transforms(model, data, q);
   const int n = model.dof();
@@ -179,9 +206,10 @@ const Data& compute_tick_terms(const RobotModel& model, Data& data, const JointV
   for (int i = 0; i < n; ++i) {
     const Transform& T = data.T_local[body(i)];
     data.T_body[body(i)] = data.T_body[body(i) - 1] * T;
-    const Vector6d A_qd = axis_times(model.joint(i), qd(i));
-    data.V[body(i)] = adjoint_inverse_times(T, data.V[body(i) - 1]) + A_qd;
-    data.Vd[body(i)] = adjoint_inverse_times(T, data.Vd[body(i) - 1]) + ad_times(data.V[body(i)], A_qd);
+    visit_axis(model, i, [&](auto axis) {
+      data.V[body(i)] = adjoint_inverse_times(T, data.V[body(i) - 1]) + axis.times(qd(i));
+      data.Vd[body(i)] = adjoint_inverse_times(T, data.Vd[body(i) - 1]) + axis.ad_times(data.V[body(i)], qd(i));
+    });
   }
   data.T_sb = data.T_body[body(n - 1)] * model.T_last_tip();
   // Backward: the wrench F that moves bodies i…n at q̈ = 0 (c + g), their momentum H (p and Cᵀq̇,
@@ -190,20 +218,19 @@ const Data& compute_tick_terms(const RobotModel& model, Data& data, const JointV
   Vector6d F = Vector6d::Zero(), H = Vector6d::Zero();
   for (int i = n - 1; i >= 0; --i) {
     const SpatialInertia& G = model.body_inertia(i);
-    const Joint& joint = model.joint(i);
     const Vector6d& V = data.V[body(i)];
     const Vector6d GV = G * V;
     F += G * data.Vd[body(i)] - ad_transpose_times(V, GV);
     H += GV;
-    data.bias(i) = axis_dot(joint, F);
-    data.p(i) = axis_dot(joint, H);
-    data.ct_qd(i) = axis_dot(joint, ad_transpose_times(V, H));
+    data.bias(i) = axis_dot(model, i, F);
+    data.p(i) = axis_dot(model, i, H);
+    data.ct_qd(i) = axis_dot(model, i, ad_transpose_times(V, H));
     SpatialInertia& C = data.composite[body(i)];
     C = G;
     if (i + 1 < n) add(C, to_parent(data.T_local[body(i + 1)], data.composite[body(i + 1)]));
     Vector6d a_gravity;
     a_gravity << Vector3d::Zero(), -(data.T_body[body(i)].linear().transpose() * model.gravity());
-    data.g(i) = axis_dot(joint, C * a_gravity);
+    data.g(i) = axis_dot(model, i, C * a_gravity);
     F = adjoint_inverse_transpose_times(data.T_local[body(i)], F);
     H = adjoint_inverse_transpose_times(data.T_local[body(i)], H);
   }
@@ -213,7 +240,7 @@ const Data& compute_tick_terms(const RobotModel& model, Data& data, const JointV
   return data;
 }
 
-const Eigen::MatrixXd& mass_matrix(const RobotModel& model, Data& data, const JointVector& q) {
+CHASLES_FLATTEN const Eigen::MatrixXd& mass_matrix(const RobotModel& model, Data& data, const JointVector& q) {
   local_transforms(model, data, q);
   const int n = model.dof();
   // Composite inertias, tip to base (MR §8.4, Featherstone's CRBA).
@@ -241,7 +268,7 @@ const Eigen::VectorXd& forward_dynamics(const RobotModel& model, Data& data, con
     const std::string defect = mass_matrix_defect(model, data, q);
     throw DynamicsError(defect.empty() ? "the mass matrix is not positive definite" : defect);
   }
-  data.M_llt.solveInPlace(data.qdd);
+  cholesky_solve_in_place(data.M_llt.matrixLLT(), data.qdd);
   return data.qdd;
 }
 
@@ -275,13 +302,15 @@ std::string mass_matrix_defect(const RobotModel& model) {
   return mass_matrix_defect(model, data, q);
 }
 
-double kinetic_energy(const RobotModel& model, Data& data, const JointVector& q, const JointVector& qd) {
+CHASLES_FLATTEN double kinetic_energy(const RobotModel& model, Data& data, const JointVector& q,
+                                      const JointVector& qd) {
   check_joint_vector(model, qd, "qd");
   local_transforms(model, data, q);
   double energy = 0.0;
   for (int i = 0; i < model.dof(); ++i) {
     Vector6d& V = data.V[body(i)];
-    V = adjoint_inverse_times(data.T_local[body(i)], data.V[body(i) - 1]) + axis_times(model.joint(i), qd(i));
+    V = adjoint_inverse_times(data.T_local[body(i)], data.V[body(i) - 1]) +
+        visit_axis(model, i, [&](auto axis) { return axis.times(qd(i)); });
     energy += 0.5 * V.dot(model.body_inertia(i) * V);
   }
   return energy;

@@ -5,9 +5,11 @@
 #include <string>
 
 #include "chasles/core/lie/se3.hpp"
+#include "chasles/core/model/joint_axis.hpp"
 
 namespace chasles {
-void check_joint_vector(const RobotModel& model, const JointVector& v, const char* name) {
+// Out of line: the cold throwing path stays out of the flattened algorithms that call this.
+__attribute__((noinline)) void check_joint_vector(const RobotModel& model, const JointVector& v, const char* name) {
   if (v.size() != model.dof()) {
     throw ArgumentError(std::string(name) + " has " + std::to_string(v.size()) + " entries, the model has " +
                                 std::to_string(model.dof()) + " joints");
@@ -16,46 +18,48 @@ void check_joint_vector(const RobotModel& model, const JointVector& v, const cha
 
 namespace {
 
-// R exp([â]θ) for a unit axis â. URDF axes are nearly always ±x, ±y or ±z, and then the product
-// only mixes two columns of R (12 flops, against 45 for Rodrigues followed by a 3×3 product).
-CHASLES_ALWAYS_INLINE void rotate_about_axis(const Matrix3d& R, const Vector3d& axis, double theta, Matrix3d& out) {
-  for (int k = 0; k < 3; ++k) {
-    const int i = (k + 1) % 3, j = (k + 2) % 3;
-    if (axis(i) == 0.0 && axis(j) == 0.0) {
-      const double s = axis(k) * std::sin(theta), c = std::cos(theta);  // axis(k) = ±1
-      out.col(i) = c * R.col(i) + s * R.col(j);
-      out.col(j) = c * R.col(j) - s * R.col(i);
-      out.col(k) = R.col(k);
-      return;
+// T_{i−1,i}(q_i) = M_{i−1,i} exp([A_i] q_i). For a revolute joint about ±x, ±y or ±z the rotation
+// only mixes two columns of M's (12 flops, against 45 for Rodrigues followed by a 3×3 product).
+CHASLES_ALWAYS_INLINE void local_transform(const RobotModel& model, int i, double q, Transform& T) {
+  const Joint& joint = model.joint(i);
+  const Matrix3d& R_parent_joint = joint.T_parent_joint.linear();
+  visit_axis(model, i, [&](auto axis) {
+    if constexpr (is_general_axis<decltype(axis)>) {
+      if (joint.type == JointType::Prismatic) {
+        T.linear() = R_parent_joint;
+        T.translation().noalias() = R_parent_joint * (joint.axis * q);
+        T.translation() += joint.T_parent_joint.translation();
+        return;
+      }
+      T.linear().noalias() = R_parent_joint * exp3_unit(joint.axis, q);
+    } else {
+      double s, c;
+      sin_cos(q, s, c);
+      axis.rotate(R_parent_joint, c, s, T.linear());
     }
-  }
-  out.noalias() = R * exp3_unit(axis, theta);
+    T.translation() = joint.T_parent_joint.translation();
+  });
 }
 
 }  // namespace
 
-void local_transforms(const RobotModel& model, Data& data, const JointVector& q) {
+CHASLES_FLATTEN void local_transforms(const RobotModel& model, Data& data, const JointVector& q) {
   check_joint_vector(model, q, "q");
   assert(model.check(data) && "a Data sized for another model");
   ++data.passes.joint_transforms;
-  for (int i = 0; i < model.dof(); ++i) {
-    const Joint& joint = model.joint(i);
-    Transform& T = data.T_local[static_cast<size_t>(i) + 1];
-    const Matrix3d& R_parent_joint = joint.T_parent_joint.linear();
-    if (joint.type == JointType::Prismatic) {
-      T.linear() = R_parent_joint;
-      T.translation().noalias() = R_parent_joint * (joint.axis * q(i));
-      T.translation() += joint.T_parent_joint.translation();
-    } else {
-      rotate_about_axis(R_parent_joint, joint.axis, q(i), T.linear());
-      T.translation() = joint.T_parent_joint.translation();
-    }
-  }
+  for (int i = 0; i < model.dof(); ++i) local_transform(model, i, q(i), data.T_local[static_cast<size_t>(i) + 1]);
 }
 
-const Transform& forward_kinematics(const RobotModel& model, Data& data, const JointVector& q) {
-  local_transforms(model, data, q);
-  for (size_t i = 1; i < data.T_body.size(); ++i) data.T_body[i] = data.T_body[i - 1] * data.T_local[i];
+CHASLES_FLATTEN const Transform& forward_kinematics(const RobotModel& model, Data& data, const JointVector& q) {
+  check_joint_vector(model, q, "q");
+  assert(model.check(data) && "a Data sized for another model");
+  ++data.passes.joint_transforms;
+  // One loop: each T_{i−1,i} is used while it is still in registers.
+  for (int i = 0; i < model.dof(); ++i) {
+    const size_t b = static_cast<size_t>(i) + 1;
+    local_transform(model, i, q(i), data.T_local[b]);
+    data.T_body[b] = data.T_body[b - 1] * data.T_local[b];
+  }
   data.T_sb = data.T_body.back() * model.T_last_tip();
   return data.T_sb;
 }
@@ -83,10 +87,11 @@ Transform forward_kinematics_body(const RobotModel& model, const JointVector& q)
   return T;
 }
 
-const Matrix6Xd& space_jacobian(const RobotModel& model, Data& data, const JointVector& q) {
+CHASLES_FLATTEN const Matrix6Xd& space_jacobian(const RobotModel& model, Data& data, const JointVector& q) {
   forward_kinematics(model, data, q);
   for (int i = 0; i < model.dof(); ++i) {
-    data.J_s.col(i) = adjoint_times(data.T_body[static_cast<size_t>(i) + 1], model.local_axis(i));
+    const Transform& T = data.T_body[static_cast<size_t>(i) + 1];
+    data.J_s.col(i) = visit_axis(model, i, [&](auto axis) { return axis.adjoint(T.linear(), T.translation()); });
   }
   return data.J_s;
 }
@@ -96,12 +101,19 @@ const Matrix6Xd& body_jacobian(const RobotModel& model, Data& data, const JointV
   return body_jacobian_from_poses(model, data);
 }
 
-const Matrix6Xd& body_jacobian_from_poses(const RobotModel& model, Data& data) {
+CHASLES_FLATTEN const Matrix6Xd& body_jacobian_from_poses(const RobotModel& model, Data& data) {
   ++data.passes.body_jacobians;
+  const Matrix3d& R_sb = data.T_sb.linear();
+  const Vector3d& p_sb = data.T_sb.translation();
   for (int i = 0; i < model.dof(); ++i) {
-    // Joint i's axis seen from the tip: [Ad_{T_sb⁻¹ T_0i}] A_i.
-    const Vector6d A_s = adjoint_times(data.T_body[static_cast<size_t>(i) + 1], model.local_axis(i));
-    data.J_b.col(i) = adjoint_inverse_times(data.T_sb, A_s);
+    // Joint i's axis seen from the tip, [Ad_{T_sb⁻¹ T_0i}] A_i (MR eq. 5.18 column by column): its
+    // space form [Ad_T0i] A_i taken about the tip's origin (translation p_0i − p_sb), then turned
+    // by R_sbᵀ. For a revolute joint about ±e_K, R_0i a is column K of R_0i.
+    const Transform& T = data.T_body[static_cast<size_t>(i) + 1];
+    const Vector3d d = T.translation() - p_sb;
+    const Vector6d A_s = visit_axis(model, i, [&](auto axis) { return axis.adjoint(T.linear(), d); });
+    data.J_b.col(i).head<3>().noalias() = R_sb.transpose() * A_s.head<3>();
+    data.J_b.col(i).tail<3>().noalias() = R_sb.transpose() * A_s.tail<3>();
   }
   return data.J_b;
 }

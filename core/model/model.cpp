@@ -66,6 +66,19 @@ void validate(const ChainDescription& d) {
   }
 }
 
+// A revolute joint whose axis is exactly ±e_k (two zero entries, the third ±1) gets kind k; the
+// specialised path then computes the same products as the general one, only without the zeros.
+JointAxis classify_axis(const Joint& joint) {
+  if (joint.type == JointType::Prismatic) return {};
+  for (int k = 0; k < 3; ++k) {
+    const double a = joint.axis(k);
+    if ((a == 1.0 || a == -1.0) && joint.axis((k + 1) % 3) == 0.0 && joint.axis((k + 2) % 3) == 0.0) {
+      return {static_cast<AxisKind>(k), a};
+    }
+  }
+  return {};
+}
+
 }  // namespace
 
 RobotModel::RobotModel(ChainDescription description) : d_(std::move(description)) {
@@ -73,6 +86,7 @@ RobotModel::RobotModel(ChainDescription description) : d_(std::move(description)
   const int n = dof();
   M_body_.resize(static_cast<size_t>(n));
   A_.resize(static_cast<size_t>(n));
+  axis_kind_.resize(static_cast<size_t>(n));
   G_.resize(static_cast<size_t>(n));
   S_.resize(6, n);
   B_.resize(6, n);
@@ -87,6 +101,7 @@ RobotModel::RobotModel(ChainDescription description) : d_(std::move(description)
     } else {
       A << j.axis, Vector3d::Zero();
     }
+    axis_kind_[static_cast<size_t>(i)] = classify_axis(j);
     S_.col(i) = adjoint_times(M_i, A);  // S_i = [Ad_{M_i}] A_i
     G_[static_cast<size_t>(i)] = SpatialInertia::from_matrix(d_.inertia[static_cast<size_t>(i)]);
   }

@@ -72,6 +72,16 @@ struct Joint {
   JointLimits limits;
 };
 
+/// The shape of a joint's local screw axis, found once when the model is built so that the
+/// recursive algorithms take the few-flop path of a revolute joint about ±x, ±y or ±z
+/// (lie/axis.hpp) where it applies: `General` is every other joint (prismatic, or an oblique axis).
+enum class AxisKind : uint8_t { RevoluteX, RevoluteY, RevoluteZ, General };
+
+struct JointAxis {
+  AxisKind kind = AxisKind::General;
+  double sign = 1.0;  ///< the axis is sign · e_kind when kind is not General
+};
+
 /// A link of the root → tip path, placed on the body it rides on (0 = the fixed base).
 struct ChainLink {
   std::string name;
@@ -125,6 +135,8 @@ class RobotModel {
   const Transform& home_body(int i) const { return M_body_[static_cast<size_t>(i)]; }
   /// Local screw axis A_i of joint i in its own frame.
   const Vector6d& local_axis(int i) const { return A_[static_cast<size_t>(i)]; }
+  /// The shape of joint i's axis (RevoluteX/Y/Z when it is exactly ±x, ±y or ±z).
+  const JointAxis& joint_axis(int i) const { return axis_kind_[static_cast<size_t>(i)]; }
   /// S: space screw axes at q = 0, one column per joint (MR §4.1.1).
   const Matrix6Xd& space_axes() const { return S_; }
   /// B: body screw axes at q = 0 in the tip frame, B_i = [Ad_{M⁻¹}] S_i (MR §4.1.3).
@@ -143,6 +155,7 @@ class RobotModel {
   Transform M_;
   std::vector<Transform> M_body_;
   std::vector<Vector6d> A_;
+  std::vector<JointAxis> axis_kind_;
   std::vector<SpatialInertia> G_;
   Matrix6Xd S_;
   Matrix6Xd B_;

@@ -1,0 +1,76 @@
+// A revolute screw axis along ±x, ±y or ±z of its frame, A = (σ e_K, 0) with σ = ±1: the local
+// axis of nearly every URDF revolute joint. Its products with twists, wrenches and rotations pick
+// or swap entries, a few flops where the general 6-vector operations of se3.hpp take dozens
+// (Pinocchio's JointModelRX/RY/RZ do the same).
+#pragma once
+
+#include <cmath>
+
+#include "chasles/core/lie/types.hpp"
+
+namespace chasles {
+
+/// sin θ and cos θ from one call: glibc's sincos shares the argument reduction. (GCC merges a sin
+/// and a cos of the same θ into it only where it sees both in one block.)
+CHASLES_ALWAYS_INLINE void sin_cos(double theta, double& s, double& c) {
+#if defined(__GLIBC__)
+  ::sincos(theta, &s, &c);
+#else
+  s = std::sin(theta);
+  c = std::cos(theta);
+#endif
+}
+
+template <int K>
+struct AlignedRevoluteAxis {
+  static_assert(K >= 0 && K < 3, "K is the axis index: 0 = x, 1 = y, 2 = z");
+  // e_K × e_I = e_J, e_I × e_J = e_K: the other two indices in cyclic order.
+  static constexpr int I = (K + 1) % 3;
+  static constexpr int J = (K + 2) % 3;
+
+  double sign = 1.0;  ///< σ = ±1
+
+  /// A x: the twist of a unit-rate joint scaled by x.
+  CHASLES_ALWAYS_INLINE Vector6d times(double x) const {
+    Vector6d V = Vector6d::Zero();
+    V(K) = sign * x;
+    return V;
+  }
+
+  /// Aᵀ F: the joint's share of a wrench (its K-th moment).
+  CHASLES_ALWAYS_INLINE double dot(const Vector6d& F) const { return sign * F(K); }
+
+  /// [ad_V] A x = (ω × a, v × a) x (MR definition 8.1), with w × e_K = (…, w_J, −w_I) at (I, J).
+  CHASLES_ALWAYS_INLINE Vector6d ad_times(const Vector6d& V, double x) const {
+    const double u = sign * x;
+    Vector6d out;
+    out(I) = V(J) * u;
+    out(J) = -V(I) * u;
+    out(K) = 0.0;
+    out(3 + I) = V(3 + J) * u;
+    out(3 + J) = -V(3 + I) * u;
+    out(3 + K) = 0.0;
+    return out;
+  }
+
+  /// R exp([a] θ) from c = cos θ and s = sin θ: only columns I and J of R turn (MR eq. 3.51 about
+  /// a coordinate axis), 12 flops against 45 for Rodrigues and a 3×3 product.
+  CHASLES_ALWAYS_INLINE void rotate(const Matrix3d& R, double c, double s, Matrix3d& out) const {
+    const double ss = sign * s;
+    out.col(I) = c * R.col(I) + ss * R.col(J);
+    out.col(J) = c * R.col(J) - ss * R.col(I);
+    out.col(K) = R.col(K);
+  }
+
+  /// [Ad_T] A = (R a, p × R a) for T = (R, p): the axis seen from another frame (MR definition
+  /// 3.20); R a is a column of R.
+  CHASLES_ALWAYS_INLINE Vector6d adjoint(const Matrix3d& R, const Vector3d& p) const {
+    const Vector3d w = sign * R.col(K);
+    Vector6d out;
+    out.head<3>() = w;
+    out.tail<3>() = p.cross(w);
+    return out;
+  }
+};
+
+}  // namespace chasles

@@ -1,0 +1,54 @@
+// The recursive algorithms' view of joint i's local screw axis A_i: an AlignedRevoluteAxis<K>
+// (lie/axis.hpp) when RobotModel::joint_axis says it is ±e_K, else a GeneralAxis over the 6-vector,
+// both with the same few operations, so that one generic loop body serves both (as Pinocchio visits
+// its joint variant).
+#pragma once
+
+#include <type_traits>
+
+#include "chasles/core/lie/axis.hpp"
+#include "chasles/core/lie/se3.hpp"
+#include "chasles/core/model/model.hpp"
+
+namespace chasles {
+
+/// Any local screw axis A (a prismatic joint's, an oblique revolute one's), by the general
+/// 6-vector operations.
+struct GeneralAxis {
+  const Vector6d& A;
+
+  /// A x.
+  CHASLES_ALWAYS_INLINE Vector6d times(double x) const { return A * x; }
+  /// Aᵀ F.
+  CHASLES_ALWAYS_INLINE double dot(const Vector6d& F) const { return A.dot(F); }
+  /// [ad_V] A x.
+  CHASLES_ALWAYS_INLINE Vector6d ad_times(const Vector6d& V, double x) const {
+    return chasles::ad_times(V, A * x);
+  }
+  /// [Ad_T] A for T = (R, p).
+  CHASLES_ALWAYS_INLINE Vector6d adjoint(const Matrix3d& R, const Vector3d& p) const {
+    Vector6d out;
+    out.head<3>().noalias() = R * A.head<3>();
+    out.tail<3>().noalias() = R * A.tail<3>();
+    out.tail<3>() += p.cross(out.head<3>());
+    return out;
+  }
+};
+
+template <class Axis>
+inline constexpr bool is_general_axis = std::is_same_v<std::decay_t<Axis>, GeneralAxis>;
+
+/// Calls f(axis) with joint i's axis as an AlignedRevoluteAxis<K> or a GeneralAxis.
+template <class F>
+CHASLES_ALWAYS_INLINE decltype(auto) visit_axis(const RobotModel& model, int i, F&& f) {
+  const JointAxis& a = model.joint_axis(i);
+  switch (a.kind) {
+    case AxisKind::RevoluteX: return f(AlignedRevoluteAxis<0>{a.sign});
+    case AxisKind::RevoluteY: return f(AlignedRevoluteAxis<1>{a.sign});
+    case AxisKind::RevoluteZ: return f(AlignedRevoluteAxis<2>{a.sign});
+    case AxisKind::General: break;
+  }
+  return f(GeneralAxis{model.local_axis(i)});
+}
+
+}  // namespace chasles
