@@ -58,13 +58,8 @@
 #include <kdl/tree.hpp>
 #include <kdl_parser/kdl_parser.hpp>
 
-#include <algorithm>
-#include <cmath>
-#include <cstdio>
 #include <memory>
-#include <random>
 #include <set>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -73,17 +68,26 @@
 #include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/kinematics/kinematics.hpp"
 #include "chasles/core/model/urdf.hpp"
+#include "comparison.hpp"
 
 namespace {
 
-constexpr size_t kTableSize = 256;  // a power of two: the index wraps with a mask
-constexpr unsigned kSeed = 20240611;
-constexpr int kChecked = 8;         // table entries compared before timing
+using chasles::bench::add;
+using chasles::bench::Check;
+using chasles::bench::keep;
+using chasles::bench::kChecked;
+
 constexpr double kTolerance = 1e-6;  // relative to the largest entry (at least 1)
 
-// One table entry, in both libraries' types.
-struct Sample {
-  Eigen::VectorXd q, qd, qdd, tau;
+// One table entry, in both libraries' types: the drawn Eigen vectors and their copies as KDL::JntArray.
+struct Sample : chasles::bench::Sample {
+  explicit Sample(const chasles::bench::Sample& drawn) : chasles::bench::Sample(drawn) {
+    kq.data = q;
+    kqd.data = qd;
+    kqdd.data = qdd;
+    ktau.data = tau;
+  }
+
   KDL::JntArray kq, kqd, kqdd, ktau;
 };
 
@@ -96,16 +100,10 @@ KDL::RigidBodyInertia subtree_inertia(const KDL::SegmentMap::const_iterator& ele
   return I;
 }
 
-// Both libraries' models of one robot, their workspaces, solvers and output buffers, and the
-// sample table. Never copied or moved: KDL's solvers keep a reference to `chain`.
-struct Robot {
+// KDL's model of one robot beside chasles's, its solvers and output buffers, and the sample table.
+// Never copied or moved (no ChaslesRobot is): KDL's solvers keep a reference to `chain`.
+struct Robot : chasles::bench::ChaslesRobot {
   Robot(std::string robot_name, const std::string& urdf, const std::string& tip);
-  Robot(const Robot&) = delete;
-  Robot& operator=(const Robot&) = delete;
-
-  const std::string name;
-  const chasles::RobotModel model;
-  chasles::Data data;
 
   KDL::Chain chain;
   std::unique_ptr<KDL::ChainFkSolverPos_recursive> fk;
@@ -122,14 +120,8 @@ struct Robot {
   std::vector<Sample> table;
 };
 
-chasles::UrdfOptions tip_options(const std::string& tip) {
-  chasles::UrdfOptions options;
-  options.tip_link = tip;
-  return options;
-}
-
 Robot::Robot(std::string robot_name, const std::string& urdf, const std::string& tip)
-    : name(std::move(robot_name)), model(chasles::load_urdf_file(urdf, tip_options(tip))), data(model) {
+    : ChaslesRobot(std::move(robot_name), urdf, tip) {
   KDL::Tree tree;
   if (!kdl_parser::treeFromFile(urdf, tree)) throw std::runtime_error("kdl_parser cannot read " + urdf);
   if (!tree.getChain(model.base_link(), model.tip_link(), chain)) {
@@ -171,36 +163,7 @@ Robot::Robot(std::string robot_name, const std::string& urdf, const std::string&
   M.resize(n);
   f_ext.assign(chain.getNrOfSegments(), KDL::Wrench::Zero());
 
-  // The sample table: q uniform within the position limits, q̇ within the velocity limits, q̈ in
-  // ±5 rad/s², τ within half the effort limits.
-  std::mt19937_64 rng(kSeed);
-  std::uniform_real_distribution<double> unit(-1.0, 1.0);
-  const auto finite_or = [](double x, double fallback) { return std::isfinite(x) ? x : fallback; };
-  table.resize(kTableSize);
-  for (Sample& s : table) {
-    s.q.resize(model.dof());
-    s.qd.resize(model.dof());
-    s.qdd.resize(model.dof());
-    s.tau.resize(model.dof());
-    for (int i = 0; i < model.dof(); ++i) {
-      const chasles::JointLimits& limits = model.joint(i).limits;
-      s.q(i) = 0.5 * (limits.lower + limits.upper) + 0.5 * (limits.upper - limits.lower) * unit(rng);
-      s.qd(i) = finite_or(limits.velocity, 2.0) * unit(rng);
-      s.qdd(i) = 5.0 * unit(rng);
-      s.tau(i) = 0.5 * finite_or(limits.effort, 20.0) * unit(rng);
-    }
-    s.kq.data = s.q;
-    s.kqd.data = s.qd;
-    s.kqdd.data = s.qdd;
-    s.ktau.data = s.tau;
-  }
-}
-
-// Keeps a result alive: its address escapes into an asm statement that clobbers memory.
-template <class T>
-void keep(const T& result) {
-  const void* p = &result;
-  benchmark::DoNotOptimize(p);
+  for (const chasles::bench::Sample& drawn : chasles::bench::sample_table(model)) table.emplace_back(drawn);
 }
 
 // --- the agreement check ------------------------------------------------------------------------
@@ -221,28 +184,6 @@ Eigen::MatrixXd angular_first(const KDL::Jacobian& J) {
   return out;
 }
 
-struct Check {
-  std::string failures;
-  std::set<std::string> reported;
-  double worst = 0.0;
-
-  void compare(const Robot& robot, const char* quantity, int k, const Eigen::MatrixXd& ours,
-               const Eigen::MatrixXd& kdl) {
-    const double scale = std::max(1.0, kdl.cwiseAbs().maxCoeff());
-    const double error = (ours - kdl).cwiseAbs().maxCoeff() / scale;
-    worst = std::max(worst, error);
-    // Only the first disagreement of each robot and quantity is printed in full.
-    if (!(error <= kTolerance) && reported.insert(robot.name + " " + quantity).second) {
-      std::ostringstream out;
-      out << "  " << robot.name << " " << quantity << " at table entry " << k << ": max |chasles - KDL| = "
-          << error * scale << " (scale " << scale << ")\n    chasles:\n"
-          << ours << "\n    KDL:\n"
-          << kdl << "\n";
-      failures += out.str();
-    }
-  }
-};
-
 void check_agreement(Robot& r, Check& check) {
   const int n = r.model.dof();
   for (int k = 0; k < kChecked; ++k) {
@@ -251,7 +192,7 @@ void check_agreement(Robot& r, Check& check) {
 
     const chasles::Transform T_sb = chasles::forward_kinematics(r.model, r.data, s.q);
     status |= r.fk->JntToCart(s.kq, r.frame);
-    check.compare(r, "fk", k, T_sb.matrix(), to_eigen(r.frame));
+    check.compare(r.name, "fk", k, T_sb.matrix(), to_eigen(r.frame));
 
     // Space Jacobian → KDL's hybrid one: (ω, v_s) → (ω, v_s + ω × p_tip).
     Eigen::MatrixXd J_hybrid = chasles::space_jacobian(r.model, r.data, s.q);
@@ -260,47 +201,35 @@ void check_agreement(Robot& r, Check& check) {
       J_hybrid.col(i).tail<3>() += w.cross(T_sb.translation());
     }
     status |= r.jacobian->JntToJac(s.kq, r.jac);
-    check.compare(r, "jacobian_space", k, J_hybrid, angular_first(r.jac));
+    check.compare(r.name, "jacobian_space", k, J_hybrid, angular_first(r.jac));
 
     const Eigen::MatrixXd J_b = chasles::body_jacobian(r.model, r.data, s.q);
     status |= r.fk->JntToCart(s.kq, r.frame);
     status |= r.jacobian->JntToJac(s.kq, r.jac);
     r.jac.changeBase(r.frame.M.Inverse());
-    check.compare(r, "jacobian_body", k, J_b, angular_first(r.jac));
+    check.compare(r.name, "jacobian_body", k, J_b, angular_first(r.jac));
 
     const Eigen::VectorXd tau = chasles::inverse_dynamics(r.model, r.data, s.q, s.qd, s.qdd);
     status |= r.rnea->CartToJnt(s.kq, s.kqd, s.kqdd, r.f_ext, r.tau);
-    check.compare(r, "rnea", k, tau, r.tau.data);
+    check.compare(r.name, "rnea", k, tau, r.tau.data);
 
     const Eigen::VectorXd g = chasles::gravity_torques(r.model, r.data, s.q);
     status |= r.dyn->JntToGravity(s.kq, r.g);
-    check.compare(r, "gravity", k, g, r.g.data);
+    check.compare(r.name, "gravity", k, g, r.g.data);
 
     const Eigen::MatrixXd M = chasles::mass_matrix(r.model, r.data, s.q);
     status |= r.dyn->JntToMass(s.kq, r.M);
-    check.compare(r, "mass_matrix", k, M, r.M.data);
+    check.compare(r.name, "mass_matrix", k, M, r.M.data);
 
     const Eigen::VectorXd qdd = chasles::forward_dynamics(r.model, r.data, s.q, s.qd, s.tau);
     status |= r.fd->CartToJnt(s.kq, s.kqd, s.ktau, r.f_ext, r.qdd);
-    check.compare(r, "forward_dynamics", k, qdd, r.qdd.data);
+    check.compare(r.name, "forward_dynamics", k, qdd, r.qdd.data);
 
     if (status != 0) check.failures += "  " + r.name + ": a KDL solver returned an error\n";
   }
 }
 
 // --- the benchmarks -----------------------------------------------------------------------------
-
-// Registers "<library>/<robot>/<quantity>": each iteration runs `compute` on the next table entry.
-template <class Compute>
-void add(const char* library, Robot& robot, const char* quantity, Compute compute) {
-  const std::string name = std::string(library) + "/" + robot.name + "/" + quantity;
-  benchmark::RegisterBenchmark(name.c_str(), [&robot, compute](benchmark::State& state) {
-    size_t k = 0;
-    for (auto _ : state) {
-      compute(robot, robot.table[k++ & (kTableSize - 1)]);
-    }
-  });
-}
 
 // chasles and KDL side by side for each quantity, so that drift (clock, temperature) hits both.
 void register_benchmarks(Robot& r) {
@@ -355,38 +284,9 @@ void register_benchmarks(Robot& r) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-
-  // Everything here goes to stderr: stdout is the benchmark report (JSON for tools/bench.sh).
-  std::vector<std::unique_ptr<Robot>> robots;
-  try {
-    const std::string data = CHASLES_BENCH_DATA;
-    robots.push_back(std::make_unique<Robot>("ur5", data + "/ur5.urdf", "tool0"));
-    robots.push_back(std::make_unique<Robot>("panda", data + "/panda.urdf", "panda_hand"));
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "chasles_bench: %s\n", e.what());
-    return 1;
-  }
-
-  Check check;
-  for (auto& robot : robots) check_agreement(*robot, check);
-  if (!check.failures.empty()) {
-    std::fprintf(stderr,
-                 "chasles_bench: chasles and KDL disagree (relative tolerance %g), so the timings would "
-                 "compare different computations; not running.\n%s",
-                 kTolerance, check.failures.c_str());
-    return 1;
-  }
-  std::ostringstream agreed;
-  agreed << "fk, jacobian_space, jacobian_body, rnea, gravity, mass_matrix, forward_dynamics agree on "
-         << kChecked << " configurations per robot; worst relative difference " << check.worst;
-  std::fprintf(stderr, "chasles_bench: %s\n", agreed.str().c_str());
-  benchmark::AddCustomContext("chasles_kdl_agreement", agreed.str());
-  benchmark::AddCustomContext("sample_table", std::to_string(kTableSize) + " entries, seed " + std::to_string(kSeed));
-
-  for (auto& robot : robots) register_benchmarks(*robot);
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
+  return chasles::bench::run_comparison(
+      argc, argv,
+      {"chasles_bench", "KDL", kTolerance, "chasles_kdl_agreement",
+       "fk, jacobian_space, jacobian_body, rnea, gravity, mass_matrix, forward_dynamics agree"},
+      check_agreement, register_benchmarks);
 }

@@ -18,9 +18,9 @@
 // - chasles is a static library, so its calls are real calls; each Pinocchio call goes through a
 //   noinline function of this file, so it is one too and cannot be folded into the loop.
 // - Models are built once, before timing. Every iteration takes the next entry of a precomputed,
-//   seeded random table of 256 (q, q̇, q̈, τ), q within the joint limits (the same seed and
-//   sampling as chasles_bench), as Eigen vectors both libraries take as they are; every result
-//   goes through benchmark::DoNotOptimize.
+//   seeded random table of 256 (q, q̇, q̈, τ), q within the joint limits (comparison.hpp's, the
+//   same as chasles_bench's), as Eigen vectors both libraries take as they are; every result goes
+//   through benchmark::DoNotOptimize.
 // - Before timing, main() checks that both libraries compute the same quantities (tip pose, J_b,
 //   τ, M, q̈) on a few table entries to a relative 1e-9 and refuses to run if they do not.
 //
@@ -65,13 +65,7 @@
 #include <pinocchio/config.hpp>
 #include <pinocchio/multibody.hpp>
 
-#include <algorithm>
-#include <cmath>
-#include <cstdio>
 #include <memory>
-#include <random>
-#include <set>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -80,17 +74,17 @@
 #include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/kinematics/kinematics.hpp"
 #include "chasles/core/model/urdf.hpp"
+#include "comparison.hpp"
 
 namespace {
 
-constexpr size_t kTableSize = 256;  // a power of two: the index wraps with a mask
-constexpr unsigned kSeed = 20240611;  // chasles_bench's
-constexpr int kChecked = 8;         // table entries compared before timing
-constexpr double kTolerance = 1e-9;  // relative to the largest entry (at least 1)
+using chasles::bench::add;
+using chasles::bench::Check;
+using chasles::bench::keep;
+using chasles::bench::kChecked;
+using chasles::bench::Sample;  // Eigen vectors, as both libraries take them
 
-struct Sample {
-  Eigen::VectorXd q, qd, qdd, tau;
-};
+constexpr double kTolerance = 1e-9;  // relative to the largest entry (at least 1)
 
 pinocchio::SE3 to_se3(const chasles::Transform& T) { return pinocchio::SE3(T.linear(), T.translation()); }
 
@@ -125,15 +119,10 @@ pinocchio::Inertia to_inertia(const chasles::SpatialInertia& G) {
   return pinocchio::Inertia::FromDynamicParameters(p);
 }
 
-// Both libraries' models of one robot, their workspaces and output buffers, and the sample table.
-struct Robot {
+// Pinocchio's model of one robot beside chasles's, its workspace and output buffer, and the sample
+// table.
+struct Robot : chasles::bench::ChaslesRobot {
   Robot(std::string robot_name, const std::string& urdf, const std::string& tip);
-  Robot(const Robot&) = delete;
-  Robot& operator=(const Robot&) = delete;
-
-  const std::string name;
-  const chasles::RobotModel model;
-  chasles::Data data;
 
   pinocchio::Model pmodel;
   std::unique_ptr<pinocchio::Data> pdata;
@@ -143,14 +132,8 @@ struct Robot {
   std::vector<Sample> table;
 };
 
-chasles::UrdfOptions tip_options(const std::string& tip) {
-  chasles::UrdfOptions options;
-  options.tip_link = tip;
-  return options;
-}
-
 Robot::Robot(std::string robot_name, const std::string& urdf, const std::string& tip_link)
-    : name(std::move(robot_name)), model(chasles::load_urdf_file(urdf, tip_options(tip_link))), data(model) {
+    : ChaslesRobot(std::move(robot_name), urdf, tip_link), table(chasles::bench::sample_table(model)) {
   pmodel.name = model.name();
   pinocchio::JointIndex parent = 0;  // the universe
   for (int i = 0; i < model.dof(); ++i) {
@@ -166,33 +149,6 @@ Robot::Robot(std::string robot_name, const std::string& urdf, const std::string&
   }
   pdata = std::make_unique<pinocchio::Data>(pmodel);
   J = pinocchio::Data::Matrix6x::Zero(6, pmodel.nv);
-
-  // The sample table, drawn as chasles_bench draws it: q uniform within the position limits, q̇
-  // within the velocity limits, q̈ in ±5 rad/s², τ within half the effort limits.
-  std::mt19937_64 rng(kSeed);
-  std::uniform_real_distribution<double> unit(-1.0, 1.0);
-  const auto finite_or = [](double x, double fallback) { return std::isfinite(x) ? x : fallback; };
-  table.resize(kTableSize);
-  for (Sample& s : table) {
-    s.q.resize(model.dof());
-    s.qd.resize(model.dof());
-    s.qdd.resize(model.dof());
-    s.tau.resize(model.dof());
-    for (int i = 0; i < model.dof(); ++i) {
-      const chasles::JointLimits& limits = model.joint(i).limits;
-      s.q(i) = 0.5 * (limits.lower + limits.upper) + 0.5 * (limits.upper - limits.lower) * unit(rng);
-      s.qd(i) = finite_or(limits.velocity, 2.0) * unit(rng);
-      s.qdd(i) = 5.0 * unit(rng);
-      s.tau(i) = 0.5 * finite_or(limits.effort, 20.0) * unit(rng);
-    }
-  }
-}
-
-// Keeps a result alive: its address escapes into an asm statement that clobbers memory.
-template <class T>
-void keep(const T& result) {
-  const void* p = &result;
-  benchmark::DoNotOptimize(p);
 }
 
 // --- Pinocchio's side, each one real call ---------------------------------------------------------
@@ -231,40 +187,18 @@ Eigen::MatrixXd angular_first(const Eigen::MatrixXd& J) {
   return out;
 }
 
-struct Check {
-  std::string failures;
-  std::set<std::string> reported;
-  double worst = 0.0;
-
-  void compare(const Robot& robot, const char* quantity, int k, const Eigen::MatrixXd& ours,
-               const Eigen::MatrixXd& theirs) {
-    const double scale = std::max(1.0, theirs.cwiseAbs().maxCoeff());
-    const double error = (ours - theirs).cwiseAbs().maxCoeff() / scale;
-    worst = std::max(worst, error);
-    // Only the first disagreement of each robot and quantity is printed in full.
-    if (!(error <= kTolerance) && reported.insert(robot.name + " " + quantity).second) {
-      std::ostringstream out;
-      out << "  " << robot.name << " " << quantity << " at table entry " << k
-          << ": max |chasles - Pinocchio| = " << error * scale << " (scale " << scale << ")\n    chasles:\n"
-          << ours << "\n    Pinocchio:\n"
-          << theirs << "\n";
-      failures += out.str();
-    }
-  }
-};
-
 void check_agreement(Robot& r, Check& check) {
   for (int k = 0; k < kChecked; ++k) {
     const Sample& s = r.table[static_cast<size_t>(k)];
 
     const chasles::Transform T_sb = chasles::forward_kinematics(r.model, r.data, s.q);
-    check.compare(r, "fk", k, T_sb.matrix(), pin_fk(r, s.q).toHomogeneousMatrix());
+    check.compare(r.name, "fk", k, T_sb.matrix(), pin_fk(r, s.q).toHomogeneousMatrix());
 
     const Eigen::MatrixXd J_b = chasles::body_jacobian(r.model, r.data, s.q);
-    check.compare(r, "jacobian_body", k, J_b, angular_first(pin_jacobian_body(r, s.q)));
+    check.compare(r.name, "jacobian_body", k, J_b, angular_first(pin_jacobian_body(r, s.q)));
 
     const Eigen::VectorXd tau = chasles::inverse_dynamics(r.model, r.data, s.q, s.qd, s.qdd);
-    check.compare(r, "rnea", k, tau, pin_rnea(r, s));
+    check.compare(r.name, "rnea", k, tau, pin_rnea(r, s));
 
     const Eigen::MatrixXd M = chasles::mass_matrix(r.model, r.data, s.q);
     const Eigen::VectorXd qdd = chasles::forward_dynamics(r.model, r.data, s.q, s.qd, s.tau);
@@ -272,25 +206,13 @@ void check_agreement(Robot& r, Check& check) {
       const bool world = convention == pinocchio::Convention::WORLD;
       Eigen::MatrixXd M_pin = pin_crba(r, s.q, convention);
       M_pin.triangularView<Eigen::StrictlyLower>() = M_pin.transpose();  // crba fills the upper triangle
-      check.compare(r, world ? "mass_matrix.world" : "mass_matrix", k, M, M_pin);
-      check.compare(r, world ? "forward_dynamics.world" : "forward_dynamics", k, qdd, pin_aba(r, s, convention));
+      check.compare(r.name, world ? "mass_matrix.world" : "mass_matrix", k, M, M_pin);
+      check.compare(r.name, world ? "forward_dynamics.world" : "forward_dynamics", k, qdd, pin_aba(r, s, convention));
     }
   }
 }
 
 // --- the benchmarks -----------------------------------------------------------------------------
-
-// Registers "<library>/<robot>/<quantity>": each iteration runs `compute` on the next table entry.
-template <class Compute>
-void add(const char* library, Robot& robot, const char* quantity, Compute compute) {
-  const std::string name = std::string(library) + "/" + robot.name + "/" + quantity;
-  benchmark::RegisterBenchmark(name.c_str(), [&robot, compute](benchmark::State& state) {
-    size_t k = 0;
-    for (auto _ : state) {
-      compute(robot, robot.table[k++ & (kTableSize - 1)]);
-    }
-  });
-}
 
 // chasles and Pinocchio side by side for each quantity, so that drift (clock, load) hits both.
 void register_benchmarks(Robot& r) {
@@ -322,39 +244,11 @@ void register_benchmarks(Robot& r) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-
-  // Everything here goes to stderr: stdout is the benchmark report (JSON for tools/bench.sh).
-  std::vector<std::unique_ptr<Robot>> robots;
-  try {
-    const std::string data = CHASLES_BENCH_DATA;
-    robots.push_back(std::make_unique<Robot>("ur5", data + "/ur5.urdf", "tool0"));
-    robots.push_back(std::make_unique<Robot>("panda", data + "/panda.urdf", "panda_hand"));
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "chasles_pinocchio_bench: %s\n", e.what());
-    return 1;
-  }
-
-  Check check;
-  for (auto& robot : robots) check_agreement(*robot, check);
-  if (!check.failures.empty()) {
-    std::fprintf(stderr,
-                 "chasles_pinocchio_bench: chasles and Pinocchio disagree (relative tolerance %g), so the "
-                 "timings would compare different computations; not running.\n%s",
-                 kTolerance, check.failures.c_str());
-    return 1;
-  }
-  std::ostringstream agreed;
-  agreed << "fk, jacobian_body, rnea, mass_matrix, forward_dynamics (crba and aba in both conventions) agree with Pinocchio " << PINOCCHIO_VERSION
-         << " on " << kChecked << " configurations per robot; worst relative difference " << check.worst;
-  std::fprintf(stderr, "chasles_pinocchio_bench: %s\n", agreed.str().c_str());
   benchmark::AddCustomContext("pinocchio_version", PINOCCHIO_VERSION);
-  benchmark::AddCustomContext("chasles_pinocchio_agreement", agreed.str());
-  benchmark::AddCustomContext("sample_table", std::to_string(kTableSize) + " entries, seed " + std::to_string(kSeed));
-
-  for (auto& robot : robots) register_benchmarks(*robot);
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
+  return chasles::bench::run_comparison(argc, argv,
+                                        {"chasles_pinocchio_bench", "Pinocchio", kTolerance,
+                                         "chasles_pinocchio_agreement",
+                                         "fk, jacobian_body, rnea, mass_matrix, forward_dynamics (crba and aba in "
+                                         "both conventions) agree with Pinocchio " PINOCCHIO_VERSION},
+                                        check_agreement, register_benchmarks);
 }
