@@ -166,7 +166,7 @@ const Eigen::VectorXd& velocity_product(const RobotModel& model, Data& data, con
 }
 
 CHASLES_FLATTEN const Eigen::VectorXd& momentum_terms(const RobotModel& model, Data& data, const JointVector& q,
-                                      const JointVector& qd) {
+                                                      const JointVector& qd) {
   check_joint_vector(model, qd, "qd");
   local_transforms(model, data, q);
   const int n = model.dof();
