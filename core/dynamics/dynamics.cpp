@@ -102,6 +102,17 @@ CHASLES_ALWAYS_INLINE Vector6d inertia_times_axis(const SpatialInertia& G, const
   return P;
 }
 
+// The composite inertia C_i of bodies i…n in body i's frame, tip to base (MR §8.4, Featherstone's
+// CRBA): C_i = G_i + C_{i+1} carried into frame i. Expects data.T_local to be current.
+void composite_inertias(const RobotModel& model, Data& data) {
+  const int n = model.dof();
+  data.composite[body(n - 1)] = model.body_inertia(n - 1);
+  for (int i = n - 1; i > 0; --i) {
+    data.composite[body(i - 1)] = model.body_inertia(i - 1);
+    add(data.composite[body(i - 1)], to_parent(data.T_local[body(i)], data.composite[body(i)]));
+  }
+}
+
 // M from the composite inertias in data.composite: column i is the wrench that accelerates joint i
 // alone, carried down toward the base.
 CHASLES_FLATTEN void mass_matrix_from_composites(const RobotModel& model, Data& data) {
@@ -212,9 +223,10 @@ CHASLES_FLATTEN const Data& compute_tick_terms(const RobotModel& model, Data& da
     });
   }
   data.T_sb = data.T_body[body(n - 1)] * model.T_last_tip();
-  // Backward: the wrench F that moves bodies i…n at q̈ = 0 (c + g), their momentum H (p and Cᵀq̇,
-  // as momentum_terms) and their composite inertia C_i (M). Gravity alone is a uniform acceleration
-  // of the whole subtree, so the wrench that holds bodies i…n against it is C_i (0, −R_0iᵀ g).
+  composite_inertias(model, data);
+  // Backward: the wrench F that moves bodies i…n at q̈ = 0 (c + g) and their momentum H (p and Cᵀq̇,
+  // as momentum_terms). Gravity alone is a uniform acceleration of the whole subtree, so the wrench
+  // that holds bodies i…n against it is their composite inertia times it, C_i (0, −R_0iᵀ g).
   Vector6d F = Vector6d::Zero(), H = Vector6d::Zero();
   for (int i = n - 1; i >= 0; --i) {
     const SpatialInertia& G = model.body_inertia(i);
@@ -225,12 +237,9 @@ CHASLES_FLATTEN const Data& compute_tick_terms(const RobotModel& model, Data& da
     data.bias(i) = axis_dot(model, i, F);
     data.p(i) = axis_dot(model, i, H);
     data.ct_qd(i) = axis_dot(model, i, ad_transpose_times(V, H));
-    SpatialInertia& C = data.composite[body(i)];
-    C = G;
-    if (i + 1 < n) add(C, to_parent(data.T_local[body(i + 1)], data.composite[body(i + 1)]));
     Vector6d a_gravity;
     a_gravity << Vector3d::Zero(), -(data.T_body[body(i)].linear().transpose() * model.gravity());
-    data.g(i) = axis_dot(model, i, C * a_gravity);
+    data.g(i) = axis_dot(model, i, data.composite[body(i)] * a_gravity);
     F = adjoint_inverse_transpose_times(data.T_local[body(i)], F);
     H = adjoint_inverse_transpose_times(data.T_local[body(i)], H);
   }
@@ -242,13 +251,7 @@ CHASLES_FLATTEN const Data& compute_tick_terms(const RobotModel& model, Data& da
 
 CHASLES_FLATTEN const Eigen::MatrixXd& mass_matrix(const RobotModel& model, Data& data, const JointVector& q) {
   local_transforms(model, data, q);
-  const int n = model.dof();
-  // Composite inertias, tip to base (MR §8.4, Featherstone's CRBA).
-  data.composite[body(n - 1)] = model.body_inertia(n - 1);
-  for (int i = n - 1; i > 0; --i) {
-    data.composite[body(i - 1)] = model.body_inertia(i - 1);
-    add(data.composite[body(i - 1)], to_parent(data.T_local[body(i)], data.composite[body(i)]));
-  }
+  composite_inertias(model, data);
   mass_matrix_from_composites(model, data);
   return data.M;
 }
