@@ -35,6 +35,10 @@ constexpr double kQuaternionNormTolerance = 1e-3;
 // it is not known.
 constexpr double kMaxGapPeriods = 10.5;
 
+// The relative change of the measured period that formats the warning anew, about its 3 digits'
+// resolution: a jittery stream's running mean moves by less than this most states.
+constexpr double kPeriodQuoteStep = 1e-3;
+
 void format_into(char (&buffer)[192], const char* format, va_list args) {
   std::vsnprintf(buffer, sizeof(buffer), format, args);
 }
@@ -213,8 +217,12 @@ void Controller::track_period(double dt) {
   period_intervals_ = std::min<int64_t>(period_intervals_ + 1, kPeriodWindow);
   state_period_ += (dt - state_period_) / static_cast<double>(period_intervals_);
   const double ratio = state_period_ / config_.period;
+  const bool was_mismatched = period_mismatch_;
   period_mismatch_ = period_intervals_ == kPeriodWindow && std::abs(ratio - 1.0) > kPeriodTolerance;
-  if (period_mismatch_) {
+  // Formatted on the tick only when the figure it quotes may have moved, not at every state.
+  if (period_mismatch_ &&
+      (!was_mismatched || std::abs(state_period_ - quoted_period_) > kPeriodQuoteStep * quoted_period_)) {
+    quoted_period_ = state_period_;
     std::snprintf(period_warning_, sizeof(period_warning_),
                   "the robot states come every %.3g ms (%.4g Hz), the configured period is %.3g ms", 1e3 * state_period_,
                   1.0 / state_period_, 1e3 * config_.period);

@@ -216,6 +216,7 @@ class Controller {
   char mode_rejection_[192] = {};
   int64_t faults_ = 0, stale_ticks_ = 0, rejected_targets_ = 0, rejected_modes_ = 0;
   double state_period_;
+  double quoted_period_ = 0.0;  // the state period period_warning_ was formatted with
   int64_t period_intervals_ = 0;
   bool period_mismatch_ = false;
   char period_warning_[160] = {};
