@@ -176,7 +176,9 @@ TEST(daemon, LockstepJointMoveReachesTheTargetAndSettles) {
                           "stale_states", "rejected_messages", "faults"}) {
     EXPECT_TRUE(s.contains(key)) << key;
   }
-  EXPECT_GT(s["ticks"].get<int64_t>(), 1000);
+  // The 1 s move alone spans 1000 periods of the clock; a period the loop missed (a loaded
+  // machine) is counted as an overrun rather than ticked, so the two together cover it.
+  EXPECT_GE(s["ticks"].get<int64_t>() + s["overruns"].get<int64_t>(), 1000);
   EXPECT_EQ(s["faults"].get<int64_t>(), 0) << controller.stderr_text();
   EXPECT_LT(s["tracking_error"]["max"].get<double>(), 0.05);
   std::remove(summary.c_str());
