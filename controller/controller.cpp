@@ -16,8 +16,10 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-// Peak speed of a rest-to-rest quintic over distance d in time T (at s = 1/2).
-constexpr double kQuinticPeakSpeed = 1.875;
+// The longest quintic the search for a feasible duration tries, s, and its precision: the
+// duration it suggests is at most this fraction longer than the shortest.
+constexpr double kLongestMotion = 3600.0;
+constexpr double kDurationPrecision = 1e-3;
 
 // The largest step of the equilibrium an impedance law takes at once (a target of duration 0):
 // per joint, rad or m, and of the tip, m and rad. Beyond it the law would pull with K times a
@@ -88,6 +90,7 @@ void Config::validate(int dof) const {
   if (!(period > 0.0) || !std::isfinite(period)) throw ArgumentError("the period must be positive");
   if (stale_ns <= 0) throw ArgumentError("the stale-state timeout must be positive");
   if (!(torque_ramp > 0.0)) throw ArgumentError("the torque ramp time must be positive");
+  limits.validate(dof);
   if (damping.size() != 0) check_gains(damping, "damping");
 }
 
@@ -108,8 +111,11 @@ Controller::Controller(const RobotModel& model, const Config& config)
       error_(Eigen::VectorXd::Zero(model.dof())),
       tau_(Eigen::VectorXd::Zero(model.dof())),
       tau_prev_(Eigen::VectorXd::Zero(model.dof())),
+      limits_(model, config_.limits),
+      q_guarded_(Eigen::VectorXd::Zero(model.dof())),
       ref_(model.dof()),
       trajectory_(model.dof()),
+      candidate_(model.dof()),
       path_(model.dof()),
       contact_(model, config_.contact, config_.damping, config_.period),
       retract_goal_(Eigen::VectorXd::Zero(model.dof())),
@@ -229,28 +235,77 @@ void Controller::track_period(double dt) {
   }
 }
 
-void Controller::start_reflex(int64_t now_ns) {
+void Controller::start_reflex(int64_t now_ns, const char* limit_reason) {
   hold_at(q_);  // stop: hold here, braked by the position loop and the torque-rate limit
-  switch (contact_.config().reflex) {
+  const Reflex reflex = limit_reason != nullptr ? Reflex::kStop : contact_.config().reflex;
+  switch (reflex) {
     case Reflex::kStop:
       break;
     case Reflex::kCompliant:
       compliant_ = true;
       break;
-    case Reflex::kRetract:
-      // From where the arm is and how it moves now, so the reference does not jump.
+    case Reflex::kRetract: {
+      // From where the arm is and how it moves now, so the reference does not jump; slower than
+      // configured where the limits ask it.
       contact_.retract_goal(contact_.config().retract_distance, retract_goal_);
       ref_.qd = qd_;
-      trajectory_.start(ref_, retract_goal_, contact_.config().retract_duration);
-      motion_start_ns_ = now_ns;
-      retracting_ = true;
+      LimitExcess excess;
+      if (shortest_duration(retract_goal_, contact_.config().retract_duration, excess) > 0.0) {
+        trajectory_.swap(candidate_);
+        motion_start_ns_ = now_ns;
+        retracting_ = true;
+      } else {
+        ref_.qd.setZero();  // no retract within the limits from this motion: a stop
+      }
       break;
+    }
   }
   mode_ = Mode::kReflex;
   pending_request_ = -1;  // a Cartesian plan in the works is dropped
-  std::snprintf(reflex_reason_, sizeof(reflex_reason_), "%s; reflex %s", contact_.reason(),
-                to_string(contact_.config().reflex));
+  if (limit_reason != nullptr) {
+    std::snprintf(reflex_reason_, sizeof(reflex_reason_), "%s; reflex stop", limit_reason);
+  } else {
+    std::snprintf(reflex_reason_, sizeof(reflex_reason_), "%s; reflex %s", contact_.reason(), to_string(reflex));
+  }
   ++reflexes_;
+}
+
+double Controller::shortest_duration(const Eigen::VectorXd& goal, double requested, LimitExcess& excess) {
+  candidate_.start(ref_, goal, requested);
+  excess = candidate_.excess(limits_);
+  if (!excess) return requested;
+  // From rest the peaks of a quintic over d in T are known, 1.875 d/T, (10/√3) d/T² and
+  // 60 d/T³, so the shortest duration is too, and is tried first. From a motion, slower is within
+  // the limits past some duration: found by doubling, then to kDurationPrecision by bisection.
+  double from_rest = requested;
+  for (int i = 0; i < candidate_.dof(); ++i) {
+    const double d = std::abs(goal(i) - ref_.q(i));
+    from_rest = std::max({from_rest, 1.875 * d / limits_.velocity(i),
+                          std::sqrt(10.0 / std::sqrt(3.0) * d / limits_.acceleration(i)),
+                          std::cbrt(60.0 * d / limits_.jerk(i))});
+  }
+  double infeasible = requested, feasible = 0.0;
+  if (const double T = from_rest * (1.0 + 1e-9); T > requested) {
+    candidate_.start(ref_, goal, T);
+    if (!candidate_.excess(limits_)) return T;
+    infeasible = T;
+  }
+  for (double T = 2.0 * infeasible; T <= kLongestMotion; T *= 2.0) {
+    candidate_.start(ref_, goal, T);
+    if (!candidate_.excess(limits_)) {
+      feasible = T;
+      break;
+    }
+    infeasible = T;
+  }
+  if (feasible == 0.0) return 0.0;
+  while (feasible - infeasible > kDurationPrecision * feasible) {
+    const double T = 0.5 * (infeasible + feasible);
+    candidate_.start(ref_, goal, T);
+    (candidate_.excess(limits_) ? infeasible : feasible) = T;
+  }
+  candidate_.start(ref_, goal, feasible);
+  return feasible;
 }
 
 bool Controller::set_target(const Target& target, int64_t now_ns) {
@@ -284,22 +339,28 @@ bool Controller::set_target(const Target& target, int64_t now_ns) {
     const double goal = target.q(i);
     if (!std::isfinite(goal)) return refuse("joint %s: target %g is not finite", joint.name.c_str(), goal);
     // Continuous joints wrap, so any finite angle is a position they can take.
-    if (joint.type != JointType::Continuous && (goal < joint.limits.lower || goal > joint.limits.upper)) {
-      return refuse("joint %s: target %g is outside its limits [%g, %g]", joint.name.c_str(), goal,
-                    joint.limits.lower, joint.limits.upper);
+    if (goal < limits_.lower(i) || goal > limits_.upper(i)) {
+      return refuse("joint %s: target %g is outside [%g, %g], its limits less the %g margin", joint.name.c_str(), goal,
+                    limits_.lower(i), limits_.upper(i), config_.limits.position_margin);
     }
-    if (step) {
-      if (std::abs(goal - ref_.q(i)) > kMaxJointStep) {
-        return refuse("joint %s: a step of %g to %g is over %g; give a duration", joint.name.c_str(),
-                      std::abs(goal - ref_.q(i)), goal, kMaxJointStep);
+    if (step && std::abs(goal - ref_.q(i)) > kMaxJointStep) {
+      return refuse("joint %s: a step of %g to %g is over %g; give a duration", joint.name.c_str(),
+                    std::abs(goal - ref_.q(i)), goal, kMaxJointStep);
+    }
+  }
+  if (!step) {
+    LimitExcess excess;
+    const double shortest = shortest_duration(target.q, target.duration, excess);
+    if (excess) {
+      const char* name = model_->joint(excess.joint).name.c_str();
+      const char* quantity = to_string(excess.quantity);
+      const char* unit = unit_of(excess.quantity);
+      if (shortest == 0.0) {
+        return refuse("joint %s: from the current motion no quintic reaches the goal within its %s limit %g %s",
+                      name, quantity, excess.limit, unit);
       }
-      continue;
-    }
-    const double speed = kQuinticPeakSpeed * std::abs(goal - ref_.q(i)) / target.duration;
-    if (speed > joint.limits.velocity) {
-      return refuse("joint %s: reaching %g in %g s needs %g rad/s, over its velocity limit %g; allow at least %g s",
-                    joint.name.c_str(), goal, target.duration, speed, joint.limits.velocity,
-                    target.duration * speed / joint.limits.velocity);
+      return refuse("joint %s: reaching the goal in %g s needs a %s of %g %s, over its limit %g %s; %.4g s would do",
+                    name, target.duration, quantity, excess.value, unit, excess.limit, unit, shortest);
     }
   }
   pending_request_ = -1;  // a Cartesian plan still in the works is superseded
@@ -307,7 +368,7 @@ bool Controller::set_target(const Target& target, int64_t now_ns) {
     hold_at(target.q);
     return true;
   }
-  trajectory_.start(ref_, target.q, target.duration);
+  trajectory_.swap(candidate_);  // the quintic shortest_duration checked
   motion_start_ns_ = now_ns;
   mode_ = Mode::kRunning;
   following_path_ = false;
@@ -421,11 +482,22 @@ bool Controller::tick(int64_t now_ns, const JointState* state) {
     // (Re-)entering HOLD where the arm is now. The torque-rate limit starts from g(q), which is
     // what a plant applies while it brakes or waits, so the first commands do not jump.
     hold_at(q_);
+    q_guarded_ = q_;  // a joint found outside its limits has crossed none
     // Within the effort limits: the rate limit keeps every command between this and the law's.
     tau_prev_ = data_.g.cwiseMax(-effort_limit_).cwiseMin(effort_limit_);
     switch_offset_.setZero();
   }
-  if ((mode_ == Mode::kRunning || mode_ == Mode::kHolding) && contact_.estimate().collision) start_reflex(now_ns);
+  if (mode_ == Mode::kRunning || mode_ == Mode::kHolding) {
+    if (const LimitExcess excess = measured_excess(limits_, q_guarded_, q_, qd_)) {
+      std::snprintf(limit_reason_, sizeof(limit_reason_), "joint %s: %s %g %s past its limit %g %s",
+                    model_->joint(excess.joint).name.c_str(), to_string(excess.quantity), excess.value,
+                    unit_of(excess.quantity), excess.limit, unit_of(excess.quantity));
+      start_reflex(now_ns, limit_reason_);
+    } else if (contact_.estimate().collision) {
+      start_reflex(now_ns);
+    }
+  }
+  q_guarded_ = q_;
   update_reference(now_ns);
 
   error_ = ref_.q - q_;

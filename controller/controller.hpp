@@ -21,6 +21,7 @@
 #include "chasles/controller/cartesian.hpp"
 #include "chasles/controller/contact.hpp"
 #include "chasles/controller/law.hpp"
+#include "chasles/controller/limits.hpp"
 #include "chasles/controller/trajectory.hpp"
 #include "chasles/core/model/model.hpp"
 
@@ -41,6 +42,9 @@ struct Config {
   Eigen::VectorXd damping;
   /// Contact and collision thresholds, the observer's gains and the reflex.
   ContactConfig contact;
+  /// Acceleration and jerk limits (the URDF gives position and velocity), the position margin
+  /// and the measured velocity's tolerance.
+  LimitConfig limits;
 
   /// K_p = ω², K_d = 2ω (critically damped error dynamics at the natural frequency ω, rad/s).
   static Config critically_damped(int dof, double omega);
@@ -93,7 +97,10 @@ class Controller {
   const RobotModel& model() const { return *model_; }
 
   /// Takes a new goal, or refuses it (returns false, counts it, says why in last_rejection()) and
-  /// keeps the current one. A goal arriving before the first state is refused too. A CARTESIAN
+  /// keeps the current one. A goal arriving before the first state is refused too. A JOINT goal
+  /// is reached by a quintic from the current reference that must stay within limits() all the
+  /// way (position range, velocity, acceleration, jerk); one that would not is refused, naming
+  /// the joint, the quantity and the shortest duration that would do. A CARTESIAN
   /// goal that passes the checks becomes a request for the IK worker (take_request()); the arm
   /// keeps holding until its joint path comes back (follow()).
   bool set_target(const Target& target, int64_t now_ns);
@@ -139,6 +146,8 @@ class Controller {
   const Data& data() const { return data_; }
   /// The tip pose and J_b at the reference (computed under the Cartesian law only).
   const Data& reference_data() const { return data_ref_; }
+  /// The limits every reference keeps to and the measured state is guarded by.
+  const MotionLimits& limits() const { return limits_; }
   /// The thresholds and reflex in force (the defaults filled in from the model).
   const ContactConfig& contact_config() const { return contact_.config(); }
   /// Contacts (each time the contact flag rose) and reflexes since start; the largest estimated
@@ -167,7 +176,11 @@ class Controller {
   void hold_at(const Eigen::VectorXd& q);
   void observe(const JointState& state);
   void track_period(double dt);
-  void start_reflex(int64_t now_ns);
+  /// Starts the reflex: the configured one for a collision (contact_'s reason), else a stop.
+  void start_reflex(int64_t now_ns, const char* limit_reason = nullptr);
+  /// The shortest duration from `requested` up whose quintic from ref_ to goal stays within the
+  /// limits, left in candidate_; 0 when none does. excess: what the requested duration broke.
+  double shortest_duration(const Eigen::VectorXd& goal, double requested, LimitExcess& excess);
   bool request_cartesian(const Target& target);
   /// The reference at now_ns; finishing a motion turns RUNNING into HOLDING.
   void update_reference(int64_t now_ns);
@@ -187,8 +200,11 @@ class Controller {
   int64_t switch_start_ns_ = 0;
   Eigen::VectorXd effort_limit_, rate_limit_per_tick_;
   Eigen::VectorXd q_, qd_, qdd_ref_, error_, tau_, tau_prev_;
+  MotionLimits limits_;
+  Eigen::VectorXd q_guarded_;  // the state the limit guard last saw, for a crossing
+  char limit_reason_[160] = {};  // room for "; reflex stop" in reflex_reason_
   Reference ref_;
-  QuinticTrajectory trajectory_;
+  QuinticTrajectory trajectory_, candidate_;
   JointPathSampler path_;
   bool following_path_ = false;
   ContactMonitor contact_;

@@ -4,6 +4,9 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <utility>
+
+#include "chasles/controller/limits.hpp"
 
 namespace chasles::controller {
 
@@ -24,7 +27,7 @@ struct Reference {
 /// q0 + (q1 − q0)(10s³ − 15s⁴ + 6s⁵), s = t/T (MR eq. 9.11).
 class QuinticTrajectory {
  public:
-  explicit QuinticTrajectory(int n = 0) : a_(Eigen::MatrixXd::Zero(n, 6)) {}
+  explicit QuinticTrajectory(int n = 0) : a_(Coefficients::Zero(n, 6)) {}
 
   /// Allocates nothing once sized. duration > 0.
   void start(const Reference& from, const Eigen::VectorXd& goal, double duration);
@@ -32,9 +35,20 @@ class QuinticTrajectory {
   void sample(double t, Reference& out) const;
 
   double duration() const { return duration_; }
+  int dof() const { return static_cast<int>(a_.rows()); }
+
+  /// The first joint whose motion leaves `limits` anywhere in [0, T]: its position range, its
+  /// velocity, acceleration or jerk (exact: each polynomial's extrema). None: false.
+  LimitExcess excess(const MotionLimits& limits) const;
+  /// Swaps the two motions' contents (buffers of the same size: nothing is allocated).
+  void swap(QuinticTrajectory& other) {
+    a_.swap(other.a_);
+    std::swap(duration_, other.duration_);
+  }
 
  private:
-  Eigen::MatrixXd a_;  // n × 6 coefficients
+  using Coefficients = Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>;
+  Coefficients a_;  // n × 6: a joint's a_0..a_5 side by side
   double duration_ = 0.0;
 };
 

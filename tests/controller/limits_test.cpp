@@ -1,0 +1,270 @@
+// The arm's motion limits: where they come from, the exact peaks a reference is judged by, the
+// guard on measured states, and JOINT goals held to them from rest and from a motion.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+#include <string>
+
+#include "chasles/controller/controller.hpp"
+#include "chasles/controller/limits.hpp"
+#include "chasles/core/error.hpp"
+#include "chasles/core/model/urdf.hpp"
+#include "support/arm.hpp"
+#include "support/reference.hpp"
+
+namespace chasles::controller {
+namespace {
+
+using Eigen::VectorXd;
+using testing::panda;
+
+constexpr int64_t kMs = 1'000'000;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// libfranka's limits for the Panda (franka/rate_limiting.h).
+VectorXd franka_acceleration() { return (VectorXd(7) << 15, 7.5, 10, 12.5, 15, 20, 20).finished(); }
+VectorXd franka_jerk() { return (VectorXd(7) << 7500, 3750, 5000, 6250, 7500, 10000, 10000).finished(); }
+
+VectorXd bent_pose() { return (VectorXd(7) << 0.1, 0.5, -0.2, -1.2, 0.1, 1.0, 0.3).finished(); }
+
+double evaluate(const double* c, int degree, double t) {
+  double value = 0.0;
+  for (int k = degree; k >= 0; --k) value = value * t + c[k];
+  return value;
+}
+
+TEST(Limits, PolynomialRangeIsWhereTheExtremaAre) {
+  const double hump[3] = {0.0, 1.0, -1.0};  // t(1 − t): 1/4 at t = 1/2
+  double low = 0, high = 0;
+  polynomial_range(hump, 2, 1.0, low, high);
+  EXPECT_DOUBLE_EQ(high, 0.25);
+  EXPECT_DOUBLE_EQ(low, 0.0);
+  const double cube[4] = {-0.027, 0.27, -0.9, 1.0};  // (t − 0.3)³, monotone, a double root of p'
+  polynomial_range(cube, 3, 1.0, low, high);
+  EXPECT_NEAR(low, -0.027, 1e-15);
+  EXPECT_NEAR(high, 0.343, 1e-15);
+  // The rest-to-rest quintic 10s³ − 15s⁴ + 6s⁵: its velocity peaks at 1.875 (s = 1/2), its
+  // acceleration at ±10/√3 (s = 1/2 ∓ √3/6), its jerk at 60 (both ends).
+  const double velocity[5] = {0, 0, 30, -60, 30}, acceleration[4] = {0, 60, -180, 120}, jerk[3] = {60, -360, 360};
+  EXPECT_NEAR(max_abs_polynomial(velocity, 4, 1.0), 1.875, 1e-15);
+  EXPECT_NEAR(max_abs_polynomial(acceleration, 3, 1.0), 10.0 / std::sqrt(3.0), 1e-14);
+  EXPECT_NEAR(max_abs_polynomial(jerk, 2, 1.0), 60.0, 1e-14);
+
+  // Random polynomials against dense sampling, which can only fall short of the true extrema, and
+  // by no more than the largest slope times half the spacing.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> coefficient(-10.0, 10.0), length(0.01, 3.0);
+  for (int trial = 0; trial < 300; ++trial) {
+    const int degree = trial % 6;
+    double c[6], slope[5];
+    for (double& x : c) x = coefficient(rng);
+    for (int k = 1; k <= degree; ++k) slope[k - 1] = k * c[k];
+    const double T = length(rng);
+    polynomial_range(c, degree, T, low, high);
+    constexpr int kSamples = 20000;
+    double sampled_low = kInf, sampled_high = -kInf, steepest = 0.0;
+    for (int s = 0; s <= kSamples; ++s) {
+      const double t = T * s / kSamples, value = evaluate(c, degree, t);
+      sampled_low = std::min(sampled_low, value), sampled_high = std::max(sampled_high, value);
+      if (degree > 0) steepest = std::max(steepest, std::abs(evaluate(slope, degree - 1, t)));
+    }
+    const double slack = steepest * T / kSamples + 1e-12;
+    EXPECT_LE(low, sampled_low + 1e-12) << "trial " << trial;
+    EXPECT_GE(low, sampled_low - slack) << "trial " << trial;
+    EXPECT_GE(high, sampled_high - 1e-12) << "trial " << trial;
+    EXPECT_LE(high, sampled_high + slack) << "trial " << trial;
+  }
+}
+
+TEST(Limits, FromTheUrdfAndTheConfiguration) {
+  const RobotModel model = panda();
+  const MotionLimits defaults(model, LimitConfig{});
+  for (int i = 0; i < 7; ++i) {
+    const JointLimits& urdf = model.joint(i).limits;
+    EXPECT_EQ(defaults.hard_lower(i), urdf.lower);
+    EXPECT_EQ(defaults.hard_upper(i), urdf.upper);
+    EXPECT_DOUBLE_EQ(defaults.lower(i), urdf.lower + 0.01);
+    EXPECT_DOUBLE_EQ(defaults.upper(i), urdf.upper - 0.01);
+    EXPECT_EQ(defaults.velocity(i), urdf.velocity);
+    EXPECT_DOUBLE_EQ(defaults.acceleration(i), urdf.velocity / 0.4);
+    EXPECT_DOUBLE_EQ(defaults.jerk(i), urdf.velocity / 0.4 / 0.02);
+    // The defaults are gentler than the Panda's own limits on every joint.
+    EXPECT_LT(defaults.acceleration(i), franka_acceleration()(i));
+    EXPECT_LT(defaults.jerk(i), franka_jerk()(i));
+  }
+  LimitConfig config;
+  config.acceleration = franka_acceleration();
+  config.jerk = franka_jerk();
+  config.position_margin = 0.05;
+  const MotionLimits franka(model, config);
+  EXPECT_EQ(franka.acceleration, franka_acceleration());
+  EXPECT_EQ(franka.jerk, franka_jerk());
+  EXPECT_DOUBLE_EQ(franka.upper(1), model.joint(1).limits.upper - 0.05);
+
+  config.jerk = VectorXd::Constant(6, 1.0);
+  EXPECT_THROW(MotionLimits(model, config), ArgumentError);
+  config.jerk = franka_jerk();
+  config.acceleration(3) = -1.0;
+  EXPECT_THROW(MotionLimits(model, config), ArgumentError);
+  config.acceleration(3) = std::nan("");
+  EXPECT_THROW(MotionLimits(model, config), ArgumentError);
+
+  // tests/data/arm.urdf's j3 is continuous and has no velocity limit: nothing bounds it.
+  UrdfOptions options;
+  options.tip_link = "tip";
+  const RobotModel arm = load_urdf_file(testing::data_path("arm.urdf"), options);
+  const MotionLimits free(arm, LimitConfig{});
+  EXPECT_EQ(free.lower(2), -kInf);
+  EXPECT_EQ(free.upper(2), kInf);
+  EXPECT_EQ(free.velocity(2), kInf);
+  EXPECT_EQ(free.jerk(2), kInf);
+}
+
+TEST(Limits, TheGuardTripsOnSpeedAndOnACrossingOnly) {
+  const RobotModel model = panda();
+  const MotionLimits limits(model, LimitConfig{});
+  const VectorXd q = bent_pose(), rest = VectorXd::Zero(7);
+  EXPECT_FALSE(measured_excess(limits, q, q, rest));
+  VectorXd qd = rest;
+  qd(4) = -2.61 * 1.1 * (1 - 1e-12);  // within the 10 % tolerance
+  EXPECT_FALSE(measured_excess(limits, q, q, qd));
+  qd(4) = -2.61 * 1.1 * (1 + 1e-12);
+  const LimitExcess fast = measured_excess(limits, q, q, qd);
+  EXPECT_EQ(fast.quantity, LimitExcess::kVelocity);
+  EXPECT_EQ(fast.joint, 4);
+  EXPECT_EQ(fast.value, qd(4));
+
+  VectorXd inside = q, outside = q;
+  inside(3) = model.joint(3).limits.upper;  // on the limit is inside
+  outside(3) = model.joint(3).limits.upper + 1e-9;
+  const LimitExcess crossed = measured_excess(limits, inside, outside, rest);
+  EXPECT_EQ(crossed.quantity, LimitExcess::kPosition);
+  EXPECT_EQ(crossed.joint, 3);
+  EXPECT_EQ(crossed.limit, model.joint(3).limits.upper);
+  EXPECT_FALSE(measured_excess(limits, outside, outside, rest)) << "a joint already outside may be brought back";
+}
+
+// The controller fed its own reference as the state (perfect tracking), one tick per ms.
+class Tracking : public ::testing::Test {
+ protected:
+  Tracking() : model_(panda()), state_(7) {
+    config_ = Config::critically_damped(7, 20.0);
+    config_.limits.acceleration = franka_acceleration();
+    config_.limits.jerk = franka_jerk();
+    // The state is the reference itself, not an arm's answer to the torque: the contact monitor,
+    // which would read the difference as a push, is off, and the limits' guard alone is judged.
+    config_.contact.collision_torque = config_.contact.contact_torque = VectorXd::Constant(7, kInf);
+    config_.contact.collision_force = config_.contact.contact_force = kInf;
+    config_.contact.collision_moment = config_.contact.contact_moment = kInf;
+    state_.q = bent_pose();
+  }
+  bool tick(Controller& controller) {
+    now_ += kMs;
+    ++state_.seq;
+    state_.arrival_ns = now_;
+    return controller.tick(now_, &state_);
+  }
+  bool send(Controller& controller, const VectorXd& goal, double duration) {
+    Target target(7);
+    target.mode = Target::kJoint;
+    target.num_joints = 7;
+    target.q = goal;
+    target.duration = duration;
+    return controller.set_target(target, now_);
+  }
+  RobotModel model_;
+  Config config_;
+  JointState state_;
+  int64_t now_ = 0;
+};
+
+// From rest the shortest quintic is known in closed form: panda_joint2 (7.5 rad/s²) over 0.5 rad
+// peaks at (10/√3)·0.5/T² rad/s², so T ≥ √(5.7735·0.5/7.5) = 0.6204 s, longer than velocity's
+// 1.875·0.5/2.175 = 0.431 s and jerk's ∛(60·0.5/3750) = 0.2 s.
+TEST_F(Tracking, AGoalFromRestNeedsTheClosedFormDuration) {
+  Controller controller(model_, config_);
+  ASSERT_TRUE(tick(controller));
+  VectorXd goal = bent_pose();
+  goal(1) += 0.5;
+  const double shortest = std::sqrt(10.0 / std::sqrt(3.0) * 0.5 / 7.5);
+  EXPECT_FALSE(send(controller, goal, 0.5));
+  const std::string why = controller.last_rejection();
+  EXPECT_NE(why.find("panda_joint2: reaching the goal in 0.5 s needs a acceleration of 11.547"), std::string::npos) << why;
+  EXPECT_NE(why.find("over its limit 7.5 rad/s²; 0.6204 s would do"), std::string::npos) << why;
+  EXPECT_FALSE(send(controller, goal, shortest * (1 - 1e-6)));
+  EXPECT_NE(std::string(controller.last_rejection()).find("acceleration"), std::string::npos);
+  EXPECT_TRUE(send(controller, goal, shortest * (1 + 1e-6))) << controller.last_rejection();
+
+  VectorXd too_far = bent_pose();
+  too_far(3) = model_.joint(3).limits.upper - 0.005;  // inside the URDF's range, not its margin
+  EXPECT_FALSE(send(controller, too_far, 5.0));
+  EXPECT_NE(std::string(controller.last_rejection()).find("panda_joint4: target"), std::string::npos);
+}
+
+// The aggressive programme: goals timed at the velocity limit as from rest, each sent while the
+// last runs. Every goal is taken or refused; every reference the arm is given, tick by tick,
+// keeps to every limit (its jerk by finite differences of its acceleration).
+TEST_F(Tracking, GoalsSentMidMotionKeepTheReferenceWithinTheLimits) {
+  Controller controller(model_, config_);
+  ASSERT_TRUE(tick(controller));
+  const MotionLimits& limits = controller.limits();
+  std::mt19937 rng(42);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  int taken = 0, refused = 0;
+  Reference previous = controller.reference();
+  for (int k = 0; k < 4000; ++k) {
+    if (k % 60 == 0) {
+      VectorXd goal(7);
+      for (int i = 0; i < 7; ++i) goal(i) = limits.lower(i) + unit(rng) * (limits.upper(i) - limits.lower(i));
+      const double duration =
+          1.875 * ((goal - controller.reference().q).cwiseAbs().array() / limits.velocity.array()).maxCoeff();
+      (send(controller, goal, duration) ? taken : refused)++;
+    }
+    ASSERT_TRUE(tick(controller));
+    const Reference& r = controller.reference();
+    for (int i = 0; i < 7; ++i) {
+      ASSERT_GE(r.q(i), limits.lower(i) - 1e-12) << "tick " << k << " joint " << i;
+      ASSERT_LE(r.q(i), limits.upper(i) + 1e-12) << "tick " << k << " joint " << i;
+      ASSERT_LE(std::abs(r.qd(i)), limits.velocity(i) * (1 + 1e-9)) << "tick " << k << " joint " << i;
+      ASSERT_LE(std::abs(r.qdd(i)), limits.acceleration(i) * (1 + 1e-9)) << "tick " << k << " joint " << i;
+      ASSERT_LE(std::abs(r.qdd(i) - previous.qdd(i)) / 1e-3, limits.jerk(i) * (1 + 1e-9)) << "tick " << k << " joint " << i;
+    }
+    previous = r;
+    state_.q = r.q, state_.qd = r.qd;
+  }
+  EXPECT_GT(taken, 10);
+  EXPECT_GT(refused, 10);
+  EXPECT_EQ(controller.faults(), 0);
+  EXPECT_EQ(controller.reflexes(), 0);
+}
+
+// A measured joint over its velocity limit, or across its position limit, stops the arm: REFLEX,
+// naming the joint and the value.
+TEST_F(Tracking, TheMeasuredStateIsGuarded) {
+  Controller controller(model_, config_);
+  ASSERT_TRUE(tick(controller));
+  state_.qd(5) = 3.0;  // panda_joint6: 2.61 rad/s, +10 %
+  ASSERT_TRUE(tick(controller));
+  EXPECT_EQ(controller.mode(), Mode::kReflex);
+  EXPECT_NE(std::string(controller.reflex_reason()).find("joint panda_joint6: velocity 3 rad/s past its limit 2.871"),
+            std::string::npos)
+      << controller.reflex_reason();
+  EXPECT_EQ(controller.reference().q, state_.q) << "stopped where it was";
+
+  state_.qd.setZero();
+  ASSERT_TRUE(send(controller, bent_pose(), 1.0));  // a new goal ends the reflex
+  ASSERT_TRUE(tick(controller));
+  EXPECT_EQ(controller.mode(), Mode::kRunning);
+  state_.q(0) = model_.joint(0).limits.lower - 1e-6;
+  ASSERT_TRUE(tick(controller));
+  EXPECT_EQ(controller.mode(), Mode::kReflex);
+  EXPECT_NE(std::string(controller.reflex_reason()).find("joint panda_joint1: position -2.8973"), std::string::npos)
+      << controller.reflex_reason();
+  EXPECT_EQ(controller.reflexes(), 2);
+  EXPECT_EQ(controller.faults(), 0);
+}
+
+}  // namespace
+}  // namespace chasles::controller
