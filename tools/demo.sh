@@ -147,7 +147,7 @@ home, a, b = [], [], []
 for k, (kind, lo, hi) in enumerate(zip(m["joint_types"], m["limits"]["lower"], m["limits"]["upper"])):
     if kind == "continuous":
         lo, hi = -math.pi, math.pi
-    q0 = min(max(0.0, lo), hi)
+    q0 = min(max(0.0, lo + 0.02), hi - 0.02)  # inside the controller's 0.01 rad position margin
     mid = 0.5 * (lo + hi)
     towards = 1.0 if mid >= q0 else -1.0
     step = min(0.6, 0.25 * (hi - lo))  # rad or m; never past the middle of the range by more

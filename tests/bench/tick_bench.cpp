@@ -97,6 +97,7 @@ Figures run(const chasles::RobotModel& model, Law law, double seconds) {
   chasles::Data plant(model);
   JointState state(n);
   state.q = pose(model, 0.1);
+  const VectorXd q_start = state.q;
   VectorXd tau = VectorXd::Zero(n), push = VectorXd::Zero(n);
   const VectorXd poses[2] = {pose(model, 0.3), pose(model, -0.1)};
 
@@ -139,9 +140,12 @@ Figures run(const chasles::RobotModel& model, Law law, double seconds) {
       std::exit(1);
     }
     if (command) tau = controller.torque();
-    // Free drive: a push that turns slowly through the joints, a few percent of their effort.
+    // Free drive: a push that turns slowly through the joints, a few percent of their effort, by
+    // a hand that also keeps each joint near the start (inside its limits, whose crossing would
+    // stop the arm).
     for (int i = 0; i < n && law == Law::kFreeDrive; ++i) {
-      push(i) = 0.03 * std::min(model.joint(i).limits.effort, 50.0) * std::sin(0.5 * 1e-9 * double(t) + i);
+      const double effort = std::min(model.joint(i).limits.effort, 50.0);
+      push(i) = 0.03 * effort * std::sin(0.5 * 1e-9 * double(t) + i) - 0.1 * effort * (state.q(i) - q_start(i));
     }
     const double h = 1e-9 * kPeriodNs / kSubsteps;
     for (int s = 0; s < kSubsteps; ++s) {

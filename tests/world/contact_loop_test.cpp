@@ -194,7 +194,9 @@ std::vector<VectorXd> demo_poses(const RobotModel& model) {
   std::vector<VectorXd> poses(3, VectorXd(model.dof()));
   for (int k = 0; k < model.dof(); ++k) {
     const JointLimits& l = model.joint(k).limits;
-    const double home = std::clamp(0.0, l.lower, l.upper), towards = 0.5 * (l.lower + l.upper) >= home ? 1.0 : -1.0;
+    // Home: 0 where the range allows, else 0.02 rad inside the limit (the controller's position
+    // margin is 0.01 rad), as tools/demo.sh.
+    const double home = std::clamp(0.0, l.lower + 0.02, l.upper - 0.02), towards = 0.5 * (l.lower + l.upper) >= home ? 1.0 : -1.0;
     const double step = std::min(0.6, 0.25 * (l.upper - l.lower));
     poses[0](k) = home;
     poses[1](k) = home + towards * step * (k % 2 == 0 ? 1.0 : 0.5);
