@@ -16,6 +16,9 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
+// The largest factor a trajectory's times are scaled by to fit the limits.
+constexpr double kMaxTimeScale = 1000.0;
+
 // The longest quintic the search for a feasible duration tries, s, and its precision: the
 // duration it suggests is at most this fraction longer than the shortest.
 constexpr double kLongestMotion = 3600.0;
@@ -64,6 +67,24 @@ const char* to_string(Mode mode) {
       return "FAULT";
     case Mode::kReflex:
       return "REFLEX";
+  }
+  return "?";
+}
+
+const char* to_string(TrajectoryProgress::Outcome outcome) {
+  switch (outcome) {
+    case TrajectoryProgress::kNone:
+      return "NONE";
+    case TrajectoryProgress::kActive:
+      return "ACTIVE";
+    case TrajectoryProgress::kSucceeded:
+      return "SUCCEEDED";
+    case TrajectoryProgress::kAborted:
+      return "ABORTED";
+    case TrajectoryProgress::kPreempted:
+      return "PREEMPTED";
+    case TrajectoryProgress::kRejected:
+      return "REJECTED";
   }
   return "?";
 }
@@ -117,6 +138,10 @@ Controller::Controller(const RobotModel& model, const Config& config)
       trajectory_(model.dof()),
       candidate_(model.dof()),
       path_(model.dof()),
+      spline_(model.dof()),
+      spline_candidate_(model.dof()),
+      path_tolerance_(Eigen::VectorXd::Zero(model.dof())),
+      goal_tolerance_(Eigen::VectorXd::Zero(model.dof())),
       contact_(model, config_.contact, config_.damping, config_.period),
       retract_goal_(Eigen::VectorXd::Zero(model.dof())),
       request_(model.dof()),
@@ -144,6 +169,7 @@ void Controller::fault(const char* format, ...) {
   va_end(args);
   if (mode_ != Mode::kFault) ++faults_;
   mode_ = Mode::kFault;
+  end_trajectory(TrajectoryProgress::kAborted, "FAULT: %.160s", fault_reason_);
 }
 
 void Controller::stand_down(const char* format, ...) {
@@ -155,6 +181,7 @@ void Controller::stand_down(const char* format, ...) {
   ++faults_;  // a fault of its own, even while another is on
   mode_ = Mode::kFault;
   stood_down_ = true;
+  end_trajectory(TrajectoryProgress::kAborted, "FAULT: %.160s", fault_reason_);
 }
 
 bool Controller::set_law(const LawSettings& settings, int64_t now_ns) {
@@ -168,6 +195,7 @@ bool Controller::set_law(const LawSettings& settings, int64_t now_ns) {
   char why[192];
   if (const char* problem = law_problem(*model_, settings, why)) return refuse_mode(problem);
   law_ = settings;
+  end_trajectory(TrajectoryProgress::kPreempted, "a new control law");
   switch_pending_ = true;
   switch_start_ns_ = now_ns;
   // A new law ends a reflex where the arm is; free drive follows no reference, so a motion ends.
@@ -184,7 +212,7 @@ void Controller::set_model(const RobotModel& model) {
 void Controller::hold_at(const Eigen::VectorXd& q) {
   ref_.hold(q);
   mode_ = Mode::kHolding;
-  following_path_ = compliant_ = retracting_ = false;
+  following_path_ = following_waypoints_ = compliant_ = retracting_ = false;
 }
 
 // Every new state, whatever the mode: the observer needs each sample and the torque the arm had
@@ -262,6 +290,7 @@ void Controller::start_reflex(int64_t now_ns, const char* limit_reason) {
   }
   mode_ = Mode::kReflex;
   pending_request_ = -1;  // a Cartesian plan in the works is dropped
+  end_trajectory(TrajectoryProgress::kAborted, "REFLEX: %.160s", limit_reason != nullptr ? limit_reason : contact_.reason());
   if (limit_reason != nullptr) {
     std::snprintf(reflex_reason_, sizeof(reflex_reason_), "%s; reflex stop", limit_reason);
   } else {
@@ -308,6 +337,164 @@ double Controller::shortest_duration(const Eigen::VectorXd& goal, double request
   return feasible;
 }
 
+void Controller::end_trajectory(TrajectoryProgress::Outcome outcome, const char* format, ...) {
+  if (progress_.outcome != TrajectoryProgress::kActive) return;
+  progress_.outcome = outcome;
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(progress_.message, sizeof(progress_.message), format, args);
+  va_end(args);
+  following_waypoints_ = false;
+}
+
+double Controller::least_time_scale(const Waypoints& waypoints) {
+  double infeasible = 1.0, feasible = 0.0;
+  for (double scale = 2.0; scale <= kMaxTimeScale; scale *= 2.0) {
+    spline_candidate_.build(ref_, waypoints, scale);
+    if (!spline_candidate_.excess(limits_)) {
+      feasible = scale;
+      break;
+    }
+    infeasible = scale;
+  }
+  if (feasible == 0.0) return 0.0;
+  while (feasible - infeasible > kDurationPrecision * feasible) {
+    const double scale = 0.5 * (infeasible + feasible);
+    spline_candidate_.build(ref_, waypoints, scale);
+    (spline_candidate_.excess(limits_) ? infeasible : feasible) = scale;
+  }
+  spline_candidate_.build(ref_, waypoints, feasible);
+  return feasible;
+}
+
+bool Controller::set_trajectory(const Waypoints& w, int64_t now_ns) {
+  const auto reject = [&](const char* why) {
+    refuse("trajectory %lld: %s", static_cast<long long>(w.id), why);
+    // The running trajectory, if any, goes on: the status says so once this one is reported.
+    if (progress_.outcome != TrajectoryProgress::kActive) {
+      progress_ = TrajectoryProgress{};
+      progress_.id = w.id;
+      progress_.outcome = TrajectoryProgress::kRejected;
+      std::snprintf(progress_.message, sizeof(progress_.message), "%s", why);
+    }
+    return false;
+  };
+  char why[192];
+  if (mode_ == Mode::kWaiting) return reject("no robot state has arrived yet");
+  if (mode_ == Mode::kFault) return reject("the controller is in FAULT");
+  if (law_.law == Law::kFreeDrive) return reject("free drive follows no trajectory (send a control mode first)");
+  const int n = model_->dof();
+  if (w.dof() != n) return reject("sized for another arm");
+  if (w.count < 1 || w.count > Waypoints::kMaxPoints) {
+    std::snprintf(why, sizeof(why), "%d waypoints; 1 to %d are taken", w.count, Waypoints::kMaxPoints);
+    return reject(why);
+  }
+  for (int k = 0; k < w.count; ++k) {
+    const double before = k == 0 ? 0.0 : w.time(k - 1);
+    if (!std::isfinite(w.time(k)) || !(w.time(k) > before)) {
+      std::snprintf(why, sizeof(why), "waypoint %d: time %g s is not after %g s (times increase from > 0)", k,
+                    w.time(k), before);
+      return reject(why);
+    }
+    for (int i = 0; i < n; ++i) {
+      const char* name = model_->joint(i).name.c_str();
+      if (!std::isfinite(w.q(i, k)) || (w.has_velocities && !std::isfinite(w.qd(i, k))) ||
+          (w.has_accelerations && !std::isfinite(w.qdd(i, k)))) {
+        std::snprintf(why, sizeof(why), "waypoint %d, joint %s: a value that is not finite", k, name);
+        return reject(why);
+      }
+      if (w.q(i, k) < limits_.lower(i) || w.q(i, k) > limits_.upper(i)) {
+        std::snprintf(why, sizeof(why), "waypoint %d, joint %s: position %g outside [%g, %g], its limits less the margin",
+                      k, name, w.q(i, k), limits_.lower(i), limits_.upper(i));
+        return reject(why);
+      }
+    }
+  }
+  const int last = w.count - 1;
+  if ((w.has_velocities && w.qd.col(last).cwiseAbs().maxCoeff() > 0.0) ||
+      (w.has_accelerations && w.qdd.col(last).cwiseAbs().maxCoeff() > 0.0)) {
+    return reject("the last waypoint must be at rest (velocity and acceleration 0)");
+  }
+  if (!w.path_tolerance.allFinite() || !w.goal_tolerance.allFinite() || (w.path_tolerance.array() < 0.0).any() ||
+      (w.goal_tolerance.array() < 0.0).any() || !(w.goal_time >= 0.0) || !std::isfinite(w.goal_time)) {
+    return reject("tolerances must be finite and non-negative");
+  }
+  if (mode_ == Mode::kReflex) hold_at(q_);  // a new trajectory ends the reflex, from where the arm is
+  double scale = 1.0;
+  spline_candidate_.build(ref_, w, scale);
+  if (const WaypointExcess e = spline_candidate_.excess(limits_)) {
+    const char* name = model_->joint(e.excess.joint).name.c_str();
+    const char* quantity = to_string(e.excess.quantity);
+    const char* unit = unit_of(e.excess.quantity);
+    scale = least_time_scale(w);
+    if (!w.time_scaling || scale == 0.0) {
+      if (scale == 0.0) {
+        // What stays when it is slowed all it may be: its shape leaves the limits, not its speed.
+        spline_candidate_.build(ref_, w, kMaxTimeScale);
+        const WaypointExcess slow = spline_candidate_.excess(limits_);
+        std::snprintf(why, sizeof(why), "waypoint %d, joint %s: %s %g %s over its limit %g %s, even slowed %gx",
+                      slow.waypoint, model_->joint(slow.excess.joint).name.c_str(), to_string(slow.excess.quantity),
+                      slow.excess.value, unit_of(slow.excess.quantity), slow.excess.limit,
+                      unit_of(slow.excess.quantity), kMaxTimeScale);
+      } else {
+        std::snprintf(why, sizeof(why),
+                      "waypoint %d, joint %s: %s %g %s over its limit %g %s; slowed %.4gx it fits (allow time scaling)",
+                      e.waypoint, name, quantity, e.excess.value, unit, e.excess.limit, unit, scale);
+      }
+      return reject(why);
+    }
+  }
+  end_trajectory(TrajectoryProgress::kPreempted, "trajectory %lld", static_cast<long long>(w.id));
+  pending_request_ = -1;  // a Cartesian plan still in the works is superseded
+  progress_ = TrajectoryProgress{};
+  progress_.id = w.id;
+  progress_.outcome = TrajectoryProgress::kActive;
+  progress_.duration = spline_candidate_.duration();
+  progress_.scale = scale;
+  if (scale > 1.0) {
+    std::snprintf(progress_.message, sizeof(progress_.message), "slowed %.4gx to fit the limits", scale);
+  }
+  spline_.swap(spline_candidate_);
+  path_tolerance_ = w.path_tolerance;
+  goal_tolerance_ = w.goal_tolerance;
+  goal_time_ = w.goal_time;
+  following_waypoints_ = true;
+  following_path_ = false;
+  motion_start_ns_ = now_ns;
+  mode_ = Mode::kRunning;
+  return true;
+}
+
+void Controller::judge_trajectory(int64_t now_ns) {
+  const double t = 1e-9 * static_cast<double>(now_ns - motion_start_ns_);
+  progress_.elapsed = t;
+  progress_.waypoint = spline_.waypoint_at(t);
+  if (following_waypoints_) {
+    for (int i = 0; i < error_.size(); ++i) {
+      if (path_tolerance_(i) > 0.0 && std::abs(error_(i)) > path_tolerance_(i)) {
+        end_trajectory(TrajectoryProgress::kAborted, "joint %s: %g rad off the path at %.3f s, over its tolerance %g",
+                       model_->joint(i).name.c_str(), std::abs(error_(i)), t, path_tolerance_(i));
+        hold_at(q_);
+        return;
+      }
+    }
+    return;
+  }
+  // Past the end: the reference holds the last waypoint; the arm must come within the goal
+  // tolerance within goal_time.
+  int off = -1;
+  for (int i = 0; i < error_.size(); ++i) {
+    if (goal_tolerance_(i) > 0.0 && std::abs(error_(i)) > goal_tolerance_(i)) off = i;
+  }
+  if (off < 0) {
+    progress_.outcome = TrajectoryProgress::kSucceeded;  // its message, the scaling if any, stays
+  } else if (t > progress_.duration + goal_time_) {
+    end_trajectory(TrajectoryProgress::kAborted, "joint %s: %g rad from its goal %.3f s after the end, over its tolerance %g",
+                   model_->joint(off).name.c_str(), std::abs(error_(off)), t - progress_.duration,
+                   goal_tolerance_(off));
+  }
+}
+
 bool Controller::set_target(const Target& target, int64_t now_ns) {
   if (mode_ == Mode::kWaiting) return refuse("no robot state has arrived yet");
   if (mode_ == Mode::kFault) return refuse("the controller is in FAULT (%s)", fault_reason_);
@@ -318,6 +505,7 @@ bool Controller::set_target(const Target& target, int64_t now_ns) {
   }
   switch (target.mode) {
     case Target::kHold:
+      end_trajectory(TrajectoryProgress::kPreempted, "a HOLD target");
       hold_at(q_);
       return true;
     case Target::kCartesian:
@@ -364,6 +552,7 @@ bool Controller::set_target(const Target& target, int64_t now_ns) {
     }
   }
   pending_request_ = -1;  // a Cartesian plan still in the works is superseded
+  end_trajectory(TrajectoryProgress::kPreempted, "a JOINT target");
   if (step) {
     hold_at(target.q);
     return true;
@@ -371,7 +560,7 @@ bool Controller::set_target(const Target& target, int64_t now_ns) {
   trajectory_.swap(candidate_);  // the quintic shortest_duration checked
   motion_start_ns_ = now_ns;
   mode_ = Mode::kRunning;
-  following_path_ = false;
+  following_path_ = following_waypoints_ = false;
   return true;
 }
 
@@ -428,6 +617,7 @@ bool Controller::follow(const JointPath& path, int64_t now_ns) {
   if (mode_ != Mode::kHolding || (path.q.col(0) - ref_.q).cwiseAbs().maxCoeff() > 1e-12) {
     return refuse("Cartesian path dropped: the arm is no longer holding where the path starts");
   }
+  end_trajectory(TrajectoryProgress::kPreempted, "a CARTESIAN target");
   path_.start(path);
   following_path_ = true;
   motion_start_ns_ = now_ns;
@@ -451,6 +641,9 @@ void Controller::update_reference(int64_t now_ns) {
   if (following_path_) {
     path_.sample(t, ref_);
     if (t >= path_.duration()) following_path_ = false, mode_ = Mode::kHolding;
+  } else if (following_waypoints_) {
+    spline_.sample(t, ref_);
+    if (t >= spline_.duration()) following_waypoints_ = false, mode_ = Mode::kHolding;
   } else {
     trajectory_.sample(t, ref_);
     if (t >= trajectory_.duration()) mode_ = Mode::kHolding;
@@ -499,8 +692,9 @@ bool Controller::tick(int64_t now_ns, const JointState* state) {
   }
   q_guarded_ = q_;
   update_reference(now_ns);
-
   error_ = ref_.q - q_;
+  if (progress_.outcome == TrajectoryProgress::kActive) judge_trajectory(now_ns);
+
   apply_law(now_ns);
 
   if (!tau_.allFinite()) {

@@ -23,6 +23,7 @@
 #include "chasles/controller/law.hpp"
 #include "chasles/controller/limits.hpp"
 #include "chasles/controller/trajectory.hpp"
+#include "chasles/controller/waypoints.hpp"
 #include "chasles/core/model/model.hpp"
 
 namespace chasles::controller {
@@ -78,6 +79,19 @@ struct Target {
 enum class Mode : int8_t { kWaiting = 0, kRunning = 1, kHolding = 2, kFault = 3, kReflex = 4 };
 const char* to_string(Mode mode);
 
+/// How the latest waypoint trajectory went (control_msgs' FollowJointTrajectory outcomes).
+struct TrajectoryProgress {
+  enum Outcome : int8_t { kNone = 0, kActive = 1, kSucceeded = 2, kAborted = 3, kPreempted = 4, kRejected = 5 };
+  int64_t id = 0;
+  Outcome outcome = kNone;
+  double elapsed = 0.0;   ///< s since it started (frozen at its outcome)
+  double duration = 0.0;  ///< s, after time scaling
+  double scale = 1.0;     ///< the factor its times were multiplied by to fit the limits (1: none)
+  int waypoint = 0;       ///< the waypoint being approached, 0-based; count once past the last
+  char message[192] = {};  ///< why ABORTED, REJECTED or PREEMPTED, or what scaled it
+};
+const char* to_string(TrajectoryProgress::Outcome outcome);
+
 class Controller {
  public:
   /// Keeps a reference to `model`. Throws ArgumentError for a bad config.
@@ -104,6 +118,18 @@ class Controller {
   /// goal that passes the checks becomes a request for the IK worker (take_request()); the arm
   /// keeps holding until its joint path comes back (follow()).
   bool set_target(const Target& target, int64_t now_ns);
+
+  /// Takes a waypoint trajectory, started from the current reference (C², no jump), or refuses
+  /// it (returns false, counts it as a refused target, says why in last_rejection() and in
+  /// trajectory() as REJECTED). Checked first: counts, finite values, times increasing from > 0,
+  /// every waypoint within the position limits less the margin, a last waypoint at rest, then
+  /// the whole interpolated path against every limit — and, if the sender allows it, slowed by
+  /// the least factor that fits. While it runs, a joint off the reference by more than its path
+  /// tolerance ABORTS it (the arm holds where it is); at its end each joint must come within its
+  /// goal tolerance within goal_time. A new target, law or trajectory PREEMPTS it; a reflex or a
+  /// FAULT ABORTS it. Allocates nothing.
+  bool set_trajectory(const Waypoints& waypoints, int64_t now_ns);
+  const TrajectoryProgress& trajectory() const { return progress_; }
 
   /// The Cartesian request set_target() made, once: true and `request` filled, else false.
   bool take_request(CartesianRequest& request);
@@ -184,6 +210,14 @@ class Controller {
   bool request_cartesian(const Target& target);
   /// The reference at now_ns; finishing a motion turns RUNNING into HOLDING.
   void update_reference(int64_t now_ns);
+  /// A waypoint trajectory's tolerances and outcome, after the reference is updated.
+  void judge_trajectory(int64_t now_ns);
+  /// Ends an active waypoint trajectory with `outcome`, saying why.
+  void end_trajectory(TrajectoryProgress::Outcome outcome, const char* format, ...)
+      __attribute__((format(printf, 3, 4)));
+  /// The least factor (≥ 1, to 1e-3) by which waypoints' times scaled fit the limits, left built
+  /// in spline_candidate_; 0 if none up to kMaxTimeScale.
+  double least_time_scale(const Waypoints& waypoints);
 
   /// The law's torque at this tick into tau_ (before the switch's offset and the safety pipeline).
   void apply_law(int64_t now_ns);
@@ -207,6 +241,11 @@ class Controller {
   QuinticTrajectory trajectory_, candidate_;
   JointPathSampler path_;
   bool following_path_ = false;
+  WaypointSpline spline_, spline_candidate_;  // the one followed; the one being checked
+  Eigen::VectorXd path_tolerance_, goal_tolerance_;
+  double goal_time_ = 0.0;
+  bool following_waypoints_ = false;
+  TrajectoryProgress progress_;
   ContactMonitor contact_;
   int64_t observed_seq_ = 0;  // of the last state the contact monitor took, once observed_any_
   int64_t observed_utime_ = 0, observed_arrival_ns_ = 0;

@@ -22,6 +22,15 @@ struct Reference {
   }
 };
 
+/// The quintic c_0..c_5 over [0, h] from (p0, v0, a0) to (p1, v1, a1): position, velocity and
+/// acceleration match at both ends, which is what keeps pieces joined by it C².
+void quintic_hermite(double p0, double v0, double a0, double p1, double v1, double a1, double h, double* c);
+/// q, q̇, q̈ of the quintic c_0..c_5 at t.
+void sample_quintic(const double* c, double t, double& q, double& qd, double& qdd);
+/// The first limit of `joint` the quintic c_0..c_5 leaves anywhere in [0, T]: its position range,
+/// velocity, acceleration or jerk (exact: each polynomial's extrema). None: false.
+LimitExcess quintic_excess(const double* c, double T, const MotionLimits& limits, int joint);
+
 /// q(t) = Σ a_k t^k, k = 0..5, per joint, with the boundary conditions (q, q̇, q̈) = start at
 /// t = 0 and (goal, 0, 0) at t = T. With start at rest this is the familiar
 /// q0 + (q1 − q0)(10s³ − 15s⁴ + 6s⁵), s = t/T (MR eq. 9.11).

@@ -225,8 +225,8 @@ TEST_F(Tracking, GoalsSentMidMotionKeepTheReferenceWithinTheLimits) {
     ASSERT_TRUE(tick(controller));
     const Reference& r = controller.reference();
     for (int i = 0; i < 7; ++i) {
-      ASSERT_GE(r.q(i), limits.lower(i) - 1e-12) << "tick " << k << " joint " << i;
-      ASSERT_LE(r.q(i), limits.upper(i) + 1e-12) << "tick " << k << " joint " << i;
+      ASSERT_GE(r.q(i), limits.lower(i) - 1e-9) << "tick " << k << " joint " << i;
+      ASSERT_LE(r.q(i), limits.upper(i) + 1e-9) << "tick " << k << " joint " << i;
       ASSERT_LE(std::abs(r.qd(i)), limits.velocity(i) * (1 + 1e-9)) << "tick " << k << " joint " << i;
       ASSERT_LE(std::abs(r.qdd(i)), limits.acceleration(i) * (1 + 1e-9)) << "tick " << k << " joint " << i;
       ASSERT_LE(std::abs(r.qdd(i) - previous.qdd(i)) / 1e-3, limits.jerk(i) * (1 + 1e-9)) << "tick " << k << " joint " << i;
