@@ -82,6 +82,9 @@ struct Flags {
   chasles::controller::ContactConfig contact;
   double retract_mm = 10.0;
   std::string payload;
+  // Motion limits beyond the URDF's: per-joint lists as text until the joint count is known.
+  std::string acceleration_limit, jerk_limit;
+  chasles::controller::LimitConfig limits;
 };
 
 // The config file's keys are the flags' names with '_' for '-'.
@@ -240,6 +243,19 @@ int main(int argc, char** argv) {
                  "a known load at the tip, KG[,CX,CY,CZ] (kg; its centre in the tip frame, m): the model carries it, "
                  "so gravity, dynamics and the contact estimate account for it; a payload_t on PREFIX PAYLOAD "
                  "(chasles payload) replaces it at run time");
+  app.add_option("--acceleration-limit", flags.acceleration_limit,
+                 "joint acceleration limits, rad/s²: one number or one per joint (default: the URDF velocity limit / "
+                 "0.4 s; the Panda's own: 15,7.5,10,12.5,15,20,20)");
+  app.add_option("--jerk-limit", flags.jerk_limit,
+                 "joint jerk limits, rad/s³: one number or one per joint (default: the acceleration limit / 0.02 s; "
+                 "the Panda's own: 7500,3750,5000,6250,7500,10000,10000)");
+  app.add_option("--position-margin", flags.limits.position_margin,
+                 "how far inside the URDF position limits every reference keeps, rad (default 0.01)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--velocity-tolerance", flags.limits.velocity_tolerance,
+                 "a measured joint velocity over its limit by more than this fraction stops the arm (REFLEX; "
+                 "default 0.1)")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--retract-mm", flags.retract_mm, "how far the retract reflex backs off, mm (default 10)")
       ->check(CLI::PositiveNumber);
   app.add_flag("--realtime", options.realtime, "SCHED_FIFO, mlockall and --cpu for the loop (warns if refused)");
@@ -309,6 +325,11 @@ int main(int argc, char** argv) {
     options.control.torque_ramp = flags.torque_ramp_ms * 1e-3;
     options.control.contact = flags.contact;
     options.control.contact.retract_distance = flags.retract_mm * 1e-3;
+    options.control.limits = flags.limits;
+    if (!flags.acceleration_limit.empty()) {
+      options.control.limits.acceleration = gains(flags.acceleration_limit, n, "--acceleration-limit");
+    }
+    if (!flags.jerk_limit.empty()) options.control.limits.jerk = gains(flags.jerk_limit, n, "--jerk-limit");
     if (!flags.observer_gain.empty()) options.control.contact.observer_gain = gains(flags.observer_gain, n, "--observer-gain");
     if (!flags.contact_torque.empty()) {
       options.control.contact.contact_torque = gains(flags.contact_torque, n, "--contact-torque", true);

@@ -212,9 +212,14 @@ PY
   start lcm-logger lcm-logger --lcm-url="$lcm_url" --force "$dir/chasles.lcmlog"
   start chasles_plant "$DEMO_BUILD/tools/chasles_plant" "${model[@]}" --realtime --rate 1000 --damping 0.5 --q0 "$home" \
     --push "$push" --wall "$table,$table_k,100" --lcm-url "$lcm_url"
-  # The controller knows the plant's joint damping and feeds it forward (--damping).
+  # The controller knows the plant's joint damping and feeds it forward (--damping). On the Panda
+  # it takes the arm's own acceleration and jerk limits, libfranka's; elsewhere the defaults.
+  local limits=()
+  if [ "$(basename "$DEMO_URDF")" = panda.urdf ]; then
+    limits=(--acceleration-limit 15,7.5,10,12.5,15,20,20 --jerk-limit 7500,3750,5000,6250,7500,10000,10000)
+  fi
   start chasles_controller "$DEMO_BUILD/controller/chasles_controller" "${model[@]}" --realtime --damping 0.5 \
-    --lcm-url "$lcm_url" \
+    "${limits[@]}" --lcm-url "$lcm_url" \
     --tick "$DEMO_TICK" --summary "$dir/summary.json"
   run_start=$(now)
   # Where the report reads the press: the window in which the arm rests on the table, as utimes.
