@@ -44,6 +44,29 @@ constexpr double kMaxGapPeriods = 10.5;
 // resolution: a jittery stream's running mean moves by less than this most states.
 constexpr double kPeriodQuoteStep = 1e-3;
 
+// The least x in (infeasible, largest], to kDurationPrecision, for which fits(x) holds, fits(infeasible)
+// being false: by doubling up to largest, then bisection (fits is taken to hold from some x on); 0
+// when it holds nowhere up to largest. fits(x) is called last with the x returned.
+template <typename Fits>
+double least_fitting(double infeasible, double largest, Fits fits) {
+  double feasible = 0.0;
+  for (double x = std::min(2.0 * infeasible, largest); feasible == 0.0; x = std::min(2.0 * x, largest)) {
+    if (fits(x)) {
+      feasible = x;
+    } else if (x == largest) {
+      return 0.0;
+    } else {
+      infeasible = x;
+    }
+  }
+  while (feasible - infeasible > kDurationPrecision * feasible) {
+    const double x = 0.5 * (infeasible + feasible);
+    (fits(x) ? feasible : infeasible) = x;
+  }
+  fits(feasible);
+  return feasible;
+}
+
 void format_into(char (&buffer)[192], const char* format, va_list args) {
   std::vsnprintf(buffer, sizeof(buffer), format, args);
 }
@@ -313,28 +336,16 @@ double Controller::shortest_duration(const Eigen::VectorXd& goal, double request
                           std::sqrt(10.0 / std::sqrt(3.0) * d / limits_.acceleration(i)),
                           std::cbrt(60.0 * d / limits_.jerk(i))});
   }
-  double infeasible = requested, feasible = 0.0;
+  double infeasible = requested;
   if (const double T = from_rest * (1.0 + 1e-9); T > requested) {
     candidate_.start(ref_, goal, T);
     if (!candidate_.excess(limits_)) return T;
     infeasible = T;
   }
-  for (double T = 2.0 * infeasible; T <= kLongestMotion; T *= 2.0) {
+  return least_fitting(infeasible, kLongestMotion, [&](double T) {
     candidate_.start(ref_, goal, T);
-    if (!candidate_.excess(limits_)) {
-      feasible = T;
-      break;
-    }
-    infeasible = T;
-  }
-  if (feasible == 0.0) return 0.0;
-  while (feasible - infeasible > kDurationPrecision * feasible) {
-    const double T = 0.5 * (infeasible + feasible);
-    candidate_.start(ref_, goal, T);
-    (candidate_.excess(limits_) ? infeasible : feasible) = T;
-  }
-  candidate_.start(ref_, goal, feasible);
-  return feasible;
+    return !candidate_.excess(limits_);
+  });
 }
 
 void Controller::end_trajectory(TrajectoryProgress::Outcome outcome, const char* format, ...) {
@@ -348,23 +359,10 @@ void Controller::end_trajectory(TrajectoryProgress::Outcome outcome, const char*
 }
 
 double Controller::least_time_scale(const Waypoints& waypoints) {
-  double infeasible = 1.0, feasible = 0.0;
-  for (double scale = 2.0; scale <= kMaxTimeScale; scale *= 2.0) {
+  return least_fitting(1.0, kMaxTimeScale, [&](double scale) {
     spline_candidate_.build(ref_, waypoints, scale);
-    if (!spline_candidate_.excess(limits_)) {
-      feasible = scale;
-      break;
-    }
-    infeasible = scale;
-  }
-  if (feasible == 0.0) return 0.0;
-  while (feasible - infeasible > kDurationPrecision * feasible) {
-    const double scale = 0.5 * (infeasible + feasible);
-    spline_candidate_.build(ref_, waypoints, scale);
-    (spline_candidate_.excess(limits_) ? infeasible : feasible) = scale;
-  }
-  spline_candidate_.build(ref_, waypoints, feasible);
-  return feasible;
+    return !spline_candidate_.excess(limits_);
+  });
 }
 
 bool Controller::set_trajectory(const Waypoints& w, int64_t now_ns) {

@@ -13,21 +13,19 @@
 #include "chasles/core/model/urdf.hpp"
 #include "support/arm.hpp"
 #include "support/reference.hpp"
+#include "following.hpp"
 
 namespace chasles::controller {
 namespace {
 
 using Eigen::VectorXd;
-using testing::panda;
+using chasles::testing::panda;
 
-constexpr int64_t kMs = 1'000'000;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-// libfranka's limits for the Panda (franka/rate_limiting.h).
-VectorXd franka_acceleration() { return (VectorXd(7) << 15, 7.5, 10, 12.5, 15, 20, 20).finished(); }
-VectorXd franka_jerk() { return (VectorXd(7) << 7500, 3750, 5000, 6250, 7500, 10000, 10000).finished(); }
-
-VectorXd bent_pose() { return (VectorXd(7) << 0.1, 0.5, -0.2, -1.2, 0.1, 1.0, 0.3).finished(); }
+using testing::bent_pose;
+using testing::franka_acceleration;
+using testing::franka_jerk;
 
 double evaluate(const double* c, int degree, double t) {
   double value = 0.0;
@@ -114,7 +112,7 @@ TEST(Limits, FromTheUrdfAndTheConfiguration) {
   // tests/data/arm.urdf's j3 is continuous and has no velocity limit: nothing bounds it.
   UrdfOptions options;
   options.tip_link = "tip";
-  const RobotModel arm = load_urdf_file(testing::data_path("arm.urdf"), options);
+  const RobotModel arm = load_urdf_file(chasles::testing::data_path("arm.urdf"), options);
   const MotionLimits free(arm, LimitConfig{});
   EXPECT_EQ(free.lower(2), -kInf);
   EXPECT_EQ(free.upper(2), kInf);
@@ -147,38 +145,7 @@ TEST(Limits, TheGuardTripsOnSpeedAndOnACrossingOnly) {
 }
 
 // The controller fed its own reference as the state (perfect tracking), one tick per ms.
-class Tracking : public ::testing::Test {
- protected:
-  Tracking() : model_(panda()), state_(7) {
-    config_ = Config::critically_damped(7, 20.0);
-    config_.limits.acceleration = franka_acceleration();
-    config_.limits.jerk = franka_jerk();
-    // The state is the reference itself, not an arm's answer to the torque: the contact monitor,
-    // which would read the difference as a push, is off, and the limits' guard alone is judged.
-    config_.contact.collision_torque = config_.contact.contact_torque = VectorXd::Constant(7, kInf);
-    config_.contact.collision_force = config_.contact.contact_force = kInf;
-    config_.contact.collision_moment = config_.contact.contact_moment = kInf;
-    state_.q = bent_pose();
-  }
-  bool tick(Controller& controller) {
-    now_ += kMs;
-    ++state_.seq;
-    state_.arrival_ns = now_;
-    return controller.tick(now_, &state_);
-  }
-  bool send(Controller& controller, const VectorXd& goal, double duration) {
-    Target target(7);
-    target.mode = Target::kJoint;
-    target.num_joints = 7;
-    target.q = goal;
-    target.duration = duration;
-    return controller.set_target(target, now_);
-  }
-  RobotModel model_;
-  Config config_;
-  JointState state_;
-  int64_t now_ = 0;
-};
+using Tracking = testing::Following;
 
 // From rest the shortest quintic is known in closed form: panda_joint2 (7.5 rad/s²) over 0.5 rad
 // peaks at (10/√3)·0.5/T² rad/s², so T ≥ √(5.7735·0.5/7.5) = 0.6204 s, longer than velocity's

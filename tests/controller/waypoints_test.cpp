@@ -14,19 +14,16 @@
 #include "chasles/core/dynamics/dynamics.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/arm.hpp"
+#include "following.hpp"
 
 namespace chasles::controller {
 namespace {
 
 using Eigen::VectorXd;
-using testing::panda;
+using chasles::testing::panda;
 
-constexpr int64_t kMs = 1'000'000;
-constexpr double kInf = std::numeric_limits<double>::infinity();
-
-VectorXd franka_acceleration() { return (VectorXd(7) << 15, 7.5, 10, 12.5, 15, 20, 20).finished(); }
-VectorXd franka_jerk() { return (VectorXd(7) << 7500, 3750, 5000, 6250, 7500, 10000, 10000).finished(); }
-VectorXd bent_pose() { return (VectorXd(7) << 0.1, 0.5, -0.2, -1.2, 0.1, 1.0, 0.3).finished(); }
+using testing::bent_pose;
+using testing::kMs;
 
 // Rest-to-rest time of a trapezoidal velocity profile over d (triangular when too short).
 double trapezoid_time(double d, double v, double a) { return d >= v * v / a ? d / v + v / a : 2.0 * std::sqrt(d / a); }
@@ -96,36 +93,11 @@ TEST(WaypointSpline, PassesThroughEveryWaypointAtItsTimeAndIsC2) {
   }
 }
 
-// The controller fed its own reference, or the model integrated, as the arm.
-class Following : public ::testing::Test {
+// The controller fed its own reference, or the model integrated, as the arm; gains stiff enough
+// for sub-mrad tracking.
+class Following : public testing::Following {
  protected:
-  Following() : model_(panda()), state_(7) {
-    config_ = Config::critically_damped(7, 40.0);
-    config_.limits.acceleration = franka_acceleration();
-    config_.limits.jerk = franka_jerk();
-    config_.contact.collision_torque = config_.contact.contact_torque = VectorXd::Constant(7, kInf);
-    config_.contact.collision_force = config_.contact.contact_force = kInf;
-    config_.contact.collision_moment = config_.contact.contact_moment = kInf;
-    state_.q = bent_pose();
-  }
-  bool tick(Controller& controller) {
-    now_ += kMs;
-    ++state_.seq;
-    state_.arrival_ns = now_;
-    return controller.tick(now_, &state_);
-  }
-  // The arm: the model itself under the command, 10 substeps of semi-implicit Euler per tick.
-  void integrate(const Controller& controller, Data& data) {
-    for (int s = 0; s < 10; ++s) {
-      state_.qd += 1e-4 * forward_dynamics(model_, data, state_.q, state_.qd, controller.torque());
-      state_.q += 1e-4 * state_.qd;
-    }
-    state_.effort = controller.torque();
-  }
-  RobotModel model_;
-  Config config_;
-  JointState state_;
-  int64_t now_ = 0;
+  Following() : testing::Following(40.0) {}
 };
 
 // The case: 50 random waypoints timed by trapezoids, which a spline through them cannot
@@ -159,7 +131,7 @@ TEST_F(Following, FiftyTrapezoidTimedWaypointsSlowedToFitAndTracked) {
   long allocations = 0;
   while (p.outcome == TrajectoryProgress::kActive && now_ < 200'000 * kMs) {
     {
-      const testing::AllocationCounter counter;
+      const chasles::testing::AllocationCounter counter;
       ASSERT_TRUE(tick(controller));
       allocations += counter.count();
     }

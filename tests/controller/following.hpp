@@ -1,0 +1,70 @@
+// The Panda's controller ticked once a millisecond in a test, the state set by the test: its own
+// reference (perfect tracking) or the model integrated under the command. Shared by the tests of
+// the limits and of waypoint trajectories.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <limits>
+
+#include "chasles/controller/controller.hpp"
+#include "chasles/core/dynamics/dynamics.hpp"
+#include "support/arm.hpp"
+
+namespace chasles::controller::testing {
+
+inline constexpr int64_t kMs = 1'000'000;
+
+// libfranka's limits for the Panda (franka/rate_limiting.h).
+inline Eigen::VectorXd franka_acceleration() {
+  return (Eigen::VectorXd(7) << 15, 7.5, 10, 12.5, 15, 20, 20).finished();
+}
+inline Eigen::VectorXd franka_jerk() {
+  return (Eigen::VectorXd(7) << 7500, 3750, 5000, 6250, 7500, 10000, 10000).finished();
+}
+inline Eigen::VectorXd bent_pose() { return (Eigen::VectorXd(7) << 0.1, 0.5, -0.2, -1.2, 0.1, 1.0, 0.3).finished(); }
+
+class Following : public ::testing::Test {
+ protected:
+  explicit Following(double omega = 20.0) : model_(chasles::testing::panda()), state_(7) {
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+    config_ = Config::critically_damped(7, omega);
+    config_.limits.acceleration = franka_acceleration();
+    config_.limits.jerk = franka_jerk();
+    // The state may be the reference itself, not an arm's answer to the torque: the contact
+    // monitor, which would read the difference as a push, is off; the limits' guard stays on.
+    config_.contact.collision_torque = config_.contact.contact_torque = Eigen::VectorXd::Constant(7, kInf);
+    config_.contact.collision_force = config_.contact.contact_force = kInf;
+    config_.contact.collision_moment = config_.contact.contact_moment = kInf;
+    state_.q = bent_pose();
+  }
+  /// One tick a millisecond after the last, with the state as it is now.
+  bool tick(Controller& controller) {
+    now_ += kMs;
+    ++state_.seq;
+    state_.arrival_ns = now_;
+    return controller.tick(now_, &state_);
+  }
+  bool send(Controller& controller, const Eigen::VectorXd& goal, double duration) {
+    Target target(7);
+    target.mode = Target::kJoint;
+    target.num_joints = 7;
+    target.q = goal;
+    target.duration = duration;
+    return controller.set_target(target, now_);
+  }
+  /// The arm: the model itself under the command, 10 substeps of semi-implicit Euler per tick.
+  void integrate(const Controller& controller, Data& data) {
+    for (int s = 0; s < 10; ++s) {
+      state_.qd += 1e-4 * forward_dynamics(model_, data, state_.q, state_.qd, controller.torque());
+      state_.q += 1e-4 * state_.qd;
+    }
+    state_.effort = controller.torque();
+  }
+  RobotModel model_;
+  Config config_;
+  JointState state_;
+  int64_t now_ = 0;
+};
+
+}  // namespace chasles::controller::testing
