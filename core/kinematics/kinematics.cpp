@@ -5,6 +5,7 @@
 #include <string>
 
 #include "chasles/core/lie/se3.hpp"
+#include "chasles/core/lie/sincos.hpp"
 #include "chasles/core/model/joint_axis.hpp"
 
 namespace chasles {
@@ -19,8 +20,10 @@ __attribute__((noinline)) void check_joint_vector(const RobotModel& model, const
 namespace {
 
 // T_{i−1,i}(q_i) = M_{i−1,i} exp([A_i] q_i). For a revolute joint about ±x, ±y or ±z the rotation
-// only mixes two columns of M's (12 flops, against 45 for Rodrigues followed by a 3×3 product).
-CHASLES_ALWAYS_INLINE void local_transform(const RobotModel& model, int i, double q, Transform& T) {
+// only mixes two columns of M's (12 flops, against 45 for Rodrigues followed by a 3×3 product),
+// with s = sin q and c = cos q from joint_sin_cos.
+CHASLES_ALWAYS_INLINE void local_transform(const RobotModel& model, int i, double q, double s, double c,
+                                           Transform& T) {
   const Joint& joint = model.joint(i);
   const Matrix3d& R_parent_joint = joint.T_parent_joint.linear();
   visit_axis(model, i, [&](auto axis) {
@@ -33,12 +36,16 @@ CHASLES_ALWAYS_INLINE void local_transform(const RobotModel& model, int i, doubl
       }
       T.linear().noalias() = R_parent_joint * exp3_unit(joint.axis, q);
     } else {
-      double s, c;
-      sin_cos(q, s, c);
       axis.rotate(R_parent_joint, c, s, T.linear());
     }
     T.translation() = joint.T_parent_joint.translation();
   });
+}
+
+// sin q_i and cos q_i of every joint into data, before any transform: two at a time, and off the
+// chain of dependent products that follows (lie/sincos.hpp).
+CHASLES_ALWAYS_INLINE void joint_sin_cos(const RobotModel& model, Data& data, const JointVector& q) {
+  sin_cos(q.data(), model.dof(), data.sin_q.data(), data.cos_q.data());
 }
 
 }  // namespace
@@ -47,17 +54,21 @@ CHASLES_FLATTEN void local_transforms(const RobotModel& model, Data& data, const
   check_joint_vector(model, q, "q");
   assert(model.check(data) && "a Data sized for another model");
   ++data.passes.joint_transforms;
-  for (int i = 0; i < model.dof(); ++i) local_transform(model, i, q(i), data.T_local[static_cast<size_t>(i) + 1]);
+  joint_sin_cos(model, data, q);
+  for (int i = 0; i < model.dof(); ++i) {
+    local_transform(model, i, q(i), data.sin_q(i), data.cos_q(i), data.T_local[static_cast<size_t>(i) + 1]);
+  }
 }
 
 CHASLES_FLATTEN const Transform& forward_kinematics(const RobotModel& model, Data& data, const JointVector& q) {
   check_joint_vector(model, q, "q");
   assert(model.check(data) && "a Data sized for another model");
   ++data.passes.joint_transforms;
+  joint_sin_cos(model, data, q);
   // One loop: each T_{i−1,i} is used while it is still in registers.
   for (int i = 0; i < model.dof(); ++i) {
     const size_t b = static_cast<size_t>(i) + 1;
-    local_transform(model, i, q(i), data.T_local[b]);
+    local_transform(model, i, q(i), data.sin_q(i), data.cos_q(i), data.T_local[b]);
     data.T_body[b] = data.T_body[b - 1] * data.T_local[b];
   }
   data.T_sb = data.T_body.back() * model.T_last_tip();

@@ -4,22 +4,9 @@
 // (Pinocchio's JointModelRX/RY/RZ do the same).
 #pragma once
 
-#include <cmath>
-
 #include "chasles/core/lie/types.hpp"
 
 namespace chasles {
-
-/// sin θ and cos θ from one call: glibc's sincos shares the argument reduction. (GCC merges a sin
-/// and a cos of the same θ into it only where it sees both in one block.)
-CHASLES_ALWAYS_INLINE void sin_cos(double theta, double& s, double& c) {
-#if defined(__GLIBC__)
-  ::sincos(theta, &s, &c);
-#else
-  s = std::sin(theta);
-  c = std::cos(theta);
-#endif
-}
 
 template <int K>
 struct AlignedRevoluteAxis {

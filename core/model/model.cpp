@@ -118,7 +118,8 @@ int RobotModel::joint_index(const std::string& name) const {
 
 bool RobotModel::check(const Data& data) const {
   const auto bodies = static_cast<size_t>(dof()) + 1;
-  return data.T_local.size() == bodies && data.T_body.size() == bodies && data.V.size() == bodies &&
+  return data.T_local.size() == bodies && data.sin_q.size() == dof() && data.cos_q.size() == dof() &&
+         data.T_body.size() == bodies && data.V.size() == bodies &&
          data.Vd.size() == bodies && data.F.size() == bodies && data.composite.size() == bodies &&
          data.T_link.size() == links().size() && data.J_s.cols() == dof() && data.J_b.cols() == dof() &&
          data.M.rows() == dof() && data.M.cols() == dof() && data.tau.size() == dof() && data.g.size() == dof() &&
@@ -128,6 +129,8 @@ bool RobotModel::check(const Data& data) const {
 
 Data::Data(const RobotModel& model)
     : T_local(static_cast<size_t>(model.dof()) + 1, Transform::Identity()),
+      sin_q(Eigen::VectorXd::Zero(model.dof())),
+      cos_q(Eigen::VectorXd::Ones(model.dof())),
       T_body(static_cast<size_t>(model.dof()) + 1, Transform::Identity()),
       T_sb(Transform::Identity()),
       T_link(model.links().size(), Transform::Identity()),

@@ -168,6 +168,7 @@ struct Data {
 
   // Kinematics.
   std::vector<Transform> T_local;  ///< T_{i−1,i}(q_i) = M_{i−1,i} exp([A_i] q_i); entry 0 unused
+  Eigen::VectorXd sin_q, cos_q;    ///< sin q_i and cos q_i, all computed before the transforms
   std::vector<Transform> T_body;   ///< T_0i, pose of body i in the base frame; T_body[0] = I
   Transform T_sb;                  ///< tip pose in the base (space) frame
   std::vector<Transform> T_link;   ///< pose of every chain link (RobotModel::links order)
