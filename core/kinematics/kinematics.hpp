@@ -16,7 +16,8 @@ void check_joint_vector(const RobotModel& model, const JointVector& v, const cha
 void local_transforms(const RobotModel& model, Data& data, const JointVector& q);
 
 /// Tip pose T_sb and every body pose T_0i, by the local PoE recursion
-/// T_0i = T_0,i−1 · M_{i−1,i} · exp([A_i] q_i). The fast path the Jacobians and dynamics use.
+/// T_0i = T_0,i−1 · M_{i−1,i} · exp([A_i] q_i). The fast path the Jacobians and dynamics use. It
+/// leaves data.T_local as it was (local_transforms computes those).
 const Transform& forward_kinematics(const RobotModel& model, Data& data, const JointVector& q);
 
 /// Every chain link's pose (data.T_link, in RobotModel::links order); runs forward_kinematics.

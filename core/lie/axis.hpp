@@ -4,21 +4,18 @@
 // (Pinocchio's JointModelRX/RY/RZ do the same).
 #pragma once
 
-#include <cmath>
-
 #include "chasles/core/lie/types.hpp"
 
 namespace chasles {
 
-/// sin θ and cos θ from one call: glibc's sincos shares the argument reduction. (GCC merges a sin
-/// and a cos of the same θ into it only where it sees both in one block.)
-CHASLES_ALWAYS_INLINE void sin_cos(double theta, double& s, double& c) {
-#if defined(__GLIBC__)
-  ::sincos(theta, &s, &c);
-#else
-  s = std::sin(theta);
-  c = std::cos(theta);
-#endif
+/// R Rot_K(θ) from c = cos θ and s = sin θ, Rot_K the rotation about e_K: only columns I and J of R
+/// turn (MR eq. 3.51 about a coordinate axis), 12 multiplications against 27 for a 3×3 product.
+template <int K>
+CHASLES_ALWAYS_INLINE void rotate_about_axis(const Matrix3d& R, double c, double s, Matrix3d& out) {
+  constexpr int I = (K + 1) % 3, J = (K + 2) % 3;
+  out.col(I) = c * R.col(I) + s * R.col(J);
+  out.col(J) = c * R.col(J) - s * R.col(I);
+  out.col(K) = R.col(K);
 }
 
 template <int K>
@@ -53,13 +50,10 @@ struct AlignedRevoluteAxis {
     return out;
   }
 
-  /// R exp([a] θ) from c = cos θ and s = sin θ: only columns I and J of R turn (MR eq. 3.51 about
-  /// a coordinate axis), 12 flops against 45 for Rodrigues and a 3×3 product.
+  /// R exp([a] θ) from c = cos θ and s = sin θ: 12 flops against 45 for Rodrigues and a 3×3
+  /// product.
   CHASLES_ALWAYS_INLINE void rotate(const Matrix3d& R, double c, double s, Matrix3d& out) const {
-    const double ss = sign * s;
-    out.col(I) = c * R.col(I) + ss * R.col(J);
-    out.col(J) = c * R.col(J) - ss * R.col(I);
-    out.col(K) = R.col(K);
+    rotate_about_axis<K>(R, c, sign * s, out);
   }
 
   /// [Ad_T] A = (R a, p × R a) for T = (R, p): the axis seen from another frame (MR definition

@@ -5,5 +5,6 @@
 #include "chasles/core/lie/screw.hpp"
 #include "chasles/core/lie/jacobians.hpp"
 #include "chasles/core/lie/se3.hpp"
+#include "chasles/core/lie/sincos.hpp"
 #include "chasles/core/lie/so3.hpp"
 #include "chasles/core/lie/types.hpp"

@@ -51,4 +51,44 @@ CHASLES_ALWAYS_INLINE decltype(auto) visit_axis(const RobotModel& model, int i, 
   return f(GeneralAxis{model.local_axis(i)});
 }
 
+/// A placement rotation (RobotModel::placement_rotation) about e_K by the angle of (c, s).
+template <int K>
+struct AxisPlacement {
+  double c, s;
+  /// R M, M this rotation: two columns of R turned.
+  CHASLES_ALWAYS_INLINE const Matrix3d& after(const Matrix3d& R, Matrix3d& out) const {
+    rotate_about_axis<K>(R, c, s, out);
+    return out;
+  }
+};
+
+/// The identity placement rotation: R M is R.
+struct IdentityPlacement {
+  CHASLES_ALWAYS_INLINE const Matrix3d& after(const Matrix3d& R, Matrix3d&) const { return R; }
+};
+
+/// Any other placement rotation M, by the 3×3 product.
+struct GeneralPlacement {
+  const Matrix3d& M;
+  CHASLES_ALWAYS_INLINE const Matrix3d& after(const Matrix3d& R, Matrix3d& out) const {
+    out.noalias() = R * M;
+    return out;
+  }
+};
+
+/// Calls f(placement) with joint i's placement rotation as an AxisPlacement<K>, an
+/// IdentityPlacement or a GeneralPlacement.
+template <class F>
+CHASLES_ALWAYS_INLINE decltype(auto) visit_placement(const RobotModel& model, int i, F&& f) {
+  const PlacementRotation& p = model.placement_rotation(i);
+  switch (p.kind) {
+    case PlacementKind::RotationX: return f(AxisPlacement<0>{p.c, p.s});
+    case PlacementKind::RotationY: return f(AxisPlacement<1>{p.c, p.s});
+    case PlacementKind::RotationZ: return f(AxisPlacement<2>{p.c, p.s});
+    case PlacementKind::Identity: return f(IdentityPlacement{});
+    case PlacementKind::General: break;
+  }
+  return f(GeneralPlacement{model.joint(i).T_parent_joint.linear()});
+}
+
 }  // namespace chasles

@@ -79,6 +79,21 @@ JointAxis classify_axis(const Joint& joint) {
   return {};
 }
 
+// A rotation whose row and column k are exactly e_k and whose other 2×2 block is exactly
+// [[c, −s], [s, c]] is a rotation about e_k (the identity when c = 1, s = 0): its products with it
+// are then the general ones without the terms that are exactly zero.
+PlacementRotation classify_placement(const Matrix3d& R) {
+  for (int k = 0; k < 3; ++k) {
+    const int i = (k + 1) % 3, j = (k + 2) % 3;
+    if (R(k, k) == 1.0 && R(k, i) == 0.0 && R(k, j) == 0.0 && R(i, k) == 0.0 && R(j, k) == 0.0 &&
+        R(i, i) == R(j, j) && R(i, j) == -R(j, i)) {
+      if (R(i, i) == 1.0 && R(j, i) == 0.0) return {PlacementKind::Identity, 1.0, 0.0};
+      return {static_cast<PlacementKind>(k), R(i, i), R(j, i)};
+    }
+  }
+  return {};
+}
+
 }  // namespace
 
 RobotModel::RobotModel(ChainDescription description) : d_(std::move(description)) {
@@ -87,6 +102,7 @@ RobotModel::RobotModel(ChainDescription description) : d_(std::move(description)
   M_body_.resize(static_cast<size_t>(n));
   A_.resize(static_cast<size_t>(n));
   axis_kind_.resize(static_cast<size_t>(n));
+  placement_.resize(static_cast<size_t>(n));
   G_.resize(static_cast<size_t>(n));
   S_.resize(6, n);
   B_.resize(6, n);
@@ -102,6 +118,7 @@ RobotModel::RobotModel(ChainDescription description) : d_(std::move(description)
       A << j.axis, Vector3d::Zero();
     }
     axis_kind_[static_cast<size_t>(i)] = classify_axis(j);
+    placement_[static_cast<size_t>(i)] = classify_placement(j.T_parent_joint.linear());
     S_.col(i) = adjoint_times(M_i, A);  // S_i = [Ad_{M_i}] A_i
     G_[static_cast<size_t>(i)] = SpatialInertia::from_matrix(d_.inertia[static_cast<size_t>(i)]);
   }
@@ -118,7 +135,8 @@ int RobotModel::joint_index(const std::string& name) const {
 
 bool RobotModel::check(const Data& data) const {
   const auto bodies = static_cast<size_t>(dof()) + 1;
-  return data.T_local.size() == bodies && data.T_body.size() == bodies && data.V.size() == bodies &&
+  return data.T_local.size() == bodies && data.sin_q.size() == dof() && data.cos_q.size() == dof() &&
+         data.T_body.size() == bodies && data.V.size() == bodies &&
          data.Vd.size() == bodies && data.F.size() == bodies && data.composite.size() == bodies &&
          data.T_link.size() == links().size() && data.J_s.cols() == dof() && data.J_b.cols() == dof() &&
          data.M.rows() == dof() && data.M.cols() == dof() && data.tau.size() == dof() && data.g.size() == dof() &&
@@ -128,6 +146,8 @@ bool RobotModel::check(const Data& data) const {
 
 Data::Data(const RobotModel& model)
     : T_local(static_cast<size_t>(model.dof()) + 1, Transform::Identity()),
+      sin_q(Eigen::VectorXd::Zero(model.dof())),
+      cos_q(Eigen::VectorXd::Ones(model.dof())),
       T_body(static_cast<size_t>(model.dof()) + 1, Transform::Identity()),
       T_sb(Transform::Identity()),
       T_link(model.links().size(), Transform::Identity()),

@@ -82,6 +82,19 @@ struct JointAxis {
   double sign = 1.0;  ///< the axis is sign · e_kind when kind is not General
 };
 
+/// The rotation of a joint's placement M_{i−1,i}, found once when the model is built so that
+/// forward kinematics turns two columns instead of multiplying 3×3 matrices where it can: the
+/// identity, a rotation about x, y or z (what a URDF origin with one nonzero rpy angle gives), with
+/// its angle's cosine c and sine s as stored in the matrix, or `General`. Exact: only a matrix whose
+/// other entries are exactly 0 and 1 gets a special kind.
+enum class PlacementKind : uint8_t { RotationX, RotationY, RotationZ, Identity, General };
+
+struct PlacementRotation {
+  PlacementKind kind = PlacementKind::General;
+  double c = 1.0;  ///< the rotation is [[c, −s], [s, c]] in the plane of the two other axes
+  double s = 0.0;
+};
+
 /// A link of the root → tip path, placed on the body it rides on (0 = the fixed base).
 struct ChainLink {
   std::string name;
@@ -137,6 +150,8 @@ class RobotModel {
   const Vector6d& local_axis(int i) const { return A_[static_cast<size_t>(i)]; }
   /// The shape of joint i's axis (RevoluteX/Y/Z when it is exactly ±x, ±y or ±z).
   const JointAxis& joint_axis(int i) const { return axis_kind_[static_cast<size_t>(i)]; }
+  /// The shape of joint i's placement rotation M_{i−1,i} (its T_parent_joint's).
+  const PlacementRotation& placement_rotation(int i) const { return placement_[static_cast<size_t>(i)]; }
   /// S: space screw axes at q = 0, one column per joint (MR §4.1.1).
   const Matrix6Xd& space_axes() const { return S_; }
   /// B: body screw axes at q = 0 in the tip frame, B_i = [Ad_{M⁻¹}] S_i (MR §4.1.3).
@@ -156,6 +171,7 @@ class RobotModel {
   std::vector<Transform> M_body_;
   std::vector<Vector6d> A_;
   std::vector<JointAxis> axis_kind_;
+  std::vector<PlacementRotation> placement_;
   std::vector<SpatialInertia> G_;
   Matrix6Xd S_;
   Matrix6Xd B_;
@@ -168,6 +184,7 @@ struct Data {
 
   // Kinematics.
   std::vector<Transform> T_local;  ///< T_{i−1,i}(q_i) = M_{i−1,i} exp([A_i] q_i); entry 0 unused
+  Eigen::VectorXd sin_q, cos_q;    ///< sin q_i and cos q_i, all computed before the transforms
   std::vector<Transform> T_body;   ///< T_0i, pose of body i in the base frame; T_body[0] = I
   Transform T_sb;                  ///< tip pose in the base (space) frame
   std::vector<Transform> T_link;   ///< pose of every chain link (RobotModel::links order)

@@ -4,8 +4,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include "support/reference.hpp"
 
@@ -349,6 +351,49 @@ TEST(Jacobians, RightJacobianOfSe3AndItsInverse) {
     EXPECT_TRUE(matrices_near(se3_right_jacobian_inverse(xi) * J, Matrix6d::Identity(), 1e-9)) << scale;
     const Vector3d phi = xi.head<3>();
     EXPECT_TRUE(matrices_near(so3_right_jacobian_inverse(phi) * so3_left_jacobian(-phi), Matrix3d::Identity(), 1e-9));
+  }
+}
+
+// The batched sin and cos (lie/sincos.hpp) against long double, within 1 ulp: joint-range angles,
+// angles within 1e-6 of a multiple of π/2 (where the reduction cancels), tiny ones, and ones up to
+// the reduction's limit; beyond it, and at ±∞ and NaN, the same as glibc's, which it hands them to.
+TEST(SinCos, BatchedWithinOneUlpOfLongDouble) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  const auto ulp_error = [](double got, long double truth) {
+    const double rounded = static_cast<double>(truth);
+    const double ulp = std::nextafter(std::abs(rounded), INFINITY) - std::abs(rounded);
+    return static_cast<double>(std::abs(static_cast<long double>(got) - truth) / ulp);
+  };
+  constexpr int kAngles = 200001;  // odd: the last one goes through the unpaired lane
+  std::vector<double> theta(kAngles), s(kAngles), c(kAngles);
+  for (int k = 0; k < kAngles; ++k) {
+    switch (k % 4) {
+      case 0: theta[k] = 7.0 * unit(rng); break;
+      case 1: theta[k] = std::round(20.0 * unit(rng)) * (kPi / 2.0) + 1e-6 * unit(rng); break;
+      case 2: theta[k] = std::ldexp(unit(rng), -static_cast<int>(rng() % 60)); break;
+      default: theta[k] = 5e5 * unit(rng); break;
+    }
+  }
+  sin_cos(theta.data(), kAngles, s.data(), c.data());
+  double worst = 0.0;
+  for (int k = 0; k < kAngles; ++k) {
+    worst = std::max({worst, ulp_error(s[k], std::sin(static_cast<long double>(theta[k]))),
+                      ulp_error(c[k], std::cos(static_cast<long double>(theta[k])))});
+  }
+  EXPECT_LT(worst, 1.0);
+  std::vector<double> outside = {6e5, -1e9, 1e300, INFINITY, -INFINITY, NAN, 0.0, -0.0};
+  std::vector<double> so(outside.size()), co(outside.size());
+  sin_cos(outside.data(), static_cast<int>(outside.size()), so.data(), co.data());
+  for (size_t k = 0; k < outside.size(); ++k) {
+    double gs = 0.0, gc = 0.0;
+    sin_cos(outside[k], gs, gc);
+    EXPECT_EQ(std::isnan(so[k]), std::isnan(gs)) << outside[k];
+    if (!std::isnan(gs)) {
+      EXPECT_EQ(so[k], gs) << outside[k];
+      EXPECT_EQ(co[k], gc) << outside[k];
+      EXPECT_EQ(std::signbit(so[k]), std::signbit(gs)) << outside[k];
+    }
   }
 }
 

@@ -83,6 +83,39 @@ TEST(Model, PandaHandCarriesTheLockedFingers) {
   EXPECT_NEAR(model.inertia(6)(3, 3), mass_link7 + mass_hand + 2 * mass_finger, 1e-12);
 }
 
+// The placement rotations the fast paths take (RobotModel::placement_rotation) are exactly the
+// matrices of the URDF: the identity, about one axis (c, s as stored), or general.
+TEST_P(ReferenceRobot, PlacementRotationsAreExactlyTheirMatrices) {
+  const RobotModel model = load_reference_model(load_reference(GetParam()));
+  for (int i = 0; i < model.dof(); ++i) {
+    const PlacementRotation& p = model.placement_rotation(i);
+    const Matrix3d& R = model.joint(i).T_parent_joint.linear();
+    if (p.kind == PlacementKind::General) continue;
+    Matrix3d expected = Matrix3d::Identity();
+    if (p.kind != PlacementKind::Identity) {
+      const int k = static_cast<int>(p.kind), a = (k + 1) % 3, b = (k + 2) % 3;
+      expected(a, a) = expected(b, b) = p.c;
+      expected(b, a) = p.s;
+      expected(a, b) = -p.s;
+    }
+    EXPECT_TRUE(matrices_near(R, expected, 0.0)) << model.joint(i).name;
+  }
+}
+
+TEST(Model, PlacementRotationsOfTheUr5AndThePanda) {
+  UrdfOptions options;
+  options.tip_link = "tool0";
+  const RobotModel ur5 = load_urdf_file(testing::data_path("ur5.urdf"), options);
+  for (int i = 0; i < ur5.dof(); ++i) {
+    const PlacementKind expected = (i == 1 || i == 3) ? PlacementKind::RotationY : PlacementKind::Identity;
+    EXPECT_EQ(ur5.placement_rotation(i).kind, expected) << i;
+  }
+  options.tip_link = "panda_hand";
+  const RobotModel panda = load_urdf_file(testing::data_path("panda.urdf"), options);
+  EXPECT_EQ(panda.placement_rotation(0).kind, PlacementKind::Identity);
+  for (int i = 1; i < panda.dof(); ++i) EXPECT_EQ(panda.placement_rotation(i).kind, PlacementKind::RotationX) << i;
+}
+
 TEST(Model, SeveralLeavesNeedATip) {
   try {
     load_urdf_file(testing::data_path("panda.urdf"));
