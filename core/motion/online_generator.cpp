@@ -214,24 +214,127 @@ void consider(const Phases& ph, const Axis& x, Best& best, AxisProfile& scratch)
   for (int k = 0; k < ph.n; ++k) duration += ph.t[k];
   if (duration >= best.duration) return;
   lay_out(ph, x.p0, x.v0, x.a0, scratch);
+#ifdef OTG_DEBUG
+  std::fprintf(stderr, "candidate T %.17g n %d miss p %.3g v %.3g a %.3g ok %d\n", duration, ph.n,
+               scratch.p[scratch.phases] - x.pf, scratch.v[scratch.phases] - x.vf, scratch.a[scratch.phases] - x.af,
+               within_limits_and_reaches(scratch, x));
+#endif
   if (within_limits_and_reaches(scratch, x)) {
     best.duration = duration;
     best.profile = scratch;
   }
 }
 
-// A cruise-less candidate given in normalised units, direction d (±1): phases of jerk d·J·sign
-// and duration τ·t, where sign and t come in unit form. Negative durations beyond round-off
-// reject it.
-void consider_normalised(const double* sign, const double* t, int n, double d, const Axis& x, Best& best,
-                         AxisProfile& scratch) {
-  const double tau = x.A / x.J;
-  Phases ph;
-  for (int k = 0; k < n; ++k) {
-    if (t[k] < -1e-9) return;
-    ph.add(d * sign[k] * x.J, std::max(0.0, t[k]) * tau);
+// The cruise-less families in units where J = A = 1, mirrored into direction +1.
+struct Unit {
+  double a0, af, v0, vf, dv, dp, K;  // K = a1² − a5² in NONE, from the velocity
+};
+
+enum class Family { Acc0Acc1, Acc0, Acc1, NoneBelow, NoneAbove };
+
+// The unit phases of a family at its unknown x (t2 for ACC0_ACC1, a5 for ACC0, a1 for ACC1 and
+// NONE; NONE's a5 = ∓√(a1² − K), below or above 0). The plateau durations follow from the velocity
+// equation; false if one is negative beyond round-off.
+bool unit_phases(Family family, double x, const Unit& u, double* sign, double* t, int& n) {
+  const double a02 = u.a0 * u.a0, af2 = u.af * u.af;
+  switch (family) {
+    case Family::Acc0Acc1: {  // a1 = 1, a5 = −1
+      const double t6 = x - u.dv - a02 / 2.0 + af2 / 2.0;
+      const double s[5] = {1.0, 0.0, -1.0, 0.0, 1.0}, d[5] = {1.0 - u.a0, x, 2.0, t6, u.af + 1.0};
+      std::copy(s, s + 5, sign);
+      std::copy(d, d + 5, t);
+      n = 5;
+      break;
+    }
+    case Family::Acc0: {  // a1 = 1, a5 = x
+      const double t2 = -1.0 + u.dv + a02 / 2.0 + x * x - af2 / 2.0;
+      const double s[4] = {1.0, 0.0, -1.0, 1.0}, d[4] = {1.0 - u.a0, t2, 1.0 - x, u.af - x};
+      std::copy(s, s + 4, sign);
+      std::copy(d, d + 4, t);
+      n = 4;
+      break;
+    }
+    case Family::Acc1: {  // a1 = x, a5 = −1
+      const double t6 = -1.0 - u.dv - a02 / 2.0 + x * x + af2 / 2.0;
+      const double s[4] = {1.0, -1.0, 0.0, 1.0}, d[4] = {x - u.a0, x + 1.0, t6, u.af + 1.0};
+      std::copy(s, s + 4, sign);
+      std::copy(d, d + 4, t);
+      n = 4;
+      break;
+    }
+    case Family::NoneBelow:
+    case Family::NoneAbove: {  // a1 = x
+      const double r = std::sqrt(std::max(0.0, x * x - u.K));
+      const double a5 = family == Family::NoneBelow ? -r : r;
+      const double s[3] = {1.0, -1.0, 1.0}, d[3] = {x - u.a0, x - a5, u.af - a5};
+      std::copy(s, s + 3, sign);
+      std::copy(d, d + 3, t);
+      n = 3;
+      break;
+    }
   }
-  consider(ph, x, best, scratch);
+  for (int k = 0; k < n; ++k) {
+    if (t[k] < -1e-7) return false;
+    t[k] = std::max(0.0, t[k]);
+  }
+  return true;
+}
+
+// The phases of a family at x in the axis's own units and direction d; false if invalid.
+bool family_phases(Family family, double x, const Unit& u, double d, const Axis& ax, Phases& ph) {
+  double sign[5], t[5];
+  int n = 0;
+  if (!unit_phases(family, x, u, sign, t, n)) return false;
+  const double tau = ax.A / ax.J;
+  ph.n = 0;
+  for (int k = 0; k < n; ++k) ph.add(d * sign[k] * ax.J, t[k] * tau);
+  return true;
+}
+
+// A root x of a family's polynomial, clamped into its domain [lo, hi], polished by Newton steps
+// on the position the laid-out profile ends at (the polynomial was squared or is flat near a
+// double root, where its root is only good to √ε), then considered.
+void consider_root(Family family, double x, double lo, double hi, const Unit& u, double d, const Axis& ax,
+                   Best& best, AxisProfile& scratch) {
+  x = std::clamp(x, lo, hi);
+  Phases ph;
+  const auto miss = [&](double at, double& out) {
+    if (!family_phases(family, at, u, d, ax, ph)) return false;
+    lay_out(ph, ax.p0, ax.v0, ax.a0, scratch);
+    out = scratch.p[scratch.phases] - ax.pf;
+    return true;
+  };
+  double e;
+  if (!miss(x, e)) return;
+  const double tol = 0.1 * kEndTolerance * std::max(1.0, std::abs(ax.pf));
+  for (int it = 0; it < 6 && std::abs(e) > tol; ++it) {
+    const double h = 1e-7 * std::max(1.0, std::abs(x));
+    double e_h;
+    const double x_h = x + h <= hi ? x + h : x - h;
+    if (!miss(x_h, e_h) || e_h == e) break;
+    const double x_new = std::clamp(x - e * (x_h - x) / (e_h - e), lo, hi);
+    double e_new;
+    if (!miss(x_new, e_new) || std::abs(e_new) >= std::abs(e)) break;
+    x = x_new;
+    e = e_new;
+  }
+  if (family_phases(family, x, u, d, ax, ph)) consider(ph, ax, best, scratch);
+}
+
+// The real roots of a family's polynomial over its domain widened a little (a root on the
+// domain's edge, e.g. a phase of zero duration, must not be lost to round-off), each considered.
+void consider_family(Family family, const double* c, int degree, double lo, double hi, const Unit& u, double d,
+                     const Axis& ax, Best& best, AxisProfile& scratch) {
+  if (lo > hi) return;
+  double roots[4];
+  const double widen = 1e-6 * std::max(1.0, hi - lo);
+  const int n = polynomial_roots(c, degree, lo - widen, hi + widen, roots);
+#ifdef OTG_DEBUG
+  std::fprintf(stderr, "family %d dir %g [%g %g] roots %d:", static_cast<int>(family), d, lo, hi, n);
+  for (int k = 0; k < n; ++k) std::fprintf(stderr, " %.17g", roots[k]);
+  std::fprintf(stderr, "\n");
+#endif
+  for (int k = 0; k < n; ++k) consider_root(family, roots[k], lo, hi, u, d, ax, best, scratch);
 }
 
 void time_optimal_direction(const Axis& x, double d, Best& best, AxisProfile& scratch) {
@@ -257,7 +360,8 @@ void time_optimal_direction(const Axis& x, double d, Best& best, AxisProfile& sc
   const double v0 = d * x.v0 / vs, vf = d * x.vf / vs;
   const double dv = vf - v0, dp = d * (x.pf - x.p0) / ps;
   const double a02 = a0 * a0, af2 = af * af;
-  double c[5], roots[4];
+  double c[5];
+  const Unit u{a0, af, v0, vf, dv, dp, dv + a02 / 2.0 - af2 / 2.0};
   // ACC0_ACC1: a1 = 1, a5 = −1; t6 = t2 + (v0 − vf) − a0²/2 + af²/2, a quadratic in t2.
   {
     c[0] = a02 * a02 / 8.0 + a02 * a0 / 3.0 - a0 * v0 - af2 * af2 / 8.0 - af2 * af / 3.0 + af * dv + af * v0 - dp -
@@ -266,14 +370,7 @@ void time_optimal_direction(const Axis& x, double d, Best& best, AxisProfile& sc
     c[1] = 2.0 * v0 - a02 + 3.0;
     c[2] = 1.0;
     const double hi = std::max(1.0, std::abs(c[1]) + std::sqrt(std::abs(c[0])) + 1.0);
-    const int n = polynomial_roots(c, 2, 0.0, hi, roots);
-    for (int k = 0; k < n; ++k) {
-      const double t2 = roots[k];
-      const double t6 = t2 - dv - a02 / 2.0 + af2 / 2.0;
-      const double sign[5] = {1.0, 0.0, -1.0, 0.0, 1.0};
-      const double t[5] = {1.0 - a0, t2, 2.0, t6, af + 1.0};
-      consider_normalised(sign, t, 5, d, x, best, scratch);
-    }
+    consider_family(Family::Acc0Acc1, c, 2, 0.0, hi, u, d, x, best, scratch);
   }
   // ACC0: a1 = 1, no second plateau; quartic in a5, t2 = −1 + dv + a0²/2 + a5² − af²/2.
   {
@@ -284,14 +381,7 @@ void time_optimal_direction(const Axis& x, double d, Best& best, AxisProfile& sc
     c[2] = dv + v0 - af2 / 2.0 + 0.5;
     c[3] = -1.0;
     c[4] = 0.5;
-    const int n = polynomial_roots(c, 4, -1.0, std::min(1.0, af), roots);
-    for (int k = 0; k < n; ++k) {
-      const double a5 = roots[k];
-      const double t2 = -1.0 + dv + a02 / 2.0 + a5 * a5 - af2 / 2.0;
-      const double sign[4] = {1.0, 0.0, -1.0, 1.0};
-      const double t[4] = {1.0 - a0, t2, 1.0 - a5, af - a5};
-      consider_normalised(sign, t, 4, d, x, best, scratch);
-    }
+    consider_family(Family::Acc0, c, 4, -1.0, std::min(1.0, af), u, d, x, best, scratch);
   }
   // ACC1: a5 = −1, no first plateau; quartic in a1, t6 = −1 − dv − a0²/2 + a1² + af²/2.
   {
@@ -302,19 +392,12 @@ void time_optimal_direction(const Axis& x, double d, Best& best, AxisProfile& sc
     c[2] = v0 - a02 / 2.0 + 0.5;
     c[3] = 1.0;
     c[4] = 0.5;
-    const int n = polynomial_roots(c, 4, std::max(-1.0, a0), 1.0, roots);
-    for (int k = 0; k < n; ++k) {
-      const double a1 = roots[k];
-      const double t6 = -1.0 - dv - a02 / 2.0 + a1 * a1 + af2 / 2.0;
-      const double sign[4] = {1.0, -1.0, 0.0, 1.0};
-      const double t[4] = {a1 - a0, a1 + 1.0, t6, af + 1.0};
-      consider_normalised(sign, t, 4, d, x, best, scratch);
-    }
+    consider_family(Family::Acc1, c, 4, std::max(-1.0, a0), 1.0, u, d, x, best, scratch);
   }
   // NONE: no plateau; a5² = a1² − K from the velocity, and the position's a5-odd part squared
   // away: a quartic in a1. Both signs of a5 are tried (the squaring lost which one holds).
   {
-    const double K = -dv + a02 / 2.0 - af2 / 2.0;
+    const double K = dv + a02 / 2.0 - af2 / 2.0;
     const double K2 = K * K;
     const double a03 = a02 * a0, af3 = af2 * af, a04 = a02 * a02, af4 = af2 * af2, v02 = v0 * v0;
     c[0] = K2 * K + K * a04 - 4.0 * K * a02 * v0 + 2.0 * K * af2 * v0 - K * a02 * af2 + K * af4 / 3.0 +
@@ -330,16 +413,8 @@ void time_optimal_direction(const Axis& x, double d, Best& best, AxisProfile& sc
     c[2] = K2;
     c[3] = 2.0 * af * v0 - 2.0 * dp + 2.0 / 3.0 * a03 + af3 / 3.0 - af * a02 - 2.0 * a0 * v0 + 2.0 * K * af;
     c[4] = -K;
-    const int n = polynomial_roots(c, 4, std::max(-1.0, a0), 1.0, roots);
-    for (int k = 0; k < n; ++k) {
-      const double a1 = roots[k];
-      const double r = std::sqrt(std::max(0.0, a1 * a1 - K));
-      for (const double a5 : {-r, r}) {
-        const double sign[3] = {1.0, -1.0, 1.0};
-        const double t[3] = {a1 - a0, a1 - a5, af - a5};
-        consider_normalised(sign, t, 3, d, x, best, scratch);
-      }
-    }
+    consider_family(Family::NoneBelow, c, 4, std::max(-1.0, a0), 1.0, u, d, x, best, scratch);
+    consider_family(Family::NoneAbove, c, 4, std::max(-1.0, a0), 1.0, u, d, x, best, scratch);
   }
 }
 
@@ -347,17 +422,15 @@ void time_optimal_direction(const Axis& x, double d, Best& best, AxisProfile& sc
 // found (a numerical failure: there always is one).
 bool time_optimal(const Axis& x, Best& best, AxisProfile& scratch) {
   best.duration = std::numeric_limits<double>::infinity();
+  // Already there (to the end tolerance): the empty profile.
+  Phases none;
+  consider(none, x, best, scratch);
+  if (best.duration == 0.0) return true;
+  // The fastest change of (v, a) alone, when it happens to end at the target position: the lower
+  // bound of every profile, and the edge of several families at once.
+  consider(velocity_ramp(x.v0, x.a0, x.vf, x.af, x.A, x.J), x, best, scratch);
   time_optimal_direction(x, 1.0, best, scratch);
   time_optimal_direction(x, -1.0, best, scratch);
-  if (best.duration == std::numeric_limits<double>::infinity()) {
-    // Already there and at rest in both v and a: the empty profile.
-    Phases none;
-    lay_out(none, x.p0, x.v0, x.a0, scratch);
-    if (within_limits_and_reaches(scratch, x)) {
-      best.duration = 0.0;
-      best.profile = scratch;
-    }
-  }
   return best.duration < std::numeric_limits<double>::infinity();
 }
 

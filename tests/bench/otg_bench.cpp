@@ -176,7 +176,13 @@ void quality(const std::vector<Problem>& problems) {
     const bool r_ok = ruckig.plan();
     if (!c_ok) {
       ++chasles_failed;
-      if (chasles_failed <= 5) std::fprintf(stderr, "chasles failed on problem %zu: %s\n", n, chasles.otg.reason());
+      if (chasles_failed <= 5) {
+        std::fprintf(stderr, "chasles failed on problem %zu: %s\n", n, chasles.otg.reason());
+        for (int i = 0; i < kDof; ++i) {
+          std::fprintf(stderr, "  axis %d: %.17g %.17g %.17g -> %.17g %.17g %.17g limits %.17g %.17g %.17g\n", i,
+                       pr.p0[i], pr.v0[i], pr.a0[i], pr.pf[i], pr.vf[i], pr.af[i], pr.V[i], pr.A[i], pr.J[i]);
+        }
+      }
     }
     if (!r_ok) ++ruckig_failed;
     if (c_ok && violates(pr, chasles.otg.duration(), [&](double t, Array& p, Array& v, Array& a) {
