@@ -139,14 +139,16 @@ inline double polynomial(const double* c, int n, double x) {
 // roots the polynomial is monotone: at most one root, found by bisection), so that no root is
 // missed, and a double root (a touching extremum) counts when the polynomial is zero there to
 // round-off. Recursion on the degree; nothing is allocated.
-int polynomial_roots(const double* c, int n, double lo, double hi, double* roots) {
+int polynomial_roots(const double* c, int n, double lo, double hi, double* roots, double precision = 1e-16) {
   if (!(lo <= hi)) return 0;
   double scale = 0.0;
   const double xm = std::max(std::abs(lo), std::abs(hi));
-  for (int k = 0; k <= n; ++k) scale = std::max(scale, std::abs(c[k]) * std::pow(std::max(1.0, xm), k));
+  double power[5] = {1.0, 0.0, 0.0, 0.0, 0.0};  // max(1, |x|)^k on the interval
+  for (int k = 1; k <= n; ++k) power[k] = power[k - 1] * std::max(1.0, xm);
+  for (int k = 0; k <= n; ++k) scale = std::max(scale, std::abs(c[k]) * power[k]);
   if (scale == 0.0) return 0;
   // Drop leading coefficients that are round-off on the interval.
-  while (n > 0 && std::abs(c[n]) * std::pow(std::max(1.0, xm), n) <= 1e-15 * scale) --n;
+  while (n > 0 && std::abs(c[n]) * power[n] <= 1e-15 * scale) --n;
   if (n == 0) return 0;
   if (n == 1) {
     const double x = -c[0] / c[1];
@@ -162,7 +164,8 @@ int polynomial_roots(const double* c, int n, double lo, double hi, double* roots
   int m = 0;
   points[m++] = lo;
   double critical[4];
-  const int nc = polynomial_roots(d, n - 1, lo, hi, critical);
+  // The derivative's roots only bound the brackets: they need less precision.
+  const int nc = polynomial_roots(d, n - 1, lo, hi, critical, 1e-11);
   for (int k = 0; k < nc; ++k) points[m++] = critical[k];
   points[m++] = hi;
   const double zero = 1e-13 * scale;
@@ -179,17 +182,28 @@ int polynomial_roots(const double* c, int n, double lo, double hi, double* roots
     }
     if (std::abs(fb) <= zero) continue;  // pushed as the next interval's left end
     if ((fa < 0.0) == (fb < 0.0)) continue;
-    for (int it = 0; it < 100 && b - a > 1e-16 * std::max(1.0, std::abs(a)); ++it) {
-      const double mid = 0.5 * (a + b);
-      const double fm = polynomial(c, n, mid);
-      if ((fm < 0.0) == (fa < 0.0)) {
-        a = mid;
-        fa = fm;
-      } else {
-        b = mid;
+    // Newton from the bracket's middle, kept inside the bracket (bisection when a step leaves it
+    // or does not halve it): one root, monotone in between.
+    double x = 0.5 * (a + b), last_step = b - a;
+    for (int it = 0; it < 100; ++it) {
+      double f = c[n], df = 0.0;
+      for (int q = n - 1; q >= 0; --q) {
+        df = df * x + f;
+        f = f * x + c[q];
       }
+      if (f == 0.0) break;
+      if ((f < 0.0) == (fa < 0.0)) {
+        a = x;
+      } else {
+        b = x;
+      }
+      double next = df != 0.0 ? x - f / df : 0.5 * (a + b);
+      if (!(next > a && next < b) || std::abs(next - x) > 0.5 * last_step) next = 0.5 * (a + b);
+      last_step = std::abs(next - x);
+      x = next;
+      if (last_step <= precision * std::max(1.0, std::abs(x)) || b - a <= precision * std::max(1.0, std::abs(x))) break;
     }
-    push(0.5 * (a + b));
+    push(x);
   }
   if (std::abs(polynomial(c, n, points[m - 1])) <= zero) push(points[m - 1]);
   return count;
@@ -324,7 +338,7 @@ void consider_root(Family family, double x, double lo, double hi, const Unit& u,
 // The real roots of a family's polynomial over its domain widened a little (a root on the
 // domain's edge, e.g. a phase of zero duration, must not be lost to round-off), each considered.
 void consider_family(Family family, const double* c, int degree, double lo, double hi, const Unit& u, double d,
-                     const Axis& ax, Best& best, AxisProfile& scratch) {
+                     const Axis& ax, Best& best, AxisProfile& scratch, Family also = Family::Acc0Acc1) {
   if (lo > hi) return;
   double roots[4];
   const double widen = 1e-6 * std::max(1.0, hi - lo);
@@ -334,7 +348,11 @@ void consider_family(Family family, const double* c, int degree, double lo, doub
   for (int k = 0; k < n; ++k) std::fprintf(stderr, " %.17g", roots[k]);
   std::fprintf(stderr, "\n");
 #endif
-  for (int k = 0; k < n; ++k) consider_root(family, roots[k], lo, hi, u, d, ax, best, scratch);
+  for (int k = 0; k < n; ++k) {
+    consider_root(family, roots[k], lo, hi, u, d, ax, best, scratch);
+    // NONE's two signs of a5 share one polynomial.
+    if (also != Family::Acc0Acc1) consider_root(also, roots[k], lo, hi, u, d, ax, best, scratch);
+  }
 }
 
 void time_optimal_direction(const Axis& x, double d, Best& best, AxisProfile& scratch) {
@@ -413,8 +431,7 @@ void time_optimal_direction(const Axis& x, double d, Best& best, AxisProfile& sc
     c[2] = K2;
     c[3] = 2.0 * af * v0 - 2.0 * dp + 2.0 / 3.0 * a03 + af3 / 3.0 - af * a02 - 2.0 * a0 * v0 + 2.0 * K * af;
     c[4] = -K;
-    consider_family(Family::NoneBelow, c, 4, std::max(-1.0, a0), 1.0, u, d, x, best, scratch);
-    consider_family(Family::NoneAbove, c, 4, std::max(-1.0, a0), 1.0, u, d, x, best, scratch);
+    consider_family(Family::NoneBelow, c, 4, std::max(-1.0, a0), 1.0, u, d, x, best, scratch, Family::NoneAbove);
   }
 }
 
@@ -466,48 +483,81 @@ bool build_cruise(const Axis& x, double T, double vc, AxisProfile& out) {
   return within_limits_and_reaches(out, x) && std::abs(out.duration() - T) <= 1e-9 * std::max(1.0, T);
 }
 
-// The root of miss(vc) between two feasible points of opposite sign, by bisection.
-bool solve_between(const Axis& x, double T, CruisePoint lo, CruisePoint hi, AxisProfile& out) {
-  for (int it = 0; it < 200 && std::abs(hi.vc - lo.vc) > 1e-15 * x.V; ++it) {
-    const CruisePoint mid = cruise_point(x, T, 0.5 * (lo.vc + hi.vc));
-    if (mid.cruise < 0.0) break;  // the feasible set is not an interval here: give up this bracket
-    if ((mid.miss < 0.0) == (lo.miss < 0.0)) {
-      lo = mid;
+// Where f changes sign between lo and hi (f(lo), f(hi) of opposite signs, or one of them 0), by the
+// Illinois variant of regula falsi (superlinear, and never leaves the bracket); f returns false
+// where it cannot be evaluated, which ends the search (false).
+template <typename F>
+bool sign_change(F f, double lo, double f_lo, double hi, double f_hi, double tolerance, double& root) {
+  int side = 0;
+  for (int it = 0; it < 100; ++it) {
+    if (f_lo == 0.0 || std::abs(hi - lo) <= tolerance) {
+      root = f_lo == 0.0 ? lo : (std::abs(f_lo) < std::abs(f_hi) ? lo : hi);
+      return true;
+    }
+    if (f_hi == 0.0) {
+      root = hi;
+      return true;
+    }
+    double x = hi - f_hi * (hi - lo) / (f_hi - f_lo);
+    if (!(x > std::min(lo, hi) && x < std::max(lo, hi))) x = 0.5 * (lo + hi);
+    double fx;
+    if (!f(x, fx)) return false;
+    if ((fx < 0.0) == (f_hi < 0.0)) {
+      hi = x;
+      f_hi = fx;
+      if (side == -1) f_lo /= 2.0;
+      side = -1;
     } else {
-      hi = mid;
+      lo = x;
+      f_lo = fx;
+      if (side == 1) f_hi /= 2.0;
+      side = 1;
     }
   }
-  const double vc = std::abs(lo.miss) < std::abs(hi.miss) ? lo.vc : hi.vc;
-  return build_cruise(x, T, vc, out);
+  root = std::abs(f_lo) < std::abs(f_hi) ? lo : hi;
+  return true;
 }
 
-// The edge of the feasible set (cruise = 0) between a feasible and an infeasible point.
-CruisePoint edge_between(const Axis& x, double T, CruisePoint in, CruisePoint out_) {
-  for (int it = 0; it < 200 && std::abs(in.vc - out_.vc) > 1e-15 * x.V; ++it) {
-    const CruisePoint mid = cruise_point(x, T, 0.5 * (in.vc + out_.vc));
-    if (mid.cruise >= 0.0) {
-      in = mid;
+// The root of miss(vc) between two feasible points of opposite sign.
+bool solve_between(const Axis& x, double T, const CruisePoint& lo, const CruisePoint& hi, AxisProfile& out) {
+  const auto miss = [&](double vc, double& value) {
+    const CruisePoint point = cruise_point(x, T, vc);
+    value = point.miss;
+    return point.cruise >= 0.0;  // the feasible set is not an interval here: give this bracket up
+  };
+  double vc;
+  return sign_change(miss, lo.vc, lo.miss, hi.vc, hi.miss, 1e-15 * x.V, vc) && build_cruise(x, T, vc, out);
+}
+
+// The edge of the feasible set (cruise = 0) between a feasible and an infeasible point, on the
+// feasible side, by Illinois steps that keep one point on each side.
+CruisePoint edge_between(const Axis& x, double T, CruisePoint in, CruisePoint out) {
+  double f_in = in.cruise, f_out = out.cruise;
+  int side = 0;
+  for (int it = 0; it < 100 && std::abs(in.vc - out.vc) > 1e-15 * x.V && in.cruise > 0.0; ++it) {
+    double vc = out.vc - f_out * (out.vc - in.vc) / (f_out - f_in);
+    if (!(vc > std::min(in.vc, out.vc) && vc < std::max(in.vc, out.vc))) vc = 0.5 * (in.vc + out.vc);
+    const CruisePoint p = cruise_point(x, T, vc);
+    if (p.cruise >= 0.0) {
+      in = p;
+      f_in = p.cruise;
+      if (side == 1) f_out /= 2.0;
+      side = 1;
     } else {
-      out_ = mid;
+      out = p;
+      f_out = p.cruise;
+      if (side == -1) f_in /= 2.0;
+      side = -1;
     }
   }
   return in;
 }
 
-bool fixed_duration(const Axis& x, double T, AxisProfile& out) {
-  constexpr int kGrid = 24;
-  double vs[kGrid + 3];
-  int n = 0;
-  for (int k = 0; k <= kGrid; ++k) vs[n++] = x.V * (-1.0 + 2.0 * k / kGrid);
-  // The kinks: the velocity a ramp reaches by one jerk phase to or from a = 0.
-  vs[n++] = std::clamp(x.v0 + x.a0 * std::abs(x.a0) / (2.0 * x.J), -x.V, x.V);
-  vs[n++] = std::clamp(x.vf - x.af * std::abs(x.af) / (2.0 * x.J), -x.V, x.V);
-  std::sort(vs, vs + n);
+// A cruise profile of duration T over the sample points vs (sorted): between each two, the edge
+// of the feasible set if one of them is outside it, then the root of the miss if it changes sign.
+bool cruise_over(const Axis& x, double T, const double* vs, int n, AxisProfile& out) {
   CruisePoint prev = cruise_point(x, T, vs[0]);
-  if (prev.cruise >= 0.0 && std::abs(prev.miss) <= 1e-12 * std::max(1.0, std::abs(x.pf)) &&
-      build_cruise(x, T, prev.vc, out)) {
-    return true;
-  }
+  if (prev.cruise >= 0.0 && prev.miss == 0.0 && build_cruise(x, T, prev.vc, out)) return true;
   for (int k = 1; k < n; ++k) {
     const CruisePoint cur = cruise_point(x, T, vs[k]);
     CruisePoint a = prev, b = cur;
@@ -527,6 +577,22 @@ bool fixed_duration(const Axis& x, double T, AxisProfile& out) {
     prev = cur;
   }
   return false;
+}
+
+bool fixed_duration(const Axis& x, double T, AxisProfile& out) {
+  // The kinks: the velocity a ramp reaches by one jerk phase to or from a = 0.
+  const double k1 = std::clamp(x.v0 + x.a0 * std::abs(x.a0) / (2.0 * x.J), -x.V, x.V);
+  const double k2 = std::clamp(x.vf - x.af * std::abs(x.af) / (2.0 * x.J), -x.V, x.V);
+  // First the ends and the kinks alone (the feasible set is one or two intervals about the kinks,
+  // and the miss is monotone on each in all but rare cases), then a grid over [−V, V] with them.
+  double vs[4 + 25] = {-x.V, std::min(k1, k2), std::max(k1, k2), x.V};
+  if (cruise_over(x, T, vs, 4, out)) return true;
+  int n = 0;
+  for (int k = 0; k <= 24; ++k) vs[n++] = x.V * (-1.0 + 2.0 * k / 24);
+  vs[n++] = k1;
+  vs[n++] = k2;
+  std::sort(vs, vs + n);
+  return cruise_over(x, T, vs, n, out);
 }
 
 // ---------------------------------------------------------------------------------------------
