@@ -16,6 +16,13 @@
 # Pinocchio's time is the faster of crba's / aba's two conventions (LOCAL, WORLD), both timed.
 # Without PyPI (no venv) it says so on stderr and the rest runs without that table.
 #
+# Last, online trajectory generation: chasles's OnlineGenerator (core/motion) against Ruckig's C++
+# (tests/bench/otg_bench.cpp), from the sdist of the PyPI package ruckig at the version
+# tools/ruckig.sh pins, compiled into chasles_ruckig_bench with chasles's flags: on the same 10^5
+# random 7-axis problems, the ratio of the durations (max, mean), failures and sampled limit
+# violations of each, and ns per plan of each with their ratio. Without PyPI it says so on stderr
+# and the rest runs without that table.
+#
 #   tools/bench.sh                                  the tables (build and benchmark noise on stderr)
 #   tools/bench.sh --json                           {"<robot>": {"<quantity>": {"chasles_ns": .., "kdl_ns": ..,
 #                                                   "pinocchio": {"chasles_ns": .., "pinocchio_ns": ..}}}}
@@ -53,18 +60,28 @@ if ! pinocchio_prefix=$("$root/tools/pinocchio.sh"); then
   echo "bench: no Pinocchio: tools/pinocchio.sh could not make build-bench/venv (see above); running without the comparison with Pinocchio" >&2
 fi
 
+# Ruckig's C++ comes from its sdist on PyPI (tools/ruckig.sh fetches and unpacks it); without it, no
+# chasles_ruckig_bench, and the rest runs.
+ruckig_source=""
+if ! ruckig_source=$("$root/tools/ruckig.sh"); then
+  ruckig_source=""
+  echo "bench: no Ruckig: tools/ruckig.sh could not fetch its sources (see above); running without the comparison with Ruckig" >&2
+fi
+
 # Tests and tools are not needed here; leaving them out keeps this build independent of them.
 build="$root/build-bench"
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCHASLES_BUILD_BENCHMARKS=ON \
   -DCHASLES_BUILD_TESTS=OFF -DCHASLES_BUILD_TOOLS=OFF -DCHASLES_WERROR=OFF \
-  -DCHASLES_PINOCCHIO_PREFIX="$pinocchio_prefix" >&2
+  -DCHASLES_PINOCCHIO_PREFIX="$pinocchio_prefix" -DCHASLES_RUCKIG_SOURCE="$ruckig_source" >&2
 targets=(chasles_bench chasles_ik_bench chasles_contact_bench)
 [ -n "$pinocchio_prefix" ] && targets+=(chasles_pinocchio_bench)
+[ -n "$ruckig_source" ] && targets+=(chasles_ruckig_bench)
 cmake --build "$build" --target "${targets[@]}" -j 2 >&2
 
 report=$(mktemp)
 pinocchio_report=$(mktemp)
-trap 'rm -f "$report" "$pinocchio_report"' EXIT
+ruckig_report=$(mktemp)
+trap 'rm -f "$report" "$pinocchio_report" "$ruckig_report"' EXIT
 echo "bench: running chasles_bench (about half a minute)" >&2
 start=$SECONDS
 "$build/tests/bench/chasles_bench" --benchmark_format=json --benchmark_min_time=0.2 \
@@ -238,4 +255,34 @@ if [ "$json" = 0 ]; then
   echo "bench: running chasles_contact_bench (about 10 s)" >&2
   "$build/tests/bench/chasles_contact_bench" --benchmark_min_time=0.2 --benchmark_repetitions=5 \
     --benchmark_enable_random_interleaving=true --benchmark_display_aggregates_only=true
+fi
+
+# Online trajectory generation, chasles's OnlineGenerator against Ruckig's calculate() on the same
+# 10^5 random 7-axis problems: the ratio of the durations, failures and sampled limit violations of
+# each, then ns per plan (median of 5 repetitions, interleaved at random) and their ratio. Table
+# output only, as the IK bench's.
+if [ "$json" = 0 ] && [ -n "$ruckig_source" ]; then
+  echo
+  echo "bench: running chasles_ruckig_bench (10^5 problems, about a minute)" >&2
+  echo "Online trajectory generation against Ruckig $(basename "$ruckig_source" | sed 's/^ruckig-//'):"
+  echo
+  "$build/tests/bench/chasles_ruckig_bench" --benchmark_min_time=0.2 --benchmark_repetitions=5 \
+    --benchmark_enable_random_interleaving=true --benchmark_display_aggregates_only=true \
+    --benchmark_out="$ruckig_report" --benchmark_out_format=json
+  python3 - "$ruckig_report" <<'EOF'
+import json
+import sys
+
+to_ns = {"ns": 1.0, "us": 1e3, "ms": 1e6, "s": 1e9}
+with open(sys.argv[1]) as f:
+    report = json.load(f)
+median = {b["run_name"]: b["cpu_time"] * to_ns[b.get("time_unit", "ns")]
+          for b in report.get("benchmarks", [])
+          if b.get("run_type") == "aggregate" and b.get("aggregate_name") == "median"}
+c, r = median.get("chasles/plan"), median.get("ruckig/calculate")
+if c is None or r is None:
+    sys.exit("bench: chasles_ruckig_bench reported no median times")
+print()
+print(f"ns per plan (median CPU time): chasles {c:.0f}, Ruckig {r:.0f}, ratio {c / r:.2f} (the issue's target: <= 1.00)")
+EOF
 fi

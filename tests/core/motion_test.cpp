@@ -1,0 +1,390 @@
+// The online trajectory generator (core/motion) against independent checks: the textbook
+// durations of rest-to-rest moves, the time-optimal velocity ramp (a lower bound on any motion to
+// a target velocity and acceleration, reached exactly when the target position is where that ramp
+// ends), fine sampling of thousands of seeded random 7-axis plans (start, end, continuity and every
+// limit, by Taylor bounds between samples), min_duration, the brake from outside the limits, a
+// replanning loop at 1 kHz toward a moving target, refusals, and no allocation per call.
+#include "chasles/core/motion/online_generator.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "chasles/core/error.hpp"
+#include "support/allocation_counter.hpp"
+
+namespace chasles::motion {
+namespace {
+
+struct Problem {
+  KinematicState current, target;
+  Limits limits;
+};
+
+Eigen::VectorXd vec(std::initializer_list<double> x) {
+  Eigen::VectorXd out(static_cast<Eigen::Index>(x.size()));
+  Eigen::Index k = 0;
+  for (double v : x) out[k++] = v;
+  return out;
+}
+
+Problem single(double p0, double v0, double a0, double pf, double vf, double af, double V, double A, double J) {
+  return {{vec({p0}), vec({v0}), vec({a0})}, {vec({pf}), vec({vf}), vec({af})}, {vec({V}), vec({A}), vec({J})}};
+}
+
+// Seeded random problems within the limits: current a in [−A, A], v where |v| ≤ V and
+// |v + a|a|/(2J)| ≤ V (not bound to leave the limit); target a = 0 or in [−A, A], v where
+// |v − a|a|/(2J)| ≤ V; positions in [−π, π]; the Panda's limits, or each scaled down at random.
+Problem random_problem(std::mt19937_64& rng, int dof) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const auto uniform = [&](double lo, double hi) { return lo + (hi - lo) * unit(rng); };
+  const double panda_v[7] = {2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61};
+  const double panda_a[7] = {15, 7.5, 10, 12.5, 15, 20, 20};
+  const double panda_j[7] = {7500, 3750, 5000, 6250, 7500, 10000, 10000};
+  Problem pr;
+  for (Eigen::VectorXd* x : {&pr.current.p, &pr.current.v, &pr.current.a, &pr.target.p, &pr.target.v, &pr.target.a,
+                             &pr.limits.velocity, &pr.limits.acceleration, &pr.limits.jerk}) {
+    x->resize(dof);
+  }
+  const bool scaled = unit(rng) < 0.3, zero_af = unit(rng) < 0.5;
+  for (int i = 0; i < dof; ++i) {
+    const double V = panda_v[i % 7] * (scaled ? uniform(0.05, 1.0) : 1.0);
+    const double A = panda_a[i % 7] * (scaled ? uniform(0.05, 1.0) : 1.0);
+    const double J = panda_j[i % 7] * (scaled ? uniform(0.02, 1.0) : 1.0);
+    pr.limits.velocity[i] = V;
+    pr.limits.acceleration[i] = A;
+    pr.limits.jerk[i] = J;
+    pr.current.p[i] = uniform(-M_PI, M_PI);
+    pr.current.a[i] = uniform(-A, A);
+    const double c0 = pr.current.a[i] * std::abs(pr.current.a[i]) / (2 * J);
+    pr.current.v[i] = uniform(std::max(-V, -V - c0), std::min(V, V - c0));
+    pr.target.p[i] = uniform(-M_PI, M_PI);
+    pr.target.a[i] = zero_af ? 0.0 : uniform(-A, A);
+    const double cf = pr.target.a[i] * std::abs(pr.target.a[i]) / (2 * J);
+    pr.target.v[i] = uniform(std::max(-V, -V + cf), std::min(V, V + cf));
+  }
+  return pr;
+}
+
+// Samples the plan every h and checks, independently of how it was made: the start is exactly the
+// current state, the end (at duration()) the target within 1e-8, every axis's own profile ends at
+// duration(), |v| and |a| within their limits (1e-9 relative) from `limits_from` on, and between
+// consecutive samples the Taylor bounds of a motion whose jerk is at most J in magnitude:
+// |Δa| ≤ J h, |Δv − a h| ≤ J h²/2, |Δp − v h − a h²/2| ≤ J h³/6 (continuity of p, v, a and the
+// jerk limit at once).
+void expect_valid(const OnlineGenerator& otg, const Problem& pr, double h, double limits_from = 0.0) {
+  const int n = otg.dof();
+  const double T = otg.duration();
+  KinematicState s, next;
+  otg.at_time(0.0, s);
+  for (int i = 0; i < n; ++i) {
+    ASSERT_EQ(s.p[i], pr.current.p[i]);
+    ASSERT_EQ(s.v[i], pr.current.v[i]);
+    ASSERT_EQ(s.a[i], pr.current.a[i]);
+    ASSERT_NEAR(otg.axis(i).duration(), T, 1e-9) << "axis " << i;
+  }
+  const int steps = static_cast<int>(std::ceil(T / h));
+  double t = 0.0;
+  for (int k = 1; k <= steps; ++k) {
+    const double t_next = std::min(k * h, T);
+    const double dt = t_next - t;
+    otg.at_time(t_next, next);
+    for (int i = 0; i < n; ++i) {
+      const double V = pr.limits.velocity[i], A = pr.limits.acceleration[i], J = pr.limits.jerk[i];
+      if (t_next >= limits_from) {
+        ASSERT_LE(std::abs(next.v[i]), V * (1 + 1e-9)) << "axis " << i << " at t = " << t_next;
+        ASSERT_LE(std::abs(next.a[i]), A * (1 + 1e-9)) << "axis " << i << " at t = " << t_next;
+      }
+      ASSERT_LE(std::abs(next.a[i] - s.a[i]), J * dt * (1 + 1e-9) + 1e-9) << "axis " << i << " at t = " << t_next;
+      ASSERT_LE(std::abs(next.v[i] - s.v[i] - s.a[i] * dt), J * dt * dt / 2 * (1 + 1e-9) + 1e-11)
+          << "axis " << i << " at t = " << t_next;
+      ASSERT_LE(std::abs(next.p[i] - s.p[i] - s.v[i] * dt - s.a[i] * dt * dt / 2), J * dt * dt * dt / 6 * (1 + 1e-9) + 1e-11)
+          << "axis " << i << " at t = " << t_next;
+    }
+    s = next;
+    t = t_next;
+  }
+  otg.at_time(T, s);
+  for (int i = 0; i < n; ++i) {
+    ASSERT_NEAR(s.p[i], pr.target.p[i], 1e-8) << "axis " << i;
+    ASSERT_NEAR(s.v[i], pr.target.v[i], 1e-8) << "axis " << i;
+    ASSERT_NEAR(s.a[i], pr.target.a[i], 1e-8) << "axis " << i;
+  }
+}
+
+double plan_duration(const Problem& pr) {
+  OnlineGenerator otg(static_cast<int>(pr.current.p.size()));
+  EXPECT_TRUE(otg.plan(pr.current, pr.target, pr.limits)) << otg.reason();
+  expect_valid(otg, pr, 1e-4);
+  return otg.duration();
+}
+
+// Rest to rest, the four textbook shapes of the symmetric jerk-limited move over a distance D.
+TEST(Motion, RestToRestAllPhasesTakesDistanceOverVPlusVOverAPlusAOverJ) {
+  // Cruise and both acceleration plateaus: needs V ≥ A²/J and D ≥ V (V/A + A/J).
+  const double V = 1.0, A = 2.0, J = 10.0, D = 3.0;
+  EXPECT_NEAR(plan_duration(single(0.5, 0, 0, 0.5 + D, 0, 0, V, A, J)), D / V + V / A + A / J, 1e-12);
+  EXPECT_NEAR(plan_duration(single(0.5, 0, 0, 0.5 - D, 0, 0, V, A, J)), D / V + V / A + A / J, 1e-12);
+}
+
+TEST(Motion, RestToRestWithoutCruiseTakesTauPlusRootOfTauSquaredPlus4DOverA) {
+  // Acceleration plateaus, no cruise: T = τ + √(τ² + 4D/A), τ = A/J, while the peak velocity
+  // A(T/2 − τ) stays under V.
+  const double V = 10.0, A = 2.0, J = 10.0, D = 1.0, tau = A / J;
+  const double T = tau + std::sqrt(tau * tau + 4 * D / A);
+  ASSERT_LT(A * (T / 2 - tau), V);
+  EXPECT_NEAR(plan_duration(single(0, 0, 0, D, 0, 0, V, A, J)), T, 1e-12);
+}
+
+TEST(Motion, RestToRestShortTakesFourTimesCubeRootOfDOver2J) {
+  // Neither plateau nor cruise: four jerk phases of t = (D/(2J))^(1/3) each, while J t ≤ A and
+  // J t² ≤ V.
+  const double V = 1.0, A = 2.0, J = 10.0, D = 0.05, t = std::cbrt(D / (2 * J));
+  ASSERT_LT(J * t, A);
+  ASSERT_LT(J * t * t, V);
+  EXPECT_NEAR(plan_duration(single(-1, 0, 0, -1 + D, 0, 0, V, A, J)), 4 * t, 1e-12);
+}
+
+TEST(Motion, RestToRestVelocityLimitedWithoutAccelerationPlateauTakesDOverVPlus2RootVOverJ) {
+  // V < A²/J: each ramp is +J, −J for √(V/J) each, covering V √(V/J); T = D/V + 2√(V/J).
+  const double V = 0.2, A = 2.0, J = 10.0, D = 2.0;
+  ASSERT_LT(V, A * A / J);
+  EXPECT_NEAR(plan_duration(single(0, 0, 0, D, 0, 0, V, A, J)), D / V + 2 * std::sqrt(V / J), 1e-12);
+}
+
+// The time-optimal change of (v, a) alone, written here from its two possible shapes (jerk s·J up
+// to a peak s·ap, held at A if ap reaches it, then −s·J to a1), the faster valid one: no motion to
+// (v1, a1) can be faster, whatever its position. Returns the phases (jerk, duration).
+std::vector<std::pair<double, double>> fastest_velocity_change(double v0, double a0, double v1, double a1, double A,
+                                                               double J) {
+  std::vector<std::pair<double, double>> best;
+  double best_time = INFINITY;
+  for (const double s : {1.0, -1.0}) {
+    // s·(v1 − v0) = (2 ap² − a0² − a1²)/(2J) + ap·hold in the frame where the ramp goes up.
+    const double b0 = s * a0, b1 = s * a1, dw = s * (v1 - v0);
+    const double sq = J * dw + (b0 * b0 + b1 * b1) / 2;
+    if (sq < 0) continue;
+    double ap = std::sqrt(sq), hold = 0;
+    if (ap > A) {
+      ap = A;
+      hold = (dw - (2 * A * A - b0 * b0 - b1 * b1) / (2 * J)) / A;
+    }
+    if (ap < b0 - 1e-12 || ap < b1 - 1e-12 || hold < 0) continue;
+    const double time = (ap - b0) / J + hold + (ap - b1) / J;
+    if (time < best_time) {
+      best_time = time;
+      best = {{s * J, (ap - b0) / J}, {0.0, hold}, {-s * J, (ap - b1) / J}};
+    }
+  }
+  return best;
+}
+
+TEST(Motion, TargetWhereTheFastestVelocityChangeEndsTakesExactlyThatChange) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  const double V = 2.0, A = 5.0, J = 40.0;
+  for (int k = 0; k < 500; ++k) {
+    const double a0 = A * unit(rng), a1 = A * unit(rng);
+    // Within the limits: the start not bound to leave V, the target not come from beyond it.
+    const double c0 = a0 * std::abs(a0) / (2 * J), c1 = a1 * std::abs(a1) / (2 * J);
+    const double v0 = std::max(-V, -V - c0) + (std::min(V, V - c0) - std::max(-V, -V - c0)) * (unit(rng) + 1) / 2;
+    const double v1 = std::max(-V, -V + c1) + (std::min(V, V + c1) - std::max(-V, -V + c1)) * (unit(rng) + 1) / 2;
+    const auto phases = fastest_velocity_change(v0, a0, v1, a1, A, J);
+    ASSERT_FALSE(phases.empty());
+    // Where it ends, by the exact cubic of each phase.
+    double p = 0.3, v = v0, a = a0, T = 0;
+    bool within = true;
+    for (const auto& [j, t] : phases) {
+      p += v * t + a * t * t / 2 + j * t * t * t / 6;
+      v += a * t + j * t * t / 2;
+      a += j * t;
+      T += t;
+      within = within && std::abs(v) <= V;
+    }
+    if (!within) continue;  // a ramp that passes the velocity limit is no lower bound within it
+    const Problem pr = single(0.3, v0, a0, p, v1, a1, V, A, J);
+    OnlineGenerator otg(1);
+    ASSERT_TRUE(otg.plan(pr.current, pr.target, pr.limits)) << otg.reason();
+    EXPECT_NEAR(otg.duration(), T, 1e-9) << "v0 " << v0 << " a0 " << a0 << " v1 " << v1 << " a1 " << a1;
+    expect_valid(otg, pr, 1e-3);
+  }
+}
+
+TEST(Motion, NoAxisAloneIsFasterThanItsFastestVelocityChange) {
+  std::mt19937_64 rng(11);
+  for (int k = 0; k < 2000; ++k) {
+    const Problem pr = random_problem(rng, 1);
+    OnlineGenerator otg(1);
+    ASSERT_TRUE(otg.plan(pr.current, pr.target, pr.limits)) << otg.reason();
+    const auto phases = fastest_velocity_change(pr.current.v[0], pr.current.a[0], pr.target.v[0], pr.target.a[0],
+                                                pr.limits.acceleration[0], pr.limits.jerk[0]);
+    double T = 0;
+    for (const auto& phase : phases) T += phase.second;
+    EXPECT_GE(otg.duration(), T - 1e-12);
+  }
+}
+
+TEST(Motion, ThousandsOfRandomSevenAxisPlansStartEndAndStayWithinTheLimits) {
+  std::mt19937_64 rng(2026);
+  OnlineGenerator otg(7);
+  for (int k = 0; k < 2000; ++k) {
+    const Problem pr = random_problem(rng, 7);
+    ASSERT_TRUE(otg.plan(pr.current, pr.target, pr.limits)) << "problem " << k << ": " << otg.reason();
+    // The slowest axis alone sets the duration (a blocked interval may raise it a little).
+    double slowest = 0;
+    for (int i = 0; i < 7; ++i) slowest = std::max(slowest, otg.minimal_duration(i));
+    ASSERT_GE(otg.duration(), slowest - 1e-12);
+    // 1e-4 s on the first 500, 1e-3 s on the others (the suite also runs under sanitizers).
+    expect_valid(otg, pr, k < 500 ? 1e-4 : 1e-3);
+    if (HasFatalFailure()) {
+      ADD_FAILURE() << "problem " << k;
+      return;
+    }
+  }
+}
+
+TEST(Motion, MinDurationIsHonoured) {
+  std::mt19937_64 rng(3);
+  OnlineGenerator otg(7);
+  for (int k = 0; k < 200; ++k) {
+    const Problem pr = random_problem(rng, 7);
+    ASSERT_TRUE(otg.plan(pr.current, pr.target, pr.limits));
+    const double T = otg.duration();
+    ASSERT_TRUE(otg.plan(pr.current, pr.target, pr.limits, T + 1.5)) << otg.reason();
+    EXPECT_NEAR(otg.duration(), T + 1.5, 1e-9);
+    expect_valid(otg, pr, 1e-3);
+    // Shorter than the minimal duration: the minimal duration.
+    ASSERT_TRUE(otg.plan(pr.current, pr.target, pr.limits, 0.5 * T));
+    EXPECT_EQ(otg.duration(), T);
+  }
+}
+
+TEST(Motion, AStateOutsideTheLimitsIsBroughtBackFirst) {
+  // The limits were lowered under a moving arm: |v| > V, |a| > A, or a velocity bound to pass V.
+  const double V = 1.0, A = 4.0, J = 50.0;
+  const double starts[][2] = {{1.6, 0.0}, {-1.4, 2.0}, {0.9, 3.9}, {0.5, 6.0}, {-1.2, -7.0}, {1.3, 5.0}};
+  for (const auto& [v0, a0] : starts) {
+    const Problem pr = single(0.0, v0, a0, 0.5, 0.0, 0.0, V, A, J);
+    OnlineGenerator otg(1);
+    ASSERT_TRUE(otg.plan(pr.current, pr.target, pr.limits)) << otg.reason();
+    // The brake (full jerk toward the inside, then −A held) is over once v and a are within their
+    // limits and v + a|a|/(2J) too; from then on, the limits hold.
+    double t_in = 0;
+    KinematicState s;
+    for (double t = 0; t < otg.duration(); t += 1e-5) {
+      otg.at_time(t, s);
+      const double v = s.v[0], a = s.a[0];
+      if (std::abs(v) <= V && std::abs(a) <= A && std::abs(v + a * std::abs(a) / (2 * J)) <= V * (1 + 1e-9)) {
+        t_in = t;
+        break;
+      }
+    }
+    // No longer than reaching −A at full jerk and holding it until v is within the limit.
+    EXPECT_LE(t_in, (std::abs(a0) + A) / J + (std::abs(v0) + std::abs(a0) * std::abs(a0) / (2 * J)) / A + 1e-4);
+    expect_valid(otg, pr, 1e-4, t_in + 1e-5);
+  }
+}
+
+TEST(Motion, ReplanningEveryMillisecondTowardAMovingTargetStaysSmoothAndArrives) {
+  // As the controller uses it: each tick plans from the reference the last plan gave 1 ms later,
+  // toward a target that moves for the first second and then stops.
+  const Problem base = [] {
+    std::mt19937_64 rng(5);
+    return random_problem(rng, 7);
+  }();
+  OnlineGenerator otg(7);
+  KinematicState reference = base.current, next;
+  KinematicState target = base.target;
+  target.v.setZero();
+  target.a.setZero();
+  const double h = 1e-3;
+  bool arrived = false;
+  for (int tick = 0; tick < 20000 && !arrived; ++tick) {
+    const double t = tick * h;
+    for (int i = 0; i < 7; ++i) target.p[i] = base.target.p[i] + (t < 1.0 ? 0.3 * std::sin(3 * t + i) : 0.3 * std::sin(3 + i));
+    ASSERT_TRUE(otg.plan(reference, target, base.limits)) << otg.reason();
+    otg.at_time(h, next);
+    for (int i = 0; i < 7; ++i) {
+      const double J = base.limits.jerk[i];
+      ASSERT_LE(std::abs(next.v[i]), base.limits.velocity[i] * (1 + 1e-9));
+      ASSERT_LE(std::abs(next.a[i]), base.limits.acceleration[i] * (1 + 1e-9));
+      ASSERT_LE(std::abs(next.a[i] - reference.a[i]), J * h * (1 + 1e-9) + 1e-9);
+    }
+    reference = next;
+    arrived = t > 1.0 && otg.duration() <= h;
+  }
+  EXPECT_TRUE(arrived);
+  for (int i = 0; i < 7; ++i) EXPECT_NEAR(reference.p[i], target.p[i], 1e-8);
+}
+
+TEST(Motion, AlreadyThereIsAPlanOfZeroDuration) {
+  const Problem pr = single(0.25, 0, 0, 0.25, 0, 0, 1, 1, 1);
+  OnlineGenerator otg(1);
+  ASSERT_TRUE(otg.plan(pr.current, pr.target, pr.limits));
+  EXPECT_EQ(otg.duration(), 0.0);
+  KinematicState s;
+  otg.at_time(1.0, s);
+  EXPECT_EQ(s.p[0], 0.25);
+}
+
+TEST(Motion, BadInputIsRefusedWithAReason) {
+  OnlineGenerator otg(1);
+  const Problem good = single(0, 0, 0, 1, 0, 0, 1, 1, 1);
+  ASSERT_TRUE(otg.plan(good.current, good.target, good.limits));
+  const double kept = otg.duration();
+  const auto refused = [&](Problem pr, double min_duration, const char* words) {
+    EXPECT_FALSE(otg.plan(pr.current, pr.target, pr.limits, min_duration));
+    EXPECT_NE(std::string(otg.reason()).find(words), std::string::npos) << otg.reason();
+    EXPECT_EQ(otg.duration(), kept);  // the previous plan stays
+  };
+  Problem pr = good;
+  pr.current.p = vec({0, 0});
+  refused(pr, 0, "one entry per axis");
+  pr = good;
+  pr.limits.jerk[0] = 0;
+  refused(pr, 0, "limit must be finite and > 0");
+  pr = good;
+  pr.limits.velocity[0] = INFINITY;
+  refused(pr, 0, "limit must be finite and > 0");
+  pr = good;
+  pr.current.v[0] = NAN;
+  refused(pr, 0, "current state is not finite");
+  pr = good;
+  pr.target.p[0] = INFINITY;
+  refused(pr, 0, "target state is not finite");
+  pr = good;
+  pr.target.v[0] = 1.5;
+  refused(pr, 0, "target velocity 1.5 exceeds its limit");
+  pr = good;
+  pr.target.a[0] = -1.5;
+  refused(pr, 0, "target acceleration -1.5 exceeds its limit");
+  pr = good;
+  pr.target.v[0] = 0.9;
+  pr.target.a[0] = -0.9;  // came from v = 0.9 + 0.81/2 > 1
+  refused(pr, 0, "cannot be held within the velocity limit");
+  refused(good, -1, "min_duration");
+  refused(good, NAN, "min_duration");
+  EXPECT_THROW(OnlineGenerator(0), ArgumentError);
+}
+
+TEST(Motion, PlanAndSamplingAllocateNothing) {
+  std::mt19937_64 rng(9);
+  std::vector<Problem> problems;
+  for (int k = 0; k < 200; ++k) problems.push_back(random_problem(rng, 7));
+  OnlineGenerator otg(7);
+  KinematicState s{Eigen::VectorXd(7), Eigen::VectorXd(7), Eigen::VectorXd(7)};
+  Problem bad = problems[0];
+  bad.target.v[0] = 100;
+  testing::AllocationCounter counter;
+  for (const Problem& pr : problems) {
+    ASSERT_TRUE(otg.plan(pr.current, pr.target, pr.limits));
+    otg.at_time(0.5 * otg.duration(), s);
+    otg.at_time(2 * otg.duration(), s);
+  }
+  EXPECT_FALSE(otg.plan(bad.current, bad.target, bad.limits));
+  EXPECT_EQ(counter.count(), 0);
+}
+
+}  // namespace
+}  // namespace chasles::motion
