@@ -228,11 +228,6 @@ void consider(const Phases& ph, const Axis& x, Best& best, AxisProfile& scratch)
   for (int k = 0; k < ph.n; ++k) duration += ph.t[k];
   if (duration >= best.duration) return;
   lay_out(ph, x.p0, x.v0, x.a0, scratch);
-#ifdef OTG_DEBUG
-  std::fprintf(stderr, "candidate T %.17g n %d miss p %.3g v %.3g a %.3g ok %d\n", duration, ph.n,
-               scratch.p[scratch.phases] - x.pf, scratch.v[scratch.phases] - x.vf, scratch.a[scratch.phases] - x.af,
-               within_limits_and_reaches(scratch, x));
-#endif
   if (within_limits_and_reaches(scratch, x)) {
     best.duration = duration;
     best.profile = scratch;
@@ -343,11 +338,6 @@ void consider_family(Family family, const double* c, int degree, double lo, doub
   double roots[4];
   const double widen = 1e-6 * std::max(1.0, hi - lo);
   const int n = polynomial_roots(c, degree, lo - widen, hi + widen, roots);
-#ifdef OTG_DEBUG
-  std::fprintf(stderr, "family %d dir %g [%g %g] roots %d:", static_cast<int>(family), d, lo, hi, n);
-  for (int k = 0; k < n; ++k) std::fprintf(stderr, " %.17g", roots[k]);
-  std::fprintf(stderr, "\n");
-#endif
   for (int k = 0; k < n; ++k) {
     consider_root(family, roots[k], lo, hi, u, d, ax, best, scratch);
     // NONE's two signs of a5 share one polynomial.
@@ -595,6 +585,172 @@ bool fixed_duration(const Axis& x, double T, AxisProfile& out) {
   return cruise_over(x, T, vs, n, out);
 }
 
+// Profiles of duration T made of two velocity ramps meeting at a junction (vm, am) with no
+// cruise between them: the fixed-duration profiles whose acceleration does not pass through 0 where
+// the velocity turns (Ruckig's step-2 UDUD and UDDU without a velocity plateau, e.g. jerk +, −, +,
+// − with a junction at a > 0), which the cruise family misses. For a junction acceleration am the
+// ramps' total time is V-shaped about two kinks in vm (decreasing left of both, increasing right
+// of both, concave between), so the junction velocities of duration T are found region by region
+// (left, between, right); the position each one ends at is then a function of am on each region,
+// whose sign change over a grid of am is refined by Illinois steps.
+struct Junction {
+  bool found;
+  double vm, miss;
+};
+
+inline double ramps_time(const Axis& x, double vm, double am, double& distance) {
+  double t1, d1, t2, d2;
+  measure(velocity_ramp(x.v0, x.a0, vm, am, x.A, x.J), x.v0, x.a0, t1, d1);
+  measure(velocity_ramp(vm, am, x.vf, x.af, x.A, x.J), vm, am, t2, d2);
+  distance = d1 + d2;
+  return t1 + t2;
+}
+
+// The junction velocities of duration T in each region: 0 left of both kinks, 1 and 2 between
+// them left and right of where the (concave) total time peaks, 3 right of both kinks.
+void junctions(const Axis& x, double T, double am, Junction* out) {
+  const double k1 = x.v0 + (x.a0 + am) / 2.0 * std::abs(am - x.a0) / x.J;
+  const double k2 = x.vf - (am + x.af) / 2.0 * std::abs(x.af - am) / x.J;
+  const double lo_k = std::clamp(std::min(k1, k2), -x.V, x.V), hi_k = std::clamp(std::max(k1, k2), -x.V, x.V);
+  double d;
+  // The peak of the concave total time between the kinks, by golden-section search (it only
+  // splits the regions: no need of full precision).
+  double a = lo_k, b = hi_k;
+  constexpr double g = 0.6180339887498949;
+  double c = b - g * (b - a), e = a + g * (b - a);
+  double fc = ramps_time(x, c, am, d), fe = ramps_time(x, e, am, d);
+  for (int it = 0; it < 60 && b - a > 1e-9 * x.V; ++it) {
+    if (fc > fe) {
+      b = e;
+      e = c;
+      fe = fc;
+      c = b - g * (b - a);
+      fc = ramps_time(x, c, am, d);
+    } else {
+      a = c;
+      c = e;
+      fc = fe;
+      e = a + g * (b - a);
+      fe = ramps_time(x, e, am, d);
+    }
+  }
+  const double peak = 0.5 * (a + b);
+  const double edges[5] = {-x.V, lo_k, peak, hi_k, x.V};
+  const auto excess = [&](double vm, double& value) {
+    value = ramps_time(x, vm, am, d) - T;
+    return true;
+  };
+  for (int region = 0; region < 4; ++region) {
+    out[region] = {false, 0.0, 0.0};
+    const double lo = edges[region], hi = edges[region + 1];
+    if (!(hi > lo)) continue;
+    double f_lo, f_hi, vm;
+    excess(lo, f_lo);
+    excess(hi, f_hi);
+    if ((f_lo < 0.0) == (f_hi < 0.0)) continue;
+    if (!sign_change(excess, lo, f_lo, hi, f_hi, 1e-15 * x.V, vm)) continue;
+    ramps_time(x, vm, am, d);
+    out[region] = {true, vm, x.p0 + d - x.pf};
+  }
+}
+
+Junction junction(const Axis& x, double T, double am, int region) {
+  Junction all[4];
+  junctions(x, T, am, all);
+  return all[region];
+}
+
+bool build_junction(const Axis& x, double T, double vm, double am, AxisProfile& out) {
+  Phases ph = velocity_ramp(x.v0, x.a0, vm, am, x.A, x.J);
+  ph.append(velocity_ramp(vm, am, x.vf, x.af, x.A, x.J));
+  lay_out(ph, x.p0, x.v0, x.a0, out);
+  return within_limits_and_reaches(out, x) && std::abs(out.duration() - T) <= 1e-9 * std::max(1.0, T);
+}
+
+bool two_ramps(const Axis& x, double T, AxisProfile& out) {
+  constexpr int kGrid = 48;
+  Junction prev[4], cur[4];
+  double am_prev = -x.A;
+  junctions(x, T, am_prev, prev);
+  // The root of the miss in am on one region, between two grid points where it changes sign.
+  const auto solve = [&](int region, double lo, double f_lo, double hi, double f_hi) {
+    double vm = 0.0;
+    const auto miss = [&](double at, double& value) {
+      const Junction j = junction(x, T, at, region);
+      value = j.miss;
+      vm = j.vm;
+      return j.found;
+    };
+    double am_root, ignored;
+    return sign_change(miss, lo, f_lo, hi, f_hi, 1e-15 * x.A, am_root) && miss(am_root, ignored) &&
+           build_junction(x, T, vm, am_root, out);
+  };
+  for (int k = 1; k <= kGrid; ++k) {
+    const double am = x.A * (-1.0 + 2.0 * k / kGrid);
+    junctions(x, T, am, cur);
+    for (int region = 0; region < 4; ++region) {
+      const Junction& p = prev[region];
+      const Junction& c = cur[region];
+      if (p.found && c.found) {
+        if ((p.miss < 0.0) != (c.miss < 0.0) && solve(region, am_prev, p.miss, am, c.miss)) return true;
+      } else if (p.found != c.found) {
+        // The region ends between the two: find its last point (bisection on whether it exists)
+        // and look for the root between it and the grid point where it exists.
+        double in = p.found ? am_prev : am, gone = p.found ? am : am_prev;
+        Junction last = p.found ? p : c;
+        for (int it = 0; it < 50; ++it) {
+          const double mid = 0.5 * (in + gone);
+          const Junction j = junction(x, T, mid, region);
+          if (j.found) {
+            in = mid;
+            last = j;
+          } else {
+            gone = mid;
+          }
+        }
+        const Junction& known = p.found ? p : c;
+        const double am_known = p.found ? am_prev : am;
+        if ((known.miss < 0.0) != (last.miss < 0.0) && solve(region, am_known, known.miss, in, last.miss)) return true;
+      }
+    }
+    std::copy(cur, cur + 4, prev);
+    am_prev = am;
+  }
+  return false;
+}
+
+// When no cruise profile has duration T (T in a gap of that family, e.g. just above a minimal
+// duration whose profile never has a = 0 between its acceleration extremes): the time-optimal
+// profile under a lower jerk limit J' ≤ J whose minimal duration is exactly T. The minimal duration
+// grows as J' falls (fewer motions are allowed), so J' is found by Illinois steps on log J'.
+// Expensive (a time-optimal solve per step) but rare.
+bool reduced_jerk(const Axis& x, double T, AxisProfile& out, Best& best, AxisProfile& scratch) {
+  Axis y = x;
+  const auto excess = [&](double log_j, double& value) {
+    y.J = std::exp(log_j);
+    if (!time_optimal(y, best, scratch)) return false;
+    value = best.duration - T;
+    return true;
+  };
+  double hi = std::log(x.J), f_hi;
+  if (!excess(hi, f_hi) || f_hi > 0.0) return false;
+  double lo = hi, f_lo = f_hi;
+  for (int k = 0; k < 40 && f_lo <= 0.0; ++k) {
+    hi = lo;
+    f_hi = f_lo;
+    lo -= 1.0;
+    if (!excess(lo, f_lo)) return false;
+  }
+  if (f_lo <= 0.0) return false;
+  double log_j;
+  const auto excess_checked = [&](double at, double& value) { return excess(at, value); };
+  if (!sign_change(excess_checked, lo, f_lo, hi, f_hi, 1e-15, log_j)) return false;
+  double f;
+  if (!excess(log_j, f) || std::abs(f) > 1e-12 * std::max(1.0, T)) return false;
+  out = best.profile;
+  return true;
+}
+
 // ---------------------------------------------------------------------------------------------
 // The brake pre-trajectory: from a state outside the limits (|a| > A, |v| > V, or a velocity that
 // will pass V before a can be brought to 0) back within them, with full jerk: first |a| down to A,
@@ -711,6 +867,7 @@ bool OnlineGenerator::plan(const KinematicState& current, const KinematicState& 
   // Step 2: every axis at exactly T. An axis that cannot arrive at exactly T (a blocked interval
   // of its durations, or a duration its fixed-duration family cannot reach) raises T: first by
   // growing steps until every axis can, then by bisection back toward the lowest such T.
+  AxisProfile scratch;
   const auto synchronise = [&](double duration) {
     for (int i = 0; i < dof_; ++i) {
       const std::size_t k = static_cast<std::size_t>(i);
@@ -726,7 +883,10 @@ bool OnlineGenerator::plan(const KinematicState& current, const KinematicState& 
       double t_brake = 0.0;
       for (int m = 0; m < brake_phases.n; ++m) t_brake += brake_phases.t[m];
       AxisProfile& out = profiles_[k];
-      if (!fixed_duration(x, duration - t_brake, out)) return false;
+      if (!fixed_duration(x, duration - t_brake, out) && !two_ramps(x, duration - t_brake, out) &&
+          !reduced_jerk(x, duration - t_brake, out, best, scratch)) {
+        return false;
+      }
       if (brake_phases.n > 0) {
         Phases all = brake_phases;
         for (int m = 0; m < out.phases; ++m) all.add(out.j[m], out.t[m]);
