@@ -168,7 +168,16 @@ int polynomial_roots(const double* c, int n, double lo, double hi, double* roots
   const int nc = polynomial_roots(d, n - 1, lo, hi, critical, 1e-11);
   for (int k = 0; k < nc; ++k) points[m++] = critical[k];
   points[m++] = hi;
-  const double zero = 1e-13 * scale;
+  // Zero to round-off: small against the terms it sums at that x (not against the largest
+  // coefficient: a root near 0 has terms far smaller than that).
+  const auto is_zero = [&](double x, double f) {
+    double terms = 0.0, power_x = 1.0;
+    for (int k = 0; k <= n; ++k) {
+      terms += std::abs(c[k]) * power_x;
+      power_x *= std::abs(x);
+    }
+    return std::abs(f) <= 1e-13 * terms;
+  };
   int count = 0;
   auto push = [&](double x) {
     if (count == 0 || x - roots[count - 1] > 1e-13 * std::max(1.0, std::abs(x))) roots[count++] = x;
@@ -176,11 +185,11 @@ int polynomial_roots(const double* c, int n, double lo, double hi, double* roots
   for (int k = 0; k + 1 < m; ++k) {
     double a = points[k], b = points[k + 1];
     double fa = polynomial(c, n, a), fb = polynomial(c, n, b);
-    if (std::abs(fa) <= zero) {
+    if (is_zero(a, fa)) {
       push(a);
       continue;
     }
-    if (std::abs(fb) <= zero) continue;  // pushed as the next interval's left end
+    if (is_zero(b, fb)) continue;  // pushed as the next interval's left end
     if ((fa < 0.0) == (fb < 0.0)) continue;
     // Newton from the bracket's middle, kept inside the bracket (bisection when a step leaves it
     // or does not halve it): one root, monotone in between.
@@ -205,7 +214,7 @@ int polynomial_roots(const double* c, int n, double lo, double hi, double* roots
     }
     push(x);
   }
-  if (std::abs(polynomial(c, n, points[m - 1])) <= zero) push(points[m - 1]);
+  if (is_zero(points[m - 1], polynomial(c, n, points[m - 1]))) push(points[m - 1]);
   return count;
 }
 
@@ -470,7 +479,7 @@ bool build_cruise(const Axis& x, double T, double vc, AxisProfile& out) {
   ph.add(0.0, std::max(0.0, T - t1 - t2));
   ph.append(down);
   lay_out(ph, x.p0, x.v0, x.a0, out);
-  return within_limits_and_reaches(out, x) && std::abs(out.duration() - T) <= 1e-9 * std::max(1.0, T);
+  return within_limits_and_reaches(out, x) && std::abs(out.duration() - T) <= 1e-12 * std::max(1.0, T);
 }
 
 // Where f changes sign between lo and hi (f(lo), f(hi) of opposite signs, or one of them 0), by the
@@ -664,7 +673,7 @@ bool build_junction(const Axis& x, double T, double vm, double am, AxisProfile& 
   Phases ph = velocity_ramp(x.v0, x.a0, vm, am, x.A, x.J);
   ph.append(velocity_ramp(vm, am, x.vf, x.af, x.A, x.J));
   lay_out(ph, x.p0, x.v0, x.a0, out);
-  return within_limits_and_reaches(out, x) && std::abs(out.duration() - T) <= 1e-9 * std::max(1.0, T);
+  return within_limits_and_reaches(out, x) && std::abs(out.duration() - T) <= 1e-12 * std::max(1.0, T);
 }
 
 bool two_ramps(const Axis& x, double T, AxisProfile& out) {
