@@ -364,9 +364,17 @@ void time_optimal_direction(const Axis& x, double d, Best& best, AxisProfile& sc
     measure(up, x.v0, x.a0, t1, d1);
     measure(down, vc, 0.0, t2, d2);
     const double cruise = (x.pf - x.p0 - d1 - d2) / vc;
-    if (cruise >= -1e-12 * std::max(1.0, std::abs(x.pf - x.p0) / x.V)) {
+    if (cruise > 0.0) {
+      // A valid cruise at the limit leaves no cruise-less profile in this direction: the ramps'
+      // distance grows with the peak velocity, so one without a cruise would need a peak above V.
       Phases ph = up;
-      ph.add(0.0, std::max(0.0, cruise));
+      ph.add(0.0, cruise);
+      ph.append(down);
+      const double before = best.duration;
+      consider(ph, x, best, scratch);
+      if (best.duration < before) return;
+    } else if (cruise >= -1e-12 * std::max(1.0, std::abs(x.pf - x.p0) / x.V)) {
+      Phases ph = up;
       ph.append(down);
       consider(ph, x, best, scratch);
     }
@@ -389,8 +397,9 @@ void time_optimal_direction(const Axis& x, double d, Best& best, AxisProfile& sc
     const double hi = std::max(1.0, std::abs(c[1]) + std::sqrt(std::abs(c[0])) + 1.0);
     consider_family(Family::Acc0Acc1, c, 2, 0.0, hi, u, d, x, best, scratch);
   }
-  // ACC0: a1 = 1, no second plateau; quartic in a5, t2 = −1 + dv + a0²/2 + a5² − af²/2.
-  {
+  // ACC0: a1 = 1, no second plateau; quartic in a5, t2 = −1 + dv + a0²/2 + a5² − af²/2 = a5² − (1 − K),
+  // which needs K ≥ 0 as |a5| ≤ 1 (and ACC1 below the opposite): at most one of them is solved.
+  if (u.K >= -1e-9) {
     c[0] = -a02 * a02 / 8.0 + a02 * a0 / 3.0 - a0 * v0 + af2 * af2 / 8.0 - af2 * af / 3.0 + af * dv + af * v0 - dp +
            dv * dv / 2.0 + dv * v0 + v0 * a02 / 2.0 - v0 * af2 / 2.0 + v0 - dv * af2 / 2.0 + dv / 2.0 - a02 / 4.0 -
            af2 / 4.0;
@@ -400,8 +409,8 @@ void time_optimal_direction(const Axis& x, double d, Best& best, AxisProfile& sc
     c[4] = 0.5;
     consider_family(Family::Acc0, c, 4, -1.0, std::min(1.0, af), u, d, x, best, scratch);
   }
-  // ACC1: a5 = −1, no first plateau; quartic in a1, t6 = −1 − dv − a0²/2 + a1² + af²/2.
-  {
+  // ACC1: a5 = −1, no first plateau; quartic in a1, t6 = −1 − dv − a0²/2 + a1² + af²/2 = a1² − (1 + K).
+  if (u.K <= 1e-9) {
     c[0] = a02 * a02 / 8.0 + a02 * a0 / 3.0 - a0 * v0 - af2 * af2 / 8.0 - af2 * af / 3.0 + af * dv + af * v0 - dp -
            dv * dv / 2.0 - dv * v0 + dv * af2 / 2.0 + dv / 2.0 + v0 * af2 / 2.0 - v0 * a02 / 2.0 + v0 - a02 / 4.0 -
            af2 / 4.0;
