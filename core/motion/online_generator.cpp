@@ -114,6 +114,28 @@ Phases velocity_ramp(double v0, double a0, double v1, double a1, double A, doubl
   return out;
 }
 
+// The duration and displacement of velocity_ramp(v0, a0, v1, a1, A, J), without laying its phases
+// out: the inner loop of the fixed-duration search.
+inline void ramp_time_distance(double v0, double a0, double v1, double a1, double A, double J, double& duration,
+                               double& distance) {
+  const double straight = (a0 + a1) / 2.0 * std::abs(a1 - a0) / J;
+  const double s = (v1 - v0 >= straight) ? 1.0 : -1.0;
+  const double b0 = s * a0, b1 = s * a1, dw = s * (v1 - v0);
+  double ap = std::sqrt(std::max(0.0, J * dw + (b0 * b0 + b1 * b1) / 2.0));
+  double hold = 0.0;
+  if (ap > A) {
+    ap = A;
+    hold = std::max(0.0, (dw - (2.0 * A * A - b0 * b0 - b1 * b1) / (2.0 * J)) / A);
+  }
+  const double t1 = std::max(0.0, (ap - b0) / J), t3 = std::max(0.0, (ap - b1) / J);
+  double p = 0.0, v = v0, a = a0;
+  advance(p, v, a, s * J, t1);
+  advance(p, v, a, 0.0, hold);
+  advance(p, v, a, -s * J, t3);
+  duration = t1 + hold + t3;
+  distance = p;
+}
+
 // Duration and displacement of phases started at velocity v and acceleration a.
 inline void measure(const Phases& ph, double v, double a, double& duration, double& distance) {
   double p = 0.0;
@@ -473,8 +495,8 @@ struct CruisePoint {
 
 CruisePoint cruise_point(const Axis& x, double T, double vc) {
   double t1, d1, t2, d2;
-  measure(velocity_ramp(x.v0, x.a0, vc, 0.0, x.A, x.J), x.v0, x.a0, t1, d1);
-  measure(velocity_ramp(vc, 0.0, x.vf, x.af, x.A, x.J), vc, 0.0, t2, d2);
+  ramp_time_distance(x.v0, x.a0, vc, 0.0, x.A, x.J, t1, d1);
+  ramp_time_distance(vc, 0.0, x.vf, x.af, x.A, x.J, t2, d2);
   const double cruise = T - t1 - t2;
   return {vc, cruise, x.p0 + d1 + d2 + vc * std::max(0.0, cruise) - x.pf};
 }
@@ -568,6 +590,20 @@ bool cruise_over(const Axis& x, double T, const double* vs, int n, AxisProfile& 
   if (prev.cruise >= 0.0 && prev.miss == 0.0 && build_cruise(x, T, prev.vc, out)) return true;
   for (int k = 1; k < n; ++k) {
     const CruisePoint cur = cruise_point(x, T, vs[k]);
+    // The miss is continuous across the feasible set's edge (no cruise there, and none counted
+    // beyond it): when it changes sign, its root is tried first, without finding the edge, and
+    // kept if it is feasible.
+    if ((prev.cruise >= 0.0 || cur.cruise >= 0.0) && (prev.miss < 0.0) != (cur.miss < 0.0)) {
+      const auto miss = [&](double vc, double& value) {
+        value = cruise_point(x, T, vc).miss;
+        return true;
+      };
+      double vc;
+      if (sign_change(miss, prev.vc, prev.miss, cur.vc, cur.miss, 1e-15 * x.V, vc) &&
+          cruise_point(x, T, vc).cruise >= 0.0 && build_cruise(x, T, vc, out)) {
+        return true;
+      }
+    }
     CruisePoint a = prev, b = cur;
     if ((a.cruise >= 0.0) != (b.cruise >= 0.0)) {
       // One side is infeasible: move it to the edge.
@@ -618,8 +654,8 @@ struct Junction {
 
 inline double ramps_time(const Axis& x, double vm, double am, double& distance) {
   double t1, d1, t2, d2;
-  measure(velocity_ramp(x.v0, x.a0, vm, am, x.A, x.J), x.v0, x.a0, t1, d1);
-  measure(velocity_ramp(vm, am, x.vf, x.af, x.A, x.J), vm, am, t2, d2);
+  ramp_time_distance(x.v0, x.a0, vm, am, x.A, x.J, t1, d1);
+  ramp_time_distance(vm, am, x.vf, x.af, x.A, x.J, t2, d2);
   distance = d1 + d2;
   return t1 + t2;
 }
