@@ -114,6 +114,28 @@ Phases velocity_ramp(double v0, double a0, double v1, double a1, double A, doubl
   return out;
 }
 
+// The duration and displacement of velocity_ramp(v0, a0, v1, a1, A, J), without laying its phases
+// out: the inner loop of the fixed-duration search.
+inline void ramp_time_distance(double v0, double a0, double v1, double a1, double A, double J, double& duration,
+                               double& distance) {
+  const double straight = (a0 + a1) / 2.0 * std::abs(a1 - a0) / J;
+  const double s = (v1 - v0 >= straight) ? 1.0 : -1.0;
+  const double b0 = s * a0, b1 = s * a1, dw = s * (v1 - v0);
+  double ap = std::sqrt(std::max(0.0, J * dw + (b0 * b0 + b1 * b1) / 2.0));
+  double hold = 0.0;
+  if (ap > A) {
+    ap = A;
+    hold = std::max(0.0, (dw - (2.0 * A * A - b0 * b0 - b1 * b1) / (2.0 * J)) / A);
+  }
+  const double t1 = std::max(0.0, (ap - b0) / J), t3 = std::max(0.0, (ap - b1) / J);
+  double p = 0.0, v = v0, a = a0;
+  advance(p, v, a, s * J, t1);
+  advance(p, v, a, 0.0, hold);
+  advance(p, v, a, -s * J, t3);
+  duration = t1 + hold + t3;
+  distance = p;
+}
+
 // Duration and displacement of phases started at velocity v and acceleration a.
 inline void measure(const Phases& ph, double v, double a, double& duration, double& distance) {
   double p = 0.0;
@@ -168,7 +190,16 @@ int polynomial_roots(const double* c, int n, double lo, double hi, double* roots
   const int nc = polynomial_roots(d, n - 1, lo, hi, critical, 1e-11);
   for (int k = 0; k < nc; ++k) points[m++] = critical[k];
   points[m++] = hi;
-  const double zero = 1e-13 * scale;
+  // Zero to round-off: small against the terms it sums at that x (not against the largest
+  // coefficient: a root near 0 has terms far smaller than that).
+  const auto is_zero = [&](double x, double f) {
+    double terms = 0.0, power_x = 1.0;
+    for (int k = 0; k <= n; ++k) {
+      terms += std::abs(c[k]) * power_x;
+      power_x *= std::abs(x);
+    }
+    return std::abs(f) <= 1e-13 * terms;
+  };
   int count = 0;
   auto push = [&](double x) {
     if (count == 0 || x - roots[count - 1] > 1e-13 * std::max(1.0, std::abs(x))) roots[count++] = x;
@@ -176,11 +207,11 @@ int polynomial_roots(const double* c, int n, double lo, double hi, double* roots
   for (int k = 0; k + 1 < m; ++k) {
     double a = points[k], b = points[k + 1];
     double fa = polynomial(c, n, a), fb = polynomial(c, n, b);
-    if (std::abs(fa) <= zero) {
+    if (is_zero(a, fa)) {
       push(a);
       continue;
     }
-    if (std::abs(fb) <= zero) continue;  // pushed as the next interval's left end
+    if (is_zero(b, fb)) continue;  // pushed as the next interval's left end
     if ((fa < 0.0) == (fb < 0.0)) continue;
     // Newton from the bracket's middle, kept inside the bracket (bisection when a step leaves it
     // or does not halve it): one root, monotone in between.
@@ -205,7 +236,7 @@ int polynomial_roots(const double* c, int n, double lo, double hi, double* roots
     }
     push(x);
   }
-  if (std::abs(polynomial(c, n, points[m - 1])) <= zero) push(points[m - 1]);
+  if (is_zero(points[m - 1], polynomial(c, n, points[m - 1]))) push(points[m - 1]);
   return count;
 }
 
@@ -228,11 +259,6 @@ void consider(const Phases& ph, const Axis& x, Best& best, AxisProfile& scratch)
   for (int k = 0; k < ph.n; ++k) duration += ph.t[k];
   if (duration >= best.duration) return;
   lay_out(ph, x.p0, x.v0, x.a0, scratch);
-#ifdef OTG_DEBUG
-  std::fprintf(stderr, "candidate T %.17g n %d miss p %.3g v %.3g a %.3g ok %d\n", duration, ph.n,
-               scratch.p[scratch.phases] - x.pf, scratch.v[scratch.phases] - x.vf, scratch.a[scratch.phases] - x.af,
-               within_limits_and_reaches(scratch, x));
-#endif
   if (within_limits_and_reaches(scratch, x)) {
     best.duration = duration;
     best.profile = scratch;
@@ -343,11 +369,6 @@ void consider_family(Family family, const double* c, int degree, double lo, doub
   double roots[4];
   const double widen = 1e-6 * std::max(1.0, hi - lo);
   const int n = polynomial_roots(c, degree, lo - widen, hi + widen, roots);
-#ifdef OTG_DEBUG
-  std::fprintf(stderr, "family %d dir %g [%g %g] roots %d:", static_cast<int>(family), d, lo, hi, n);
-  for (int k = 0; k < n; ++k) std::fprintf(stderr, " %.17g", roots[k]);
-  std::fprintf(stderr, "\n");
-#endif
   for (int k = 0; k < n; ++k) {
     consider_root(family, roots[k], lo, hi, u, d, ax, best, scratch);
     // NONE's two signs of a5 share one polynomial.
@@ -365,9 +386,17 @@ void time_optimal_direction(const Axis& x, double d, Best& best, AxisProfile& sc
     measure(up, x.v0, x.a0, t1, d1);
     measure(down, vc, 0.0, t2, d2);
     const double cruise = (x.pf - x.p0 - d1 - d2) / vc;
-    if (cruise >= -1e-12 * std::max(1.0, std::abs(x.pf - x.p0) / x.V)) {
+    if (cruise > 0.0) {
+      // A valid cruise at the limit leaves no cruise-less profile in this direction: the ramps'
+      // distance grows with the peak velocity, so one without a cruise would need a peak above V.
       Phases ph = up;
-      ph.add(0.0, std::max(0.0, cruise));
+      ph.add(0.0, cruise);
+      ph.append(down);
+      const double before = best.duration;
+      consider(ph, x, best, scratch);
+      if (best.duration < before) return;
+    } else if (cruise >= -1e-12 * std::max(1.0, std::abs(x.pf - x.p0) / x.V)) {
+      Phases ph = up;
       ph.append(down);
       consider(ph, x, best, scratch);
     }
@@ -390,8 +419,9 @@ void time_optimal_direction(const Axis& x, double d, Best& best, AxisProfile& sc
     const double hi = std::max(1.0, std::abs(c[1]) + std::sqrt(std::abs(c[0])) + 1.0);
     consider_family(Family::Acc0Acc1, c, 2, 0.0, hi, u, d, x, best, scratch);
   }
-  // ACC0: a1 = 1, no second plateau; quartic in a5, t2 = −1 + dv + a0²/2 + a5² − af²/2.
-  {
+  // ACC0: a1 = 1, no second plateau; quartic in a5, t2 = −1 + dv + a0²/2 + a5² − af²/2 = a5² − (1 − K),
+  // which needs K ≥ 0 as |a5| ≤ 1 (and ACC1 below the opposite): at most one of them is solved.
+  if (u.K >= -1e-9) {
     c[0] = -a02 * a02 / 8.0 + a02 * a0 / 3.0 - a0 * v0 + af2 * af2 / 8.0 - af2 * af / 3.0 + af * dv + af * v0 - dp +
            dv * dv / 2.0 + dv * v0 + v0 * a02 / 2.0 - v0 * af2 / 2.0 + v0 - dv * af2 / 2.0 + dv / 2.0 - a02 / 4.0 -
            af2 / 4.0;
@@ -401,8 +431,8 @@ void time_optimal_direction(const Axis& x, double d, Best& best, AxisProfile& sc
     c[4] = 0.5;
     consider_family(Family::Acc0, c, 4, -1.0, std::min(1.0, af), u, d, x, best, scratch);
   }
-  // ACC1: a5 = −1, no first plateau; quartic in a1, t6 = −1 − dv − a0²/2 + a1² + af²/2.
-  {
+  // ACC1: a5 = −1, no first plateau; quartic in a1, t6 = −1 − dv − a0²/2 + a1² + af²/2 = a1² − (1 + K).
+  if (u.K <= 1e-9) {
     c[0] = a02 * a02 / 8.0 + a02 * a0 / 3.0 - a0 * v0 - af2 * af2 / 8.0 - af2 * af / 3.0 + af * dv + af * v0 - dp -
            dv * dv / 2.0 - dv * v0 + dv * af2 / 2.0 + dv / 2.0 + v0 * af2 / 2.0 - v0 * a02 / 2.0 + v0 - a02 / 4.0 -
            af2 / 4.0;
@@ -465,8 +495,8 @@ struct CruisePoint {
 
 CruisePoint cruise_point(const Axis& x, double T, double vc) {
   double t1, d1, t2, d2;
-  measure(velocity_ramp(x.v0, x.a0, vc, 0.0, x.A, x.J), x.v0, x.a0, t1, d1);
-  measure(velocity_ramp(vc, 0.0, x.vf, x.af, x.A, x.J), vc, 0.0, t2, d2);
+  ramp_time_distance(x.v0, x.a0, vc, 0.0, x.A, x.J, t1, d1);
+  ramp_time_distance(vc, 0.0, x.vf, x.af, x.A, x.J, t2, d2);
   const double cruise = T - t1 - t2;
   return {vc, cruise, x.p0 + d1 + d2 + vc * std::max(0.0, cruise) - x.pf};
 }
@@ -480,7 +510,7 @@ bool build_cruise(const Axis& x, double T, double vc, AxisProfile& out) {
   ph.add(0.0, std::max(0.0, T - t1 - t2));
   ph.append(down);
   lay_out(ph, x.p0, x.v0, x.a0, out);
-  return within_limits_and_reaches(out, x) && std::abs(out.duration() - T) <= 1e-9 * std::max(1.0, T);
+  return within_limits_and_reaches(out, x) && std::abs(out.duration() - T) <= 1e-12 * std::max(1.0, T);
 }
 
 // Where f changes sign between lo and hi (f(lo), f(hi) of opposite signs, or one of them 0), by the
@@ -560,6 +590,20 @@ bool cruise_over(const Axis& x, double T, const double* vs, int n, AxisProfile& 
   if (prev.cruise >= 0.0 && prev.miss == 0.0 && build_cruise(x, T, prev.vc, out)) return true;
   for (int k = 1; k < n; ++k) {
     const CruisePoint cur = cruise_point(x, T, vs[k]);
+    // The miss is continuous across the feasible set's edge (no cruise there, and none counted
+    // beyond it): when it changes sign, its root is tried first, without finding the edge, and
+    // kept if it is feasible.
+    if ((prev.cruise >= 0.0 || cur.cruise >= 0.0) && (prev.miss < 0.0) != (cur.miss < 0.0)) {
+      const auto miss = [&](double vc, double& value) {
+        value = cruise_point(x, T, vc).miss;
+        return true;
+      };
+      double vc;
+      if (sign_change(miss, prev.vc, prev.miss, cur.vc, cur.miss, 1e-15 * x.V, vc) &&
+          cruise_point(x, T, vc).cruise >= 0.0 && build_cruise(x, T, vc, out)) {
+        return true;
+      }
+    }
     CruisePoint a = prev, b = cur;
     if ((a.cruise >= 0.0) != (b.cruise >= 0.0)) {
       // One side is infeasible: move it to the edge.
@@ -593,6 +637,172 @@ bool fixed_duration(const Axis& x, double T, AxisProfile& out) {
   vs[n++] = k2;
   std::sort(vs, vs + n);
   return cruise_over(x, T, vs, n, out);
+}
+
+// Profiles of duration T made of two velocity ramps meeting at a junction (vm, am) with no
+// cruise between them: the fixed-duration profiles whose acceleration does not pass through 0 where
+// the velocity turns (Ruckig's step-2 UDUD and UDDU without a velocity plateau, e.g. jerk +, −, +,
+// − with a junction at a > 0), which the cruise family misses. For a junction acceleration am the
+// ramps' total time is V-shaped about two kinks in vm (decreasing left of both, increasing right
+// of both, concave between), so the junction velocities of duration T are found region by region
+// (left, between, right); the position each one ends at is then a function of am on each region,
+// whose sign change over a grid of am is refined by Illinois steps.
+struct Junction {
+  bool found;
+  double vm, miss;
+};
+
+inline double ramps_time(const Axis& x, double vm, double am, double& distance) {
+  double t1, d1, t2, d2;
+  ramp_time_distance(x.v0, x.a0, vm, am, x.A, x.J, t1, d1);
+  ramp_time_distance(vm, am, x.vf, x.af, x.A, x.J, t2, d2);
+  distance = d1 + d2;
+  return t1 + t2;
+}
+
+// The junction velocities of duration T in each region: 0 left of both kinks, 1 and 2 between
+// them left and right of where the (concave) total time peaks, 3 right of both kinks.
+void junctions(const Axis& x, double T, double am, Junction* out) {
+  const double k1 = x.v0 + (x.a0 + am) / 2.0 * std::abs(am - x.a0) / x.J;
+  const double k2 = x.vf - (am + x.af) / 2.0 * std::abs(x.af - am) / x.J;
+  const double lo_k = std::clamp(std::min(k1, k2), -x.V, x.V), hi_k = std::clamp(std::max(k1, k2), -x.V, x.V);
+  double d;
+  // The peak of the concave total time between the kinks, by golden-section search (it only
+  // splits the regions: no need of full precision).
+  double a = lo_k, b = hi_k;
+  constexpr double g = 0.6180339887498949;
+  double c = b - g * (b - a), e = a + g * (b - a);
+  double fc = ramps_time(x, c, am, d), fe = ramps_time(x, e, am, d);
+  for (int it = 0; it < 60 && b - a > 1e-9 * x.V; ++it) {
+    if (fc > fe) {
+      b = e;
+      e = c;
+      fe = fc;
+      c = b - g * (b - a);
+      fc = ramps_time(x, c, am, d);
+    } else {
+      a = c;
+      c = e;
+      fc = fe;
+      e = a + g * (b - a);
+      fe = ramps_time(x, e, am, d);
+    }
+  }
+  const double peak = 0.5 * (a + b);
+  const double edges[5] = {-x.V, lo_k, peak, hi_k, x.V};
+  const auto excess = [&](double vm, double& value) {
+    value = ramps_time(x, vm, am, d) - T;
+    return true;
+  };
+  for (int region = 0; region < 4; ++region) {
+    out[region] = {false, 0.0, 0.0};
+    const double lo = edges[region], hi = edges[region + 1];
+    if (!(hi > lo)) continue;
+    double f_lo, f_hi, vm;
+    excess(lo, f_lo);
+    excess(hi, f_hi);
+    if ((f_lo < 0.0) == (f_hi < 0.0)) continue;
+    if (!sign_change(excess, lo, f_lo, hi, f_hi, 1e-15 * x.V, vm)) continue;
+    ramps_time(x, vm, am, d);
+    out[region] = {true, vm, x.p0 + d - x.pf};
+  }
+}
+
+Junction junction(const Axis& x, double T, double am, int region) {
+  Junction all[4];
+  junctions(x, T, am, all);
+  return all[region];
+}
+
+bool build_junction(const Axis& x, double T, double vm, double am, AxisProfile& out) {
+  Phases ph = velocity_ramp(x.v0, x.a0, vm, am, x.A, x.J);
+  ph.append(velocity_ramp(vm, am, x.vf, x.af, x.A, x.J));
+  lay_out(ph, x.p0, x.v0, x.a0, out);
+  return within_limits_and_reaches(out, x) && std::abs(out.duration() - T) <= 1e-12 * std::max(1.0, T);
+}
+
+bool two_ramps(const Axis& x, double T, AxisProfile& out) {
+  constexpr int kGrid = 48;
+  Junction prev[4], cur[4];
+  double am_prev = -x.A;
+  junctions(x, T, am_prev, prev);
+  // The root of the miss in am on one region, between two grid points where it changes sign.
+  const auto solve = [&](int region, double lo, double f_lo, double hi, double f_hi) {
+    double vm = 0.0;
+    const auto miss = [&](double at, double& value) {
+      const Junction j = junction(x, T, at, region);
+      value = j.miss;
+      vm = j.vm;
+      return j.found;
+    };
+    double am_root, ignored;
+    return sign_change(miss, lo, f_lo, hi, f_hi, 1e-15 * x.A, am_root) && miss(am_root, ignored) &&
+           build_junction(x, T, vm, am_root, out);
+  };
+  for (int k = 1; k <= kGrid; ++k) {
+    const double am = x.A * (-1.0 + 2.0 * k / kGrid);
+    junctions(x, T, am, cur);
+    for (int region = 0; region < 4; ++region) {
+      const Junction& p = prev[region];
+      const Junction& c = cur[region];
+      if (p.found && c.found) {
+        if ((p.miss < 0.0) != (c.miss < 0.0) && solve(region, am_prev, p.miss, am, c.miss)) return true;
+      } else if (p.found != c.found) {
+        // The region ends between the two: find its last point (bisection on whether it exists)
+        // and look for the root between it and the grid point where it exists.
+        double in = p.found ? am_prev : am, gone = p.found ? am : am_prev;
+        Junction last = p.found ? p : c;
+        for (int it = 0; it < 50; ++it) {
+          const double mid = 0.5 * (in + gone);
+          const Junction j = junction(x, T, mid, region);
+          if (j.found) {
+            in = mid;
+            last = j;
+          } else {
+            gone = mid;
+          }
+        }
+        const Junction& known = p.found ? p : c;
+        const double am_known = p.found ? am_prev : am;
+        if ((known.miss < 0.0) != (last.miss < 0.0) && solve(region, am_known, known.miss, in, last.miss)) return true;
+      }
+    }
+    std::copy(cur, cur + 4, prev);
+    am_prev = am;
+  }
+  return false;
+}
+
+// When no cruise profile has duration T (T in a gap of that family, e.g. just above a minimal
+// duration whose profile never has a = 0 between its acceleration extremes): the time-optimal
+// profile under a lower jerk limit J' ≤ J whose minimal duration is exactly T. The minimal duration
+// grows as J' falls (fewer motions are allowed), so J' is found by Illinois steps on log J'.
+// Expensive (a time-optimal solve per step) but rare.
+bool reduced_jerk(const Axis& x, double T, AxisProfile& out, Best& best, AxisProfile& scratch) {
+  Axis y = x;
+  const auto excess = [&](double log_j, double& value) {
+    y.J = std::exp(log_j);
+    if (!time_optimal(y, best, scratch)) return false;
+    value = best.duration - T;
+    return true;
+  };
+  double hi = std::log(x.J), f_hi;
+  if (!excess(hi, f_hi) || f_hi > 0.0) return false;
+  double lo = hi, f_lo = f_hi;
+  for (int k = 0; k < 40 && f_lo <= 0.0; ++k) {
+    hi = lo;
+    f_hi = f_lo;
+    lo -= 1.0;
+    if (!excess(lo, f_lo)) return false;
+  }
+  if (f_lo <= 0.0) return false;
+  double log_j;
+  const auto excess_checked = [&](double at, double& value) { return excess(at, value); };
+  if (!sign_change(excess_checked, lo, f_lo, hi, f_hi, 1e-15, log_j)) return false;
+  double f;
+  if (!excess(log_j, f) || std::abs(f) > 1e-12 * std::max(1.0, T)) return false;
+  out = best.profile;
+  return true;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -711,6 +921,7 @@ bool OnlineGenerator::plan(const KinematicState& current, const KinematicState& 
   // Step 2: every axis at exactly T. An axis that cannot arrive at exactly T (a blocked interval
   // of its durations, or a duration its fixed-duration family cannot reach) raises T: first by
   // growing steps until every axis can, then by bisection back toward the lowest such T.
+  AxisProfile scratch;
   const auto synchronise = [&](double duration) {
     for (int i = 0; i < dof_; ++i) {
       const std::size_t k = static_cast<std::size_t>(i);
@@ -726,7 +937,10 @@ bool OnlineGenerator::plan(const KinematicState& current, const KinematicState& 
       double t_brake = 0.0;
       for (int m = 0; m < brake_phases.n; ++m) t_brake += brake_phases.t[m];
       AxisProfile& out = profiles_[k];
-      if (!fixed_duration(x, duration - t_brake, out)) return false;
+      if (!fixed_duration(x, duration - t_brake, out) && !two_ramps(x, duration - t_brake, out) &&
+          !reduced_jerk(x, duration - t_brake, out, best, scratch)) {
+        return false;
+      }
       if (brake_phases.n > 0) {
         Phases all = brake_phases;
         for (int m = 0; m < out.phases; ++m) all.add(out.j[m], out.t[m]);
