@@ -218,7 +218,7 @@ void quality(const std::vector<Problem>& problems) {
   std::printf("failures                       chasles %d, Ruckig %d\n", chasles_failed, ruckig_failed);
   std::printf("limit or target violations     chasles %d, Ruckig %d (sampled every %g s)\n", chasles_violations,
               ruckig_violations, kSampleStep);
-  std::printf("duration chasles / Ruckig      max %.6f (problem %d), mean %.6f, min %.6f over %d\n", ratio_max, worst,
+  std::printf("duration chasles / Ruckig      max %.9f (problem %d), mean %.9f, min %.9f over %d\n", ratio_max, worst,
               compared ? ratio_sum / compared : 0.0, ratio_min, compared);
   std::printf("                               %d above 1.02, %d above 1.0001, %d below 0.9999\n", above_2pc, above_tiny,
               below);
