@@ -650,7 +650,8 @@ bool fixed_duration(const Axis& x, double T, AxisProfile& out) {
 // the velocity turns (Ruckig's step-2 UDUD and UDDU without a velocity plateau, e.g. jerk +, −, +,
 // − with a junction at a > 0), which the cruise family misses. For a junction acceleration am the
 // ramps' total time is V-shaped about two kinks in vm (decreasing left of both, increasing right
-// of both, concave between), so the junction velocities of duration T are found region by region
+// of both, concave between, with a jump at a kink where a must dip through 0 and back), so the
+// junction velocities of duration T are found region by region
 // (left, between, right); the position each one ends at is then a function of am on each region,
 // whose sign change over a grid of am is refined by Illinois steps.
 struct Junction {
@@ -695,14 +696,19 @@ void junctions(const Axis& x, double T, double am, Junction* out) {
     }
   }
   const double peak = 0.5 * (a + b);
-  const double edges[5] = {-x.V, lo_k, peak, hi_k, x.V};
+  // A ramp's time jumps at its kink when the straight move does not change the acceleration's
+  // sign (a0, am > 0 and a velocity a hair below the straight one: a must dip below 0 and come
+  // back), so the regions stop just short of the kinks, each with its one-sided value.
+  const double off = 1e-12 * x.V;
+  const double starts[4] = {-x.V, lo_k + off, peak, hi_k + off};
+  const double ends[4] = {lo_k - off, peak, hi_k - off, x.V};
   const auto excess = [&](double vm, double& value) {
     value = ramps_time(x, vm, am, d) - T;
     return true;
   };
   for (int region = 0; region < 4; ++region) {
     out[region] = {false, 0.0, 0.0};
-    const double lo = edges[region], hi = edges[region + 1];
+    const double lo = starts[region], hi = ends[region];
     if (!(hi > lo)) continue;
     double f_lo, f_hi, vm;
     excess(lo, f_lo);
@@ -729,8 +735,12 @@ bool build_junction(const Axis& x, double T, double vm, double am, AxisProfile& 
 
 bool two_ramps(const Axis& x, double T, AxisProfile& out) {
   constexpr int kGrid = 48;
+  // Only junction accelerations the jerk can reach and leave in T: |am − a0| + |af − am| ≤ J T.
+  const double am_lo = std::max(-x.A, (x.a0 + x.af - x.J * T) / 2.0);
+  const double am_hi = std::min(x.A, (x.a0 + x.af + x.J * T) / 2.0);
+  if (!(am_hi > am_lo)) return false;
   Junction prev[4], cur[4];
-  double am_prev = -x.A;
+  double am_prev = am_lo;
   junctions(x, T, am_prev, prev);
   // The root of the miss in am on one region, between two grid points where it changes sign.
   const auto solve = [&](int region, double lo, double f_lo, double hi, double f_hi) {
@@ -742,11 +752,11 @@ bool two_ramps(const Axis& x, double T, AxisProfile& out) {
       return j.found;
     };
     double am_root, ignored;
-    return sign_change(miss, lo, f_lo, hi, f_hi, 1e-15 * x.A, am_root) && miss(am_root, ignored) &&
+    return sign_change(miss, lo, f_lo, hi, f_hi, 1e-15 * (am_hi - am_lo), am_root) && miss(am_root, ignored) &&
            build_junction(x, T, vm, am_root, out);
   };
   for (int k = 1; k <= kGrid; ++k) {
-    const double am = x.A * (-1.0 + 2.0 * k / kGrid);
+    const double am = am_lo + (am_hi - am_lo) * k / kGrid;
     junctions(x, T, am, cur);
     for (int region = 0; region < 4; ++region) {
       const Junction& p = prev[region];
