@@ -813,8 +813,7 @@ bool reduced_jerk(const Axis& x, double T, AxisProfile& out, Best& best, AxisPro
   }
   if (f_lo <= 0.0) return false;
   double log_j;
-  const auto excess_checked = [&](double at, double& value) { return excess(at, value); };
-  if (!sign_change(excess_checked, lo, f_lo, hi, f_hi, 1e-15, log_j)) return false;
+  if (!sign_change(excess, lo, f_lo, hi, f_hi, 1e-15, log_j)) return false;
   double f;
   if (!excess(log_j, f) || std::abs(f) > 1e-12 * std::max(1.0, T)) return false;
   out = best.profile;
