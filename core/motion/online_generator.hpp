@@ -52,7 +52,9 @@ class OnlineGenerator {
   /// lowered): then the plan first brings it back within them with full jerk (Ruckig's brake
   /// pre-trajectory), and only the brake may exceed them. Returns false (and a reason()) for
   /// invalid input (sizes, non-finite values, non-positive limits, target out of limits, negative
-  /// or non-finite min_duration), leaving the previous plan in place. Allocates nothing.
+  /// or non-finite min_duration), leaving the previous plan in place; or, in principle, when no
+  /// profile is found (a numerical failure, never seen in the tests and benchmarks), after which
+  /// the previous plan is not to be used. Allocates nothing.
   bool plan(const KinematicState& current, const KinematicState& target, const Limits& limits,
             double min_duration = 0.0);
 

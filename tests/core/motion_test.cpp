@@ -211,6 +211,62 @@ TEST(Motion, TargetWhereTheFastestVelocityChangeEndsTakesExactlyThatChange) {
   }
 }
 
+// A brute-force search over a discretisation: jerk ∈ {−J, 0, +J} held over steps of h = 1 (units
+// where J = 1), every sequence enumerated by iterative deepening. In these units a, 2v and 6p stay
+// integers (a' = a + u, 2v' = 2v + 2a + u, 6p' = 6p + 3·2v + 3a + u), so a sequence reaches the
+// target exactly or not at all, and since a changes by at most 1 per step it only crosses 0 at a
+// step's end: the limits hold between samples when they hold at them. Every sequence found is a
+// feasible jerk-limited motion, so the planner's minimal duration can be no longer than the
+// shortest one.
+struct Lattice {
+  int a, v2, p6;
+};
+
+bool reaches_in(const Lattice& s, const Lattice& target, int steps, int A, int V2) {
+  if (steps == 0) return s.a == target.a && s.v2 == target.v2 && s.p6 == target.p6;
+  if (std::abs(s.a - target.a) > steps) return false;  // a moves by at most 1 per step
+  for (int u = -1; u <= 1; ++u) {
+    const Lattice next{s.a + u, s.v2 + 2 * s.a + u, s.p6 + 3 * s.v2 + 3 * s.a + u};
+    if (std::abs(next.a) > A || std::abs(next.v2) > V2) continue;
+    if (reaches_in(next, target, steps - 1, A, V2)) return true;
+  }
+  return false;
+}
+
+TEST(Motion, NoDiscreteJerkSequenceReachesTheTargetSoonerThanThePlan) {
+  std::mt19937_64 rng(13);
+  const int A = 3, V2 = 12;  // |a| ≤ 3, |v| ≤ 6 (2v ≤ 12), J = 1, h = 1
+  int checked = 0;
+  for (int k = 0; k < 1500; ++k) {
+    // A start on the lattice within the limits, and a target made by a random feasible sequence.
+    Lattice start{static_cast<int>(rng() % 5) - 2, static_cast<int>(rng() % 13) - 6, 0};
+    Lattice s = start;
+    const int length = 6 + static_cast<int>(rng() % 5);
+    bool within = true;
+    for (int step = 0; step < length && within; ++step) {
+      const int u = static_cast<int>(rng() % 3) - 1;
+      s = {s.a + u, s.v2 + 2 * s.a + u, s.p6 + 3 * s.v2 + 3 * s.a + u};
+      within = std::abs(s.a) <= A && std::abs(s.v2) <= V2;
+    }
+    // The continuous plan needs the start not bound to pass V, and the target reachable within V.
+    const double a0 = start.a, v0 = start.v2 / 2.0, af = s.a, vf = s.v2 / 2.0;
+    if (!within || std::abs(v0 + a0 * std::abs(a0) / 2) > V2 / 2.0 || std::abs(vf - af * std::abs(af) / 2) > V2 / 2.0) {
+      continue;
+    }
+    int shortest = 0;
+    while (!reaches_in(start, s, shortest, A, V2)) ++shortest;
+    ASSERT_LE(shortest, length);
+    const Problem pr = single(0.0, v0, a0, s.p6 / 6.0, vf, af, V2 / 2.0, A, 1.0);
+    OnlineGenerator otg(1);
+    ASSERT_TRUE(otg.plan(pr.current, pr.target, pr.limits)) << otg.reason();
+    EXPECT_LE(otg.duration(), shortest + 1e-9) << "start a " << start.a << " 2v " << start.v2 << " target a " << s.a
+                                               << " 2v " << s.v2 << " 6p " << s.p6;
+    expect_valid(otg, pr, 1e-3);
+    ++checked;
+  }
+  EXPECT_GT(checked, 300);
+}
+
 TEST(Motion, NoAxisAloneIsFasterThanItsFastestVelocityChange) {
   std::mt19937_64 rng(11);
   for (int k = 0; k < 2000; ++k) {
