@@ -263,7 +263,7 @@ const Eigen::VectorXd& forward_dynamics(const RobotModel& model, Data& data, con
   mass_matrix(model, data, q);  // also sets data.T_local
   rnea<true, false>(model, data, qd.data(), nullptr, model.gravity(), F_tip, data.qdd);
   data.qdd = tau - data.qdd;
-  data.M_llt.compute(data.M);
+  data.M_llt.factorize(data.M);
   // A pivot (L_kk²) at rounding level is a singular M too: q̈ would be noise. The same test as
   // mass_matrix_defect's, so the two always agree.
   if (data.M_llt.info() != Eigen::Success ||

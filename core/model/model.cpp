@@ -1,5 +1,6 @@
 #include "chasles/core/model/model.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "chasles/core/lie/se3.hpp"
@@ -166,5 +167,54 @@ Data::Data(const RobotModel& model)
       ct_qd(Eigen::VectorXd::Zero(model.dof())),
       bias(Eigen::VectorXd::Zero(model.dof())),
       M_llt(model.dof()) {}
+
+namespace {
+
+// Eigen's LLT::compute with its unblocked in-place factorisation written out for small n: the same
+// operations column by column (x = M_kk − |L_k,0:k|², L_kk = √x, then the column below divided by
+// it), reading only the lower triangle of L (= M on entry) and leaving the upper one as it was.
+// N is n when known at compile time (the loops then unroll), else Eigen::Dynamic. Returns M's L1
+// norm (its largest absolute column sum, from the lower triangle as Eigen computes it) and whether
+// every pivot was positive.
+template <int N>
+bool cholesky_in_place(double* data, Eigen::Index size, double& l1_norm) {
+  Eigen::Map<Eigen::Matrix<double, N, N>> L(data, size, size);
+  const Eigen::Index n = N == Eigen::Dynamic ? size : N;
+  l1_norm = 0.0;
+  for (Eigen::Index j = 0; j < n; ++j) {
+    double sum = 0.0;
+    for (Eigen::Index i = 0; i < j; ++i) sum += std::abs(L(j, i));
+    for (Eigen::Index i = j; i < n; ++i) sum += std::abs(L(i, j));
+    l1_norm = std::max(l1_norm, sum);
+  }
+  for (Eigen::Index k = 0; k < n; ++k) {
+    double x = L(k, k);
+    for (Eigen::Index j = 0; j < k; ++j) x -= L(k, j) * L(k, j);
+    if (!(x > 0.0)) return false;
+    const double pivot = std::sqrt(x);
+    L(k, k) = pivot;
+    for (Eigen::Index i = k + 1; i < n; ++i) {
+      double sum = L(i, k);
+      for (Eigen::Index j = 0; j < k; ++j) sum -= L(i, j) * L(k, j);
+      L(i, k) = sum / pivot;
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+void CholeskyFactor::factorize(const Eigen::MatrixXd& M) {
+  m_matrix = M;  // same size: no allocation
+  const Eigen::Index n = M.rows();
+  bool ok = false;
+  switch (n) {  // the arms' sizes, unrolled
+    case 6: ok = cholesky_in_place<6>(m_matrix.data(), n, m_l1_norm); break;
+    case 7: ok = cholesky_in_place<7>(m_matrix.data(), n, m_l1_norm); break;
+    default: ok = cholesky_in_place<Eigen::Dynamic>(m_matrix.data(), n, m_l1_norm); break;
+  }
+  m_isInitialized = true;
+  m_info = ok ? Eigen::Success : Eigen::NumericalIssue;
+}
 
 }  // namespace chasles

@@ -185,6 +185,34 @@ TEST_P(Dynamics, ForwardDynamicsInvertsInverseDynamics) {
   }
 }
 
+// The hand-written factorisation in data.M_llt (CholeskyFactor::factorize) is Eigen's LLT: the same
+// factor, rcond and solve at every size the loop unrolls (6, 7) and at the others; and a matrix
+// that is not positive definite fails as Eigen's does.
+TEST(CholeskyFactor, IsEigensLlt) {
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (int n : {1, 2, 5, 6, 7, 9}) {
+    Eigen::MatrixXd A(n, n);
+    for (int i = 0; i < n; ++i) {
+      for (int j = 0; j < n; ++j) A(i, j) = normal(rng);
+    }
+    const Eigen::MatrixXd M = A * A.transpose() + 0.1 * Eigen::MatrixXd::Identity(n, n);
+    CholeskyFactor mine(n);
+    mine.factorize(M);
+    const Eigen::LLT<Eigen::MatrixXd> eigen(M);
+    ASSERT_EQ(mine.info(), Eigen::Success) << n;
+    const Eigen::MatrixXd L_mine = mine.matrixL(), L_eigen = eigen.matrixL();
+    EXPECT_TRUE(matrices_near(L_mine, L_eigen, 1e-12)) << n;
+    EXPECT_NEAR(mine.rcond(), eigen.rcond(), 1e-12 * eigen.rcond()) << n;
+    const Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(n, -1.0, 2.0);
+    EXPECT_TRUE(matrices_near(M * mine.solve(b), b, 1e-10)) << n;
+    Eigen::MatrixXd indefinite = M;
+    indefinite(n - 1, n - 1) = -1.0;
+    mine.factorize(indefinite);
+    EXPECT_EQ(mine.info(), Eigen::NumericalIssue) << n;
+  }
+}
+
 TEST_P(Dynamics, VelocityProductComesFromTheChristoffelSymbolsOfM) {
   // C_ij = ½ Σ_k (∂M_ij/∂q_k + ∂M_ik/∂q_j − ∂M_jk/∂q_i) q̇_k with ∂M by central differences; then
   // C q̇ must equal the RNEA's c, and Ṁ − 2C must be skew-symmetric (MR §8.1.3).
