@@ -63,6 +63,62 @@ std::string TargetReceiver::receive(const void* data, size_t size) {
   return {};
 }
 
+TrajectoryReceiver::TrajectoryReceiver(const RobotModel& model, SpscRing<Waypoints>& queue)
+    : waypoints_(model.dof()), column_(size_t(model.dof()), -1), queue_(queue) {
+  for (const Joint& joint : model.joints()) names_.push_back(joint.name);
+  message_.joint_names.resize(names_.size());
+  for (std::string& name : message_.joint_names) name.reserve(64);
+}
+
+std::string TrajectoryReceiver::receive(const void* data, size_t size) {
+  const int n = static_cast<int>(names_.size());
+  if (std::string why = messages::decode_checked(data, size, message_, n, messages::Finite::Required); !why.empty()) {
+    return why;
+  }
+  const joint_trajectory_t& m = message_;
+  const std::string id = std::to_string(m.id) + ": ";  // after the node's "trajectory "
+  if (m.num_points < 1 || m.num_points > Waypoints::kMaxPoints) {
+    return id + std::to_string(m.num_points) + " waypoints; 1 to " + std::to_string(Waypoints::kMaxPoints) + " are taken";
+  }
+  if ((m.num_velocities != 0 && m.num_velocities != m.num_points) ||
+      (m.num_accelerations != 0 && m.num_accelerations != m.num_points)) {
+    return id + "velocities and accelerations come for every waypoint or none (" + std::to_string(m.num_points) +
+           " waypoints, " + std::to_string(m.num_velocities) + " velocities, " + std::to_string(m.num_accelerations) +
+           " accelerations)";
+  }
+  if (m.num_accelerations != 0 && m.num_velocities == 0) return id + "accelerations without velocities";
+  std::fill(column_.begin(), column_.end(), -1);
+  for (int c = 0; c < n; ++c) {
+    const auto it = std::find(names_.begin(), names_.end(), m.joint_names[size_t(c)]);
+    if (it == names_.end()) return id + "joint '" + m.joint_names[size_t(c)] + "' is not one of the arm's";
+    int& column = column_[size_t(it - names_.begin())];
+    if (column >= 0) return id + "joint '" + m.joint_names[size_t(c)] + "' is named twice";
+    column = c;
+  }
+  Waypoints& w = waypoints_;
+  w.id = m.id;
+  w.count = m.num_points;
+  w.has_velocities = m.num_velocities != 0;
+  w.has_accelerations = m.num_accelerations != 0;
+  for (int k = 0; k < m.num_points; ++k) {
+    w.time(k) = m.time_from_start[size_t(k)];
+    for (int i = 0; i < n; ++i) {
+      const size_t c = size_t(column_[size_t(i)]);
+      w.q(i, k) = m.positions[size_t(k)][c];
+      w.qd(i, k) = w.has_velocities ? m.velocities[size_t(k)][c] : 0.0;
+      w.qdd(i, k) = w.has_accelerations ? m.accelerations[size_t(k)][c] : 0.0;
+    }
+  }
+  for (int i = 0; i < n; ++i) {
+    w.path_tolerance(i) = m.path_tolerance[size_t(column_[size_t(i)])];
+    w.goal_tolerance(i) = m.goal_tolerance[size_t(column_[size_t(i)])];
+  }
+  w.goal_time = m.goal_time_tolerance;
+  w.time_scaling = m.time_scaling;
+  if (!queue_.push(w)) return id + "not taken: the controller has not caught up with the trajectories before it";
+  return {};
+}
+
 namespace {
 constexpr std::pair<Law, int8_t> kWireLaws[] = {
     {Law::kComputedTorque, control_mode_t::COMPUTED_TORQUE},

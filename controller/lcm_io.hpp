@@ -12,6 +12,7 @@
 #include <chasles/arm_target_t.hpp>
 #include <chasles/control_mode_t.hpp>
 #include <chasles/joint_torque_command_t.hpp>
+#include <chasles/joint_trajectory_t.hpp>
 #include <chasles/payload_t.hpp>
 #include <chasles/robot_state_t.hpp>
 #include <cstdint>
@@ -28,14 +29,15 @@ namespace chasles::controller {
 
 /// Channel names: a configurable prefix, so several arms can share one network.
 struct Channels {
-  std::string state, command, target, status, mode, payload;
+  std::string state, command, target, status, mode, payload, trajectory;
   explicit Channels(const std::string& prefix = "CHASLES_")
       : state(prefix + "STATE"),
         command(prefix + "COMMAND"),
         target(prefix + "TARGET"),
         status(prefix + "STATUS"),
         mode(prefix + "MODE"),
-        payload(prefix + "PAYLOAD") {}
+        payload(prefix + "PAYLOAD"),
+        trajectory(prefix + "TRAJECTORY") {}
 };
 
 /// Counts rejected messages and keeps the latest reason, for the status report. Lock-free: with
@@ -90,6 +92,27 @@ class TargetReceiver {
   arm_target_t message_;
   Target target_;
   SpscRing<Target>& queue_;
+};
+
+/// joint_trajectory_t → Waypoints in `queue`, in the arm's joint order. Structure is checked here
+/// (counts, every joint named once, finite values); meaning — times, limits, tolerances — by
+/// Controller::set_trajectory. Decoding up to 1000 waypoints may allocate on the receiving thread
+/// (lcm-gen's rows); what reaches the loop does not.
+class TrajectoryReceiver {
+ public:
+  TrajectoryReceiver(const RobotModel& model, SpscRing<Waypoints>& queue);
+  TrajectoryReceiver(const TrajectoryReceiver&) = delete;
+  TrajectoryReceiver& operator=(const TrajectoryReceiver&) = delete;
+
+  /// Checks, decodes and queues one message; returns an empty string or why it was refused.
+  std::string receive(const void* data, size_t size);
+
+ private:
+  std::vector<std::string> names_;  // the arm's joints, root to tip
+  joint_trajectory_t message_;
+  Waypoints waypoints_;
+  std::vector<int> column_;  // the message's column of each of the arm's joints
+  SpscRing<Waypoints>& queue_;
 };
 
 /// A law's value on the wire (control_mode_t.law, controller_status_t.law), and back: false for a

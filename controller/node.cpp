@@ -8,6 +8,14 @@
 
 namespace chasles::controller {
 
+static_assert(TrajectoryProgress::kNone == controller_status_t::TRAJECTORY_NONE &&
+                  TrajectoryProgress::kActive == controller_status_t::TRAJECTORY_ACTIVE &&
+                  TrajectoryProgress::kSucceeded == controller_status_t::TRAJECTORY_SUCCEEDED &&
+                  TrajectoryProgress::kAborted == controller_status_t::TRAJECTORY_ABORTED &&
+                  TrajectoryProgress::kPreempted == controller_status_t::TRAJECTORY_PREEMPTED &&
+                  TrajectoryProgress::kRejected == controller_status_t::TRAJECTORY_REJECTED,
+              "the status's trajectory outcomes are TrajectoryProgress's");
+
 Node::Snapshot::Snapshot(int n)
     : q(Eigen::VectorXd::Zero(n)),
       q_desired(Eigen::VectorXd::Zero(n)),
@@ -41,6 +49,7 @@ Node::Loop::Loop(const RobotModel& model, const Config& control, double payload_
       command_encoder(model.dof()),
       state(model.dof()),
       target(model.dof()),
+      waypoints(model.dof()),
       mode(model.dof()),
       payload_mass(payload_mass_in),
       request(model.dof()),
@@ -69,11 +78,13 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
       modes_(8, LawSettings(n_)),
       states_(JointState(n_)),
       targets_(16, Target(n_)),
+      trajectories_(2, Waypoints(n_)),
       snapshots_(Snapshot(n_)),
       requests_(CartesianRequest(n_)),
       paths_(2, JointPath(n_)),
       state_receiver_(n_, states_),
       target_receiver_(n_, targets_),
+      trajectory_receiver_(model, trajectories_),
       mode_receiver_(n_, modes_),
       payload_receiver_(payloads_, planner_bell_),
       command_watch_(sent_commands_),
@@ -87,6 +98,11 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
   }));
   subscriptions_.push_back(buses.receive.subscribe(channels_.target, [this](const uint8_t* data, size_t size) {
     if (const std::string why = target_receiver_.receive(data, size); !why.empty()) rejections_.add("target " + why);
+  }));
+  subscriptions_.push_back(buses.receive.subscribe(channels_.trajectory, [this](const uint8_t* data, size_t size) {
+    if (const std::string why = trajectory_receiver_.receive(data, size); !why.empty()) {
+      rejections_.add("trajectory " + why);
+    }
   }));
   subscriptions_.push_back(buses.receive.subscribe(channels_.mode, [this](const uint8_t* data, size_t size) {
     if (const std::string why = mode_receiver_.receive(data, size); !why.empty()) rejections_.add("control mode " + why);
@@ -136,6 +152,7 @@ int64_t Node::tick(int64_t scheduled) {
   // Modes before targets: a target sent after a law is meant for it.
   while (modes_.pop(loop_.mode)) loop_.controller.set_law(loop_.mode, wake);
   while (targets_.pop(loop_.target)) loop_.controller.set_target(loop_.target, wake);
+  while (trajectories_.pop(loop_.waypoints)) loop_.controller.set_trajectory(loop_.waypoints, wake);
   if (loop_.controller.take_request(loop_.request)) {
     requests_.write(loop_.request);
     planner_bell_.ring();
@@ -187,10 +204,12 @@ int64_t Node::tick(int64_t scheduled) {
   // The status goes out at once on what an operator must hear about now.
   const int64_t rejected = loop_.controller.rejected_targets() + loop_.controller.rejected_modes(),
                 foreign = command_watch_.foreign();
+  const TrajectoryProgress::Outcome outcome = loop_.controller.trajectory().outcome;
   if (loop_.controller.mode() != mode_before || rejected != loop_.noticed_rejections ||
-      foreign != loop_.noticed_foreign) {
+      foreign != loop_.noticed_foreign || outcome != loop_.noticed_outcome) {
     loop_.noticed_rejections = rejected;
     loop_.noticed_foreign = foreign;
+    loop_.noticed_outcome = outcome;
     reporter_bell_.ring();
   }
   return next;
@@ -247,6 +266,7 @@ void Node::publish_snapshot() {
   s.ik_iterations = loop_.controller.ik_iterations();
   s.ik_residual = loop_.controller.ik_residual();
   s.ik_converged = loop_.controller.ik_converged();
+  s.trajectory = loop_.controller.trajectory();
   snapshots_.publish();
 }
 
@@ -329,6 +349,14 @@ int64_t Node::report() {
     }
     reporter_.period_warned = mismatch;
   }
+  if (s.trajectory.outcome != TrajectoryProgress::kRejected &&
+      (s.trajectory.id != reporter_.reported_trajectory || s.trajectory.outcome != reporter_.reported_outcome)) {
+    // Refusals are said above, as targets; what a trajectory taken becomes is said here.
+    std::fprintf(stderr, "chasles_controller: trajectory %lld %s%s%s\n", static_cast<long long>(s.trajectory.id),
+                 to_string(s.trajectory.outcome), *s.trajectory.message ? ": " : "", s.trajectory.message);
+  }
+  reporter_.reported_trajectory = s.trajectory.id;
+  reporter_.reported_outcome = s.trajectory.outcome;
   if (rejections_.count() != reporter_.reported_wire) {
     std::fprintf(stderr, "chasles_controller: rejected %lld message(s), last: %s\n",
                  static_cast<long long>(rejections_.count() - reporter_.reported_wire), rejections_.last());
@@ -370,6 +398,13 @@ void Node::fill_status() {
   status.law = law_to_wire(s.law);
   status.payload_mass = s.payload_mass;
   status.state_period = s.state_period;
+  status.trajectory_id = s.trajectory.id;
+  status.trajectory_outcome = static_cast<int8_t>(s.trajectory.outcome);
+  status.trajectory_elapsed = s.trajectory.elapsed;
+  status.trajectory_duration = s.trajectory.duration;
+  status.trajectory_time_scale = s.trajectory.scale;
+  status.trajectory_waypoint = s.trajectory.waypoint;
+  status.trajectory_message = s.trajectory.message;
   const Transform& T = forward_kinematics(model_, reporter_.data, s.q);
   const Eigen::Quaterniond quaternion(T.linear());
   for (int i = 0; i < 3; ++i) status.tip_position[i] = T.translation()(i);

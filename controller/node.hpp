@@ -124,6 +124,7 @@ class Node {
     char mode_rejection[192] = {};
     int64_t rejected_modes = 0;
     bool mode_refused_last = false;  // the newer of the two refusals is the law's
+    TrajectoryProgress trajectory;
     explicit Snapshot(int n = 0);
   };
   // Timing figures of the status window and of the whole run.
@@ -163,12 +164,14 @@ class Node {
   SpscRing<LawSettings> modes_;
   Mailbox<JointState> states_;
   SpscRing<Target> targets_;
+  SpscRing<Waypoints> trajectories_;
   Mailbox<Snapshot> snapshots_;
   SpscRing<TickRecord> records_{8192};
   Mailbox<CartesianRequest> requests_;  // loop → IK: only the newest request matters
   SpscRing<JointPath> paths_;           // IK → loop
   StateReceiver state_receiver_;
   TargetReceiver target_receiver_;
+  TrajectoryReceiver trajectory_receiver_;
   ModeReceiver mode_receiver_;
   PayloadReceiver payload_receiver_;
   SentCommands sent_commands_;
@@ -186,6 +189,7 @@ class Node {
     CommandEncoder command_encoder;
     JointState state;
     Target target;
+    Waypoints waypoints;
     LawSettings mode;
     double payload_mass;
     int64_t modes_seen = 0, targets_seen = 0;  // refused, to tell which refusal came last
@@ -196,6 +200,7 @@ class Node {
     bool have_state = false;
     int64_t answered_seq = -1, seq = 0;
     int64_t noticed_rejections = 0, noticed_foreign = 0;  // what the reporter was last rung for
+    TrajectoryProgress::Outcome noticed_outcome = TrajectoryProgress::kNone;
   } loop_;
 
   // The IK worker's: plan().
@@ -222,6 +227,8 @@ class Node {
     Mode reported_mode = Mode::kWaiting;
     int64_t reported_rejections = 0, reported_wire = 0, reported_modes = 0, reported_faults = 0;
     bool period_warned = false;
+    int64_t reported_trajectory = 0;
+    TrajectoryProgress::Outcome reported_outcome = TrajectoryProgress::kNone;
     int64_t last_status_ns = INT64_MIN / 2;
   } reporter_;
 };

@@ -15,9 +15,11 @@
 #include <chasles/control_mode_t.hpp>
 #include <chasles/controller_status_t.hpp>
 #include <chasles/joint_torque_command_t.hpp>
+#include <chasles/joint_trajectory_t.hpp>
 #include <chasles/payload_t.hpp>
 #include <chasles/robot_state_t.hpp>
 #include <chasles/sim_truth_t.hpp>
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -56,6 +58,10 @@ inline constexpr size_t kTargetCount = 8 + 8 + 1;            // utime, mode
 inline constexpr size_t kStatusStringLength = 8 + 8 + 1;     // utime, state
 inline constexpr size_t kTruthCount = 8 + 8 + 8;             // utime, seq
 inline constexpr size_t kModeCount = 8 + 8 + 1;              // utime, law
+inline constexpr size_t kTrajectoryCounts = 8 + 8 + 8;       // utime, id: then four counts
+// controller_status_t's trajectory_message follows its joint arrays (5 per joint) and 301 bytes of
+// fixed-size fields, counted from the end of num_joints.
+inline constexpr size_t kStatusTrajectoryStringAfterCount = 301;
 // control_mode_t's num_posture follows its two joint arrays and 8 + 36 + 3 + 4 doubles.
 inline constexpr size_t kModePostureAfterJoints = 8 * (1 + 36 + 3 + 4);
 
@@ -100,9 +106,49 @@ inline std::string prepare(const void* data, size_t size, controller_status_t& m
     return "message string of " + std::to_string(length) + " bytes in a message of " + std::to_string(size) + " bytes";
   }
   m.message.assign(size_t(length - 1), ' ');
-  if (!read_int32(data, size, kStatusStringLength + 4 + size_t(length), m.num_joints)) return truncated(size);
+  const size_t count_at = kStatusStringLength + 4 + size_t(length);
+  if (!read_int32(data, size, count_at, m.num_joints)) return truncated(size);
   if (std::string why = impossible_count(m.num_joints, size); !why.empty()) return why;
   for (auto* v : {&m.q, &m.q_desired, &m.tracking_error, &m.torque}) v->assign(size_t(m.num_joints), 0.0);
+  int32_t trajectory_length = 0;
+  const size_t trajectory_at = count_at + 4 + 40 * size_t(m.num_joints) + kStatusTrajectoryStringAfterCount;
+  if (!read_int32(data, size, trajectory_at, trajectory_length)) return truncated(size);
+  if (trajectory_length < 1 || uint64_t(trajectory_length) > size) {
+    return "trajectory_message string of " + std::to_string(trajectory_length) + " bytes in a message of " +
+           std::to_string(size) + " bytes";
+  }
+  m.trajectory_message.assign(size_t(trajectory_length - 1), ' ');
+  return {};
+}
+
+// The four counts, then each joint name's length (walking the strings), so that getEncodedSize()
+// is what the bytes must be. The sender's counts bound what is allocated: each waypoint takes
+// at least 8 bytes per joint, each name 5.
+inline std::string prepare(const void* data, size_t size, joint_trajectory_t& m) {
+  int32_t counts[4] = {};
+  for (int k = 0; k < 4; ++k) {
+    if (!read_int32(data, size, kTrajectoryCounts + 4 * size_t(k), counts[k])) return truncated(size);
+  }
+  m.num_joints = counts[0], m.num_points = counts[1], m.num_velocities = counts[2], m.num_accelerations = counts[3];
+  if (std::string why = impossible_count(m.num_joints, size); !why.empty()) return why;
+  for (int k = 1; k < 4; ++k) {
+    if (counts[k] < 0 || uint64_t(counts[k]) * 8 * uint64_t(std::max(m.num_joints, 1)) > size) {
+      static const char* const names[] = {"", "num_points", "num_velocities", "num_accelerations"};
+      return std::string(names[k]) + " " + std::to_string(counts[k]) + " for " + std::to_string(m.num_joints) +
+             " joints in a message of " + std::to_string(size) + " bytes";
+    }
+  }
+  m.joint_names.resize(size_t(m.num_joints));
+  size_t at = kTrajectoryCounts + 16;
+  for (std::string& name : m.joint_names) {
+    int32_t length = 0;
+    if (!read_int32(data, size, at, length)) return truncated(size);
+    if (length < 1 || uint64_t(length) > size - at) {
+      return "a joint name of " + std::to_string(length) + " bytes in a message of " + std::to_string(size) + " bytes";
+    }
+    name.assign(size_t(length - 1), ' ');
+    at += 4 + size_t(length);
+  }
   return {};
 }
 
@@ -166,6 +212,22 @@ inline const char* non_finite(const payload_t& m) {
          : !finite(m.centre_of_mass, 3)          ? "centre_of_mass"
          : !finite(&m.inertia[0][0], 9)          ? "inertia"
                                                  : nullptr;
+}
+inline bool finite(const std::vector<std::vector<double>>& rows) {
+  for (const auto& row : rows) {
+    if (!finite(row)) return false;
+  }
+  return true;
+}
+inline const char* non_finite(const joint_trajectory_t& m) {
+  return !finite(m.time_from_start)                 ? "time_from_start"
+         : !finite(m.positions)                     ? "positions"
+         : !finite(m.velocities)                    ? "velocities"
+         : !finite(m.accelerations)                 ? "accelerations"
+         : !finite(m.path_tolerance)                ? "path_tolerance"
+         : !finite(m.goal_tolerance)                ? "goal_tolerance"
+         : !std::isfinite(m.goal_time_tolerance)    ? "goal_time_tolerance"
+                                                    : nullptr;
 }
 inline const char* non_finite(const arm_target_t& m) {
   return !finite(m.joint_position)      ? "joint_position"

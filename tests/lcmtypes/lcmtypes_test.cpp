@@ -8,6 +8,7 @@
 #include <chasles/control_mode_t.hpp>
 #include <chasles/controller_status_t.hpp>
 #include <chasles/joint_torque_command_t.hpp>
+#include <chasles/joint_trajectory_t.hpp>
 #include <chasles/payload_t.hpp>
 #include <chasles/robot_state_t.hpp>
 #include <cmath>
@@ -15,6 +16,7 @@
 #include <limits>
 #include <set>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -135,7 +137,36 @@ controller_status_t make_status() {
   status.law = control_mode_t::CARTESIAN_IMPEDANCE;
   status.payload_mass = 1.375;
   status.state_period = 0.005;
+  status.trajectory_id = -42;
+  status.trajectory_outcome = controller_status_t::TRAJECTORY_ABORTED;
+  status.trajectory_elapsed = 1.25;
+  status.trajectory_duration = 4.5;
+  status.trajectory_time_scale = 1.5;
+  status.trajectory_waypoint = 3;
+  status.trajectory_message = "joint j2: 0.02 rad off the path at 1.250 s, over its tolerance 0.01";
   return status;
+}
+
+joint_trajectory_t make_trajectory(int points, bool velocities, bool accelerations) {
+  joint_trajectory_t t;
+  t.utime = 1'790'000'000'000'001;
+  t.id = 77;
+  t.num_joints = kJoints;
+  t.num_points = points;
+  t.num_velocities = velocities ? points : 0;
+  t.num_accelerations = accelerations ? points : 0;
+  for (int i = 0; i < kJoints; ++i) t.joint_names.push_back("joint_" + std::string(size_t(i + 1), 'x'));
+  for (int k = 0; k < points; ++k) {
+    t.time_from_start.push_back(0.5 * (k + 1));
+    t.positions.push_back(values(kJoints, 0.1 * k));
+    if (velocities) t.velocities.push_back(values(kJoints, -0.2 * k));
+    if (accelerations) t.accelerations.push_back(values(kJoints, 0.3 * k));
+  }
+  t.path_tolerance = values(kJoints, 0.01);
+  t.goal_tolerance = values(kJoints, 0.002);
+  t.goal_time_tolerance = 0.5;
+  t.time_scaling = true;
+  return t;
 }
 
 // A mode with num_joints = joints and num_posture = posture; every number differs from the others
@@ -278,9 +309,12 @@ TEST(lcmtypes, ControllerStatusRoundTrips) {
   // fingerprint, utime, state, message, num_joints, q, q_desired, tracking_error, tip position
   // and quaternion, torque, ik (int32, double, boolean), nine timing doubles, five counters,
   // tau_ext, the tip wrench, contact and collision, two counters, the law (int8), the payload's
-  // mass and the state period (doubles)
+  // mass and the state period (doubles), the trajectory's id, outcome, three doubles, waypoint
+  // and message
+  const size_t trajectory_string = 4 + status.trajectory_message.size() + 1;
   EXPECT_EQ(buffer.size(), kHash + 8 + 1 + string_size + 4 + 3 * 8 * kJoints + 8 * 3 + 8 * 4 + 8 * kJoints +
-                               (4 + 8 + 1) + 9 * 8 + 5 * 8 + 8 * kJoints + 6 * 8 + 2 + 2 * 8 + 1 + 8 + 8);
+                               (4 + 8 + 1) + 9 * 8 + 5 * 8 + 8 * kJoints + 6 * 8 + 2 + 2 * 8 + 1 + 8 + 8 +
+                               (8 + 1 + 3 * 8 + 4) + trajectory_string);
   const auto back = decode<controller_status_t>(buffer);
   EXPECT_EQ(back.utime, status.utime);
   EXPECT_EQ(back.state, controller_status_t::FAULT);
@@ -318,7 +352,70 @@ TEST(lcmtypes, ControllerStatusRoundTrips) {
   EXPECT_EQ(back.law, control_mode_t::CARTESIAN_IMPEDANCE);
   EXPECT_EQ(back.payload_mass, status.payload_mass);
   EXPECT_EQ(back.state_period, status.state_period);
+  EXPECT_EQ(back.trajectory_id, -42);
+  EXPECT_EQ(back.trajectory_outcome, controller_status_t::TRAJECTORY_ABORTED);
+  EXPECT_EQ(back.trajectory_elapsed, 1.25);
+  EXPECT_EQ(back.trajectory_duration, 4.5);
+  EXPECT_EQ(back.trajectory_time_scale, 1.5);
+  EXPECT_EQ(back.trajectory_waypoint, 3);
+  EXPECT_EQ(back.trajectory_message, status.trajectory_message);
   expect_damage_refused<controller_status_t>(buffer);
+  // The checked decoder finds both strings' lengths in the raw bytes, with any message length.
+  for (const std::string message : {"", "x", "a longer message of the controller's"}) {
+    controller_status_t other = status;
+    other.message = message;
+    other.trajectory_message = message + "!";
+    const std::vector<uint8_t> bytes = encode(other);
+    controller_status_t checked;
+    ASSERT_EQ(messages::decode_checked(bytes.data(), bytes.size(), checked, kJoints), "");
+    EXPECT_EQ(checked.message, message);
+    EXPECT_EQ(checked.trajectory_message, message + "!");
+    EXPECT_EQ(checked.state_period, status.state_period);
+  }
+}
+
+TEST(lcmtypes, JointTrajectoryRoundTripsAndItsCheckedDecoderReadsEveryCount) {
+  for (const auto& [points, velocities, accelerations] :
+       {std::tuple{1, false, false}, std::tuple{3, true, false}, std::tuple{4, true, true}}) {
+    SCOPED_TRACE(std::to_string(points) + " points");
+    const joint_trajectory_t t = make_trajectory(points, velocities, accelerations);
+    const std::vector<uint8_t> buffer = encode(t);
+    size_t names = 0;
+    for (const std::string& name : t.joint_names) names += 4 + name.size() + 1;
+    // fingerprint, utime, id, four counts, the names, times, the rows, two tolerances, goal time,
+    // time_scaling
+    const size_t rows = size_t(points) * (1 + size_t(velocities) + size_t(accelerations));
+    EXPECT_EQ(buffer.size(), kHash + 8 + 8 + 4 * 4 + names + 8 * size_t(points) + 8 * kJoints * rows +
+                                 2 * 8 * kJoints + 8 + 1);
+    joint_trajectory_t checked;
+    ASSERT_EQ(messages::decode_checked(buffer.data(), buffer.size(), checked, kJoints, messages::Finite::Required), "");
+    EXPECT_EQ(checked.id, 77);
+    EXPECT_EQ(checked.joint_names, t.joint_names);
+    EXPECT_EQ(checked.time_from_start, t.time_from_start);
+    EXPECT_EQ(checked.positions, t.positions);
+    EXPECT_EQ(checked.velocities, t.velocities);
+    EXPECT_EQ(checked.accelerations, t.accelerations);
+    EXPECT_EQ(checked.path_tolerance, t.path_tolerance);
+    EXPECT_EQ(checked.goal_tolerance, t.goal_tolerance);
+    EXPECT_EQ(checked.goal_time_tolerance, 0.5);
+    EXPECT_TRUE(checked.time_scaling);
+    expect_damage_refused<joint_trajectory_t>(buffer);
+  }
+  const std::vector<uint8_t> bytes = encode(make_trajectory(2, false, false));
+  // The counts sit after the fingerprint, utime and id; the first name's length after them.
+  EXPECT_EQ(decode_checked<joint_trajectory_t>(with_int32(bytes, 24, uint32_t(-1))),
+            "num_joints -1 in a message of " + std::to_string(bytes.size()) + " bytes");
+  EXPECT_EQ(decode_checked<joint_trajectory_t>(with_int32(bytes, 28, 1'000'000)),
+            "num_points 1000000 for " + std::to_string(kJoints) + " joints in a message of " +
+                std::to_string(bytes.size()) + " bytes");
+  EXPECT_EQ(decode_checked<joint_trajectory_t>(with_int32(bytes, 40, 100'000)),
+            "a joint name of 100000 bytes in a message of " + std::to_string(bytes.size()) + " bytes");
+  EXPECT_EQ(decode_checked<joint_trajectory_t>(bytes, kJoints + 1), "for " + std::to_string(kJoints) +
+                                                                        " joints; the arm has " +
+                                                                        std::to_string(kJoints + 1));
+  joint_trajectory_t nan = make_trajectory(2, false, false);
+  nan.positions[1][0] = std::nan("");
+  EXPECT_EQ(decode_checked<joint_trajectory_t>(encode(nan)), "with non-finite positions");
 }
 
 TEST(lcmtypes, ControlModeRoundTrips) {
@@ -489,8 +586,9 @@ TEST(lcmtypes, PayloadCheckedDecoderRefusesWhatIsNotAPayload) {
 TEST(lcmtypes, TypesAreNotInterchangeable) {
   const std::set<int64_t> hashes = {robot_state_t::getHash(),  joint_torque_command_t::getHash(),
                                     arm_target_t::getHash(),   controller_status_t::getHash(),
-                                    control_mode_t::getHash(), payload_t::getHash()};
-  EXPECT_EQ(hashes.size(), 6u);
+                                    control_mode_t::getHash(), payload_t::getHash(),
+                                    joint_trajectory_t::getHash()};
+  EXPECT_EQ(hashes.size(), 7u);
 
   const std::vector<uint8_t> state = encode(make_state(kJoints));
   joint_torque_command_t command;
@@ -508,11 +606,13 @@ TEST(lcmtypes, FingerprintsArePinned) {
   EXPECT_EQ(static_cast<uint64_t>(joint_torque_command_t::getHash()), 0xd037d1c904e0e80fu);
   EXPECT_EQ(static_cast<uint64_t>(arm_target_t::getHash()), 0x309277be8aae6666u);
   // controller_status_t gained the contact fields at its end ([K]), then the law and the payload's
-  // mass, then the state period ([M]) at its end; no field changed meaning, and a reader built on an older contract refuses the
-  // new one by its fingerprint.
-  EXPECT_EQ(static_cast<uint64_t>(controller_status_t::getHash()), 0x21239e954eb81f7fu);
+  // mass, then the state period ([M]), then the trajectory's progress ([N]) at its end; no field
+  // changed meaning, and a reader built on an older contract refuses the new one by its
+  // fingerprint.
+  EXPECT_EQ(static_cast<uint64_t>(controller_status_t::getHash()), 0xb69f5d18da245f61u);
   EXPECT_EQ(static_cast<uint64_t>(control_mode_t::getHash()), 0xe4a15f556715af84u);
   EXPECT_EQ(static_cast<uint64_t>(payload_t::getHash()), 0x38b055cd3dfdfa1fu);
+  EXPECT_EQ(static_cast<uint64_t>(joint_trajectory_t::getHash()), 0xd964c2fb834f2258u);
 }
 
 }  // namespace

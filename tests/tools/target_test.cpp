@@ -11,11 +11,13 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "support/bus_listener.hpp"
+#include "chasles/lcmtypes/checked.hpp"
 #include "support/process.hpp"
 #include "support/reference.hpp"
 
@@ -121,6 +123,58 @@ TEST(target, JointGoalIsSentExactly) {
   EXPECT_EQ(out["utime"], target.utime);
 }
 
+// A trajectory file, sent as a joint_trajectory_t on PREFIX TRAJECTORY: the joints named by the
+// URDF when the file names none, the tolerances per joint from one number, every value exact.
+TEST(target, TrajectoryFileIsSentAsAJointTrajectory) {
+  testing::BusListener ear(kLcmUrl, "TEST_TRAJECTORY");
+  const std::string file = ::testing::TempDir() + "trajectory_" + std::to_string(::getpid()) + ".json";
+  {
+    std::ofstream out(file);
+    out << R"({"id": 12, "points": [
+      {"time_from_start": 0.5, "positions": [0.1, -0.3, 0.25, -0.5, -0.1, 1.7, 0.0], "velocities": [0, 0, 0.1, 0, 0, 0, 0]},
+      {"time_from_start": 1.25, "positions": [0.2, -0.3, 0.25, -0.6, -0.1, 1.7, 0.1], "velocities": [0, 0, 0, 0, 0, 0, 0]}],
+      "path_tolerance": 0.05, "goal_tolerance": [0.001, 0.001, 0.001, 0.001, 0.001, 0.001, 0.002],
+      "goal_time_tolerance": 0.5, "time_scaling": true})";
+  }
+  const json out = sent_json(run_target(concat(concat(panda_args(), kWire), {"--trajectory", file})));
+  const auto& heard = ear.listen(2.0, 1);
+  ASSERT_EQ(heard.size(), 1u);
+  joint_trajectory_t t;
+  ASSERT_EQ(messages::decode_checked(heard[0].data(), heard[0].size(), t, 7, messages::Finite::Required), "");
+  EXPECT_EQ(t.id, 12);
+  EXPECT_EQ(t.joint_names[0], "panda_joint1");
+  EXPECT_EQ(t.joint_names[6], "panda_joint7");
+  EXPECT_EQ(t.time_from_start, (std::vector<double>{0.5, 1.25}));
+  EXPECT_EQ(t.positions[1], (std::vector<double>{0.2, -0.3, 0.25, -0.6, -0.1, 1.7, 0.1}));
+  EXPECT_EQ(t.num_velocities, 2);
+  EXPECT_EQ(t.velocities[0][2], 0.1);
+  EXPECT_EQ(t.num_accelerations, 0);
+  EXPECT_EQ(t.path_tolerance, std::vector<double>(7, 0.05));
+  EXPECT_EQ(t.goal_tolerance[6], 0.002);
+  EXPECT_EQ(t.goal_time_tolerance, 0.5);
+  EXPECT_TRUE(t.time_scaling);
+  EXPECT_EQ(out["channel"], "TEST_TRAJECTORY");
+  EXPECT_EQ(out["points"], 2);
+  EXPECT_EQ(out["duration"], 1.25);
+  EXPECT_EQ(out["utime"], t.utime);
+
+  // Refused before anything is sent: times that do not increase, a waypoint outside the limits.
+  for (const auto& [points, words] :
+       {std::pair{R"([{"time_from_start": 1, "positions": [0,0,0,-1,0,1,0]}, {"time_from_start": 1, "positions": [0,0,0,-1,0,1,0]}])",
+                  "waypoint 1: time_from_start 1 s is not after 1 s"},
+        std::pair{R"([{"time_from_start": 1, "positions": [0,0,0,0.5,0,1,0]}])",
+                  "waypoint 0: joint panda_joint4 = 0.5 is outside its limits"},
+        std::pair{R"([{"time_from_start": 1, "positions": [0,0,0,-1,0,1]}])",
+                  "\"positions\" must be a number or a list of 7 numbers"}}) {
+    std::ofstream(file) << "{\"points\": " << points << "}";
+    const Result r = run_target(concat(concat(panda_args(), kWire), {"--trajectory", file}));
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_NE(r.err.find(words), std::string::npos) << r.err;
+  }
+  EXPECT_TRUE(ear.listen(0.2).size() == 1u) << "nothing more was sent";
+  std::remove(file.c_str());
+}
+
 TEST(target, PoseIsSentWithTheQuaternionNormalised) {
   Listener listener("TEST_TARGET");
   const json out =
@@ -209,9 +263,10 @@ TEST(target, UsageErrorsExitTwo) {
     EXPECT_EQ(r.err.rfind("chasles: ", 0), 0u) << r.err;
     EXPECT_NE(r.err.find(needle), std::string::npos) << "expected '" << needle << "' in: " << r.err;
   };
-  usage({}, "exactly one of --hold, --joint and --pose");
+  usage({}, "exactly one of --hold, --joint, --pose and --trajectory");
   usage({"--hold", "--pose", "0,0,0,1,0,0,0", "--duration", "1"}, "exactly one of");
   usage({"--hold", "--duration", "1"}, "--hold takes no --duration");
+  usage({"--trajectory", "t.json", "--duration", "1"}, "--trajectory takes no --duration");
   usage(concat(panda_args(), {"--joint", "0,0,0,-1,0,1,0"}), "--joint needs --duration");
   usage({"--joint", "0,0,0,-1,0,1,0", "--duration", "1"}, "--joint needs --robot");
   usage({"--pose", "0,0,0,1,0,0,0"}, "--pose needs --duration");

@@ -1,0 +1,168 @@
+// Waypoint trajectories over the bus, in simulated time: a planner's joint_trajectory_t sent on
+// PREFIX TRAJECTORY to the controller driving the simulated Panda (world.hpp). What is judged is
+// what an outside sender sees: the status's trajectory fields, and the arm's own states.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chasles/joint_trajectory_t.hpp>
+#include <cmath>
+#include <random>
+#include <string>
+
+#include "chasles/controller/limits.hpp"
+#include "world.hpp"
+
+namespace chasles::faults {
+namespace {
+
+using Eigen::VectorXd;
+using controller::DaemonOptions;
+constexpr int64_t kMs = World::kMs;
+
+VectorXd franka_acceleration() { return (VectorXd(7) << 15, 7.5, 10, 12.5, 15, 20, 20).finished(); }
+VectorXd franka_jerk() { return (VectorXd(7) << 7500, 3750, 5000, 6250, 7500, 10000, 10000).finished(); }
+
+DaemonOptions options() {
+  DaemonOptions o;
+  o.control = controller::Config::critically_damped(7, 20.0);
+  o.control.damping = VectorXd::Constant(7, 0.5);  // the plant's, fed forward
+  o.control.limits.acceleration = franka_acceleration();
+  o.control.limits.jerk = franka_jerk();
+  o.status_hz = 100.0;
+  return o;
+}
+
+// `count` random waypoints within the limits, each timed as a trapezoidal profile at the limits
+// takes from the one before (as a planner times them).
+joint_trajectory_t random_trajectory(const RobotModel& model, const controller::MotionLimits& limits,
+                                     const VectorXd& from, int count, unsigned seed) {
+  joint_trajectory_t t{};
+  t.id = seed;
+  t.num_joints = 7;
+  t.num_points = count;
+  for (const Joint& joint : model.joints()) t.joint_names.push_back(joint.name);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  VectorXd before = from;
+  double time = 0.0;
+  for (int k = 0; k < count; ++k) {
+    std::vector<double> q(7);
+    double segment = 0.05;
+    for (int i = 0; i < 7; ++i) {
+      const double range = limits.upper(i) - limits.lower(i), v = limits.velocity(i), a = limits.acceleration(i);
+      q[size_t(i)] = std::clamp(before(i) + 0.2 * range * (2 * unit(rng) - 1), limits.lower(i), limits.upper(i));
+      const double d = std::abs(q[size_t(i)] - before(i));
+      segment = std::max(segment, d >= v * v / a ? d / v + v / a : 2.0 * std::sqrt(d / a));
+      before(i) = q[size_t(i)];
+    }
+    time += segment;
+    t.time_from_start.push_back(time);
+    t.positions.push_back(q);
+  }
+  t.path_tolerance.assign(7, 0.02);
+  t.goal_tolerance.assign(7, 1e-3);
+  t.goal_time_tolerance = 1.0;
+  t.time_scaling = true;
+  return t;
+}
+
+// The case over the bus: 50 random waypoints timed by trapezoids, slowed to fit, followed
+// by the simulated arm (which has joint damping, a 1 kHz step and the controller's latency) within
+// 1 mrad RMS, every tick's reference within every limit, SUCCEEDED in the status at the end.
+TEST(trajectory, FiftyWaypointsOverTheBusAreTrackedWithinAMilliradian) {
+  World world;
+  world.start_plant(bent_pose());
+  world.add_controller(options());
+  ASSERT_TRUE(world.run_until([&] { return world.recorder().status_is(controller_status_t::HOLDING); }, 1.0));
+  const controller::Controller& c = world.controller().controller();
+  const controller::MotionLimits& limits = c.limits();
+  const joint_trajectory_t t = random_trajectory(world.model(), limits, bent_pose(), 50, 5);
+  world.recorder().publish("TRAJECTORY", t);
+  double error_sq = 0.0, jerk_ratio = 0.0;
+  int64_t samples = 0;
+  VectorXd qdd_before = c.reference().qdd;
+  int64_t last_tick = -1;
+  ASSERT_TRUE(world.run_until(
+      [&] {
+        if (c.trajectory().outcome == controller::TrajectoryProgress::kActive && c.trajectory().elapsed > 0.0 &&
+            world.now() != last_tick) {
+          error_sq += c.error().squaredNorm(), samples += 7;
+          for (int i = 0; i < 7; ++i) {
+            EXPECT_LE(std::abs(c.reference().qd(i)), limits.velocity(i) * (1 + 1e-9));
+            EXPECT_LE(std::abs(c.reference().qdd(i)), limits.acceleration(i) * (1 + 1e-9));
+            jerk_ratio = std::max(jerk_ratio, std::abs(c.reference().qdd(i) - qdd_before(i)) / 1e-3 / limits.jerk(i));
+          }
+        }
+        qdd_before = c.reference().qdd;
+        last_tick = world.now();
+        const auto& s = world.recorder().status();
+        return s && s->trajectory_id == 5 && s->trajectory_outcome != controller_status_t::TRAJECTORY_ACTIVE;
+      },
+      300.0));
+  const controller_status_t& s = *world.recorder().status();
+  EXPECT_EQ(s.trajectory_outcome, controller_status_t::TRAJECTORY_SUCCEEDED) << s.trajectory_message;
+  EXPECT_GT(s.trajectory_time_scale, 1.0);
+  EXPECT_NEAR(s.trajectory_duration, s.trajectory_time_scale * t.time_from_start.back(), 1e-9);
+  EXPECT_EQ(s.trajectory_waypoint, 50);
+  EXPECT_EQ(s.faults, 0);
+  const double rms = std::sqrt(error_sq / static_cast<double>(samples));
+  std::printf("[ trajectory ] 50 waypoints over the bus, slowed %.3fx to %.1f s: tracking RMS %.3f mrad, "
+              "reference jerk at most %.2f of its limit\n",
+              s.trajectory_time_scale, s.trajectory_duration, 1e3 * rms, jerk_ratio);
+  EXPECT_LT(rms, 1e-3);
+  EXPECT_LE(jerk_ratio, 1.0 + 1e-6);
+  const VectorXd q = vector_of(world.recorder().state()->position);
+  for (int i = 0; i < 7; ++i) EXPECT_NEAR(q(i), t.positions.back()[size_t(i)], 1e-3) << i;
+}
+
+// What the wire refuses (a joint the arm does not have) is counted with its reason; what the
+// controller refuses (too fast, no time scaling) is REJECTED in the status, naming the waypoint,
+// the joint and the quantity; the joints may come in any order.
+TEST(trajectory, RefusalsAreSaidAndTheJointsMayComeInAnyOrder) {
+  World world;
+  world.start_plant(bent_pose());
+  world.add_controller(options());
+  ASSERT_TRUE(world.run_until([&] { return world.recorder().status_is(controller_status_t::HOLDING); }, 1.0));
+  joint_trajectory_t t{};
+  t.id = 9;
+  t.num_joints = 7;
+  t.num_points = 1;
+  for (const Joint& joint : world.model().joints()) t.joint_names.push_back(joint.name);
+  std::reverse(t.joint_names.begin(), t.joint_names.end());  // panda_joint7 first
+  const VectorXd start = bent_pose();
+  std::vector<double> goal(start.data(), start.data() + 7);
+  std::reverse(goal.begin(), goal.end());
+  goal[0] += 0.3;  // panda_joint7
+  t.time_from_start = {0.05};
+  t.positions = {goal};
+  t.path_tolerance.assign(7, 0.0);
+  t.goal_tolerance.assign(7, 0.0);
+  world.recorder().publish("TRAJECTORY", t);
+  ASSERT_TRUE(world.run_until(
+      [&] { return world.recorder().status() && world.recorder().status()->trajectory_id == 9; }, 1.0));
+  const controller_status_t& s = *world.recorder().status();
+  EXPECT_EQ(s.trajectory_outcome, controller_status_t::TRAJECTORY_REJECTED);
+  EXPECT_NE(s.trajectory_message.find("waypoint 0, joint panda_joint7: "), std::string::npos) << s.trajectory_message;
+  EXPECT_NE(s.trajectory_message.find("(allow time scaling)"), std::string::npos) << s.trajectory_message;
+
+  t.id = 10;
+  t.time_scaling = true;
+  world.recorder().publish("TRAJECTORY", t);
+  ASSERT_TRUE(world.run_until(
+      [&] {
+        const auto& status = world.recorder().status();
+        return status->trajectory_id == 10 && status->trajectory_outcome == controller_status_t::TRAJECTORY_SUCCEEDED;
+      },
+      5.0));
+  EXPECT_NEAR(world.recorder().state()->position[6], goal[0], 2e-3);
+
+  const int64_t rejected = world.recorder().status()->rejected_messages;
+  t.id = 11;
+  t.joint_names[2] = "elbow";
+  world.recorder().publish("TRAJECTORY", t);
+  ASSERT_TRUE(world.run_until([&] { return world.recorder().status()->rejected_messages == rejected + 1; }, 1.0));
+  EXPECT_EQ(world.recorder().status()->trajectory_id, 10) << "the wire's refusal never reached the controller";
+}
+
+}  // namespace
+}  // namespace chasles::faults
