@@ -5,7 +5,8 @@
 // 4 the controller's watch for other senders on its command channel, 5 its control_mode_t receiver
 // and Controller::set_law, 6 its payload_t receiver, the model built with the payload (as the
 // daemon's worker does) and Controller::set_model, 7 the direct Bus's reading of a UDP datagram as an
-// LCM small message (parse_lcm_datagram) and, when it is one, the state receiver on its payload.
+// LCM small message (parse_lcm_datagram) and, when it is one, the state receiver on its payload; 8
+// its joint_trajectory_t receiver and Controller::set_trajectory.
 // What a reader accepts must be what the contract
 // promises (the arm's joint count, finite values; for the watch, a command of its own, once; for a
 // payload, a body the model can carry), and after every input the controller ticks (1 ms later,
@@ -42,6 +43,8 @@ struct Readers {
   SimulatedClock clock;
   Mailbox<JointState> states{JointState(n)};
   SpscRing<Target> targets{4, Target(n)};
+  SpscRing<Waypoints> trajectories{1, Waypoints(n)};
+  TrajectoryReceiver trajectory_receiver{model, trajectories};
   StateReceiver state_receiver{n, states};
   TargetReceiver target_receiver{n, targets};
   plant::CommandInbox commands{clock, "COMMAND", n};
@@ -195,6 +198,22 @@ void judge_a_datagram(Readers& r, const uint8_t* data, size_t size) {
   }
 }
 
+// The controller's trajectory receiver: what it passes on is the arm's joints, each named once, in
+// its order, at most Waypoints::kMaxPoints finite waypoints; Controller::set_trajectory judges the
+// times, the limits and the tolerances, and whatever it takes keeps the reference within them.
+void judge_a_trajectory(Readers& r, const uint8_t* message, int bytes) {
+  if (!r.trajectory_receiver.receive(message, size_t(bytes)).empty()) return;
+  Waypoints w(r.n);
+  FUZZ_CHECK(r.trajectories.pop(w));
+  FUZZ_CHECK(w.count >= 1 && w.count <= Waypoints::kMaxPoints);
+  FUZZ_CHECK(w.time.head(w.count).allFinite() && w.q.leftCols(w.count).allFinite() &&
+             w.qd.leftCols(w.count).allFinite() && w.qdd.leftCols(w.count).allFinite());
+  if (r.controller.set_trajectory(w, r.now_ns)) {
+    FUZZ_CHECK(r.controller.trajectory().outcome == TrajectoryProgress::kActive);
+    FUZZ_CHECK(r.controller.trajectory().scale >= 1.0);
+  }
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -203,7 +222,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   Readers& r = *readers;
   const uint8_t* message = data + 1;
   const int bytes = static_cast<int>(size - 1);
-  switch (data[0] % 8) {
+  switch (data[0] % 9) {
     case 0:
       if (r.state_receiver.receive(message, size_t(bytes), r.now_ns).empty()) {
         JointState state(r.n);
@@ -243,6 +262,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     case 7:
       judge_a_datagram(r, message, size_t(bytes));
       break;
+    case 8:
+      judge_a_trajectory(r, message, bytes);
+      break;
     default: {
       decode_as<robot_state_t>(message, size - 1);
       decode_as<joint_torque_command_t>(message, size - 1);
@@ -250,6 +272,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       decode_as<controller_status_t>(message, size - 1);
       decode_as<control_mode_t>(message, size - 1);
       decode_as<payload_t>(message, size - 1);
+      decode_as<joint_trajectory_t>(message, size - 1);
       cli::Cells cells;
       cli::message_cells(cli::message_type(message, size - 1), message, size - 1, {}, cells);
       FUZZ_CHECK(cells.names.size() == cells.values.size());
