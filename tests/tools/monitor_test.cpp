@@ -100,6 +100,7 @@ TEST(monitor, OnceShowsTheLiveControllersValues) {
   EXPECT_EQ(field(frame, "faults ([0-9]+)"), double(s.faults));
   EXPECT_EQ(field(frame, "rejected messages ([0-9]+)"), double(s.rejected_messages));
   EXPECT_NE(frame.find("IK          no Cartesian goal solved yet"), std::string::npos) << frame;
+  EXPECT_EQ(frame.find("trajectory  "), std::string::npos) << "no trajectory has been sent:\n" << frame;
   for (const char* row : {"wake-up jitter", "compute \\(state to command\\)", "latency \\(arrival to sent\\)"}) {
     EXPECT_TRUE(std::regex_search(frame, std::regex(std::string(row) + " +[0-9.]+ +[0-9.]+ +[0-9.]+\n"))) << row;
   }
@@ -111,6 +112,107 @@ TEST(monitor, NoControllerIsSaidNotShownAsNumbers) {
   EXPECT_NE(r.out.find("no controller on NOBODY_STATUS for 0.6 s"), std::string::npos) << r.out;
   EXPECT_EQ(r.out.find("joint "), std::string::npos) << r.out;
   EXPECT_EQ(r.err.rfind("chasles: no controller on NOBODY_STATUS for 0.6 s", 0), 0u) << r.err;
+}
+
+// The trajectory line as the monitor prints it for `s` (its format, spelt out again here).
+std::string trajectory_line(const controller_status_t& s, const char* outcome, const char* share) {
+  char line[256];
+  std::snprintf(line, sizeof(line), "\ntrajectory  %lld %s, %.3f of %.3f s (%s), waypoint %d, time scale %.3f\n",
+                static_cast<long long>(s.trajectory_id), outcome, s.trajectory_elapsed, s.trajectory_duration, share,
+                s.trajectory_waypoint, s.trajectory_time_scale);
+  return line;
+}
+
+// A status with known trajectory fields, published by the test while `monitor --once` listens (it
+// has its SIGINT handler once it is subscribed) and until it exits, so the one it prints is fresh:
+// the trajectory's line shows them exactly, the controller's message about it on the line after,
+// none when there is no message; the share is capped at 100 % past the end.
+TEST(monitor, ATrajectorysProgressIsShownExactly) {
+  struct Case {
+    int64_t id;
+    int8_t outcome;
+    double elapsed, duration, scale;
+    int32_t waypoint;
+    std::string message, expected;
+  };
+  const std::string slowed = "slowed by 1.425 to fit the limits: waypoint 3, panda_joint2's velocity";
+  const Case cases[] = {
+      {42, controller_status_t::TRAJECTORY_ACTIVE, 1.0, 3.0, 1.425, 7, slowed,
+       "\ntrajectory  42 ACTIVE, 1.000 of 3.000 s (33.3 %), waypoint 7, time scale 1.425\n            " + slowed + "\n"},
+      {9, controller_status_t::TRAJECTORY_SUCCEEDED, 2.5631, 2.5, 1.0, 12, "",
+       "\ntrajectory  9 SUCCEEDED, 2.563 of 2.500 s (100.0 %), waypoint 12, time scale 1.000\ncontact     "},
+      {5, controller_status_t::TRAJECTORY_REJECTED, 0.0, 0.0, 1.0, 0,
+       "waypoint 2: panda_joint4 = -3.1 is outside its position limits",
+       "\ntrajectory  5 REJECTED, 0.000 of 0.000 s (-), waypoint 0, time scale 1.000\n"
+       "            waypoint 2: panda_joint4 = -3.1 is outside its position limits\n"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.expected);
+    StatusListener bus(kLcmUrl);
+    ChildProcess monitor({CHASLES_CLI, "monitor", "--lcm-url", kLcmUrl, "--once", "--seconds", "1"});
+    ASSERT_TRUE(monitor.catches(SIGINT, 10.0)) << monitor.stderr_text();
+    controller_status_t status{};
+    status.state = controller_status_t::RUNNING;
+    status.num_joints = 2;
+    for (auto* joints : {&status.q, &status.q_desired, &status.tracking_error, &status.torque, &status.tau_ext}) {
+      joints->assign(2, 0.0);
+    }
+    status.tip_quaternion[0] = 1.0;
+    status.trajectory_id = c.id;
+    status.trajectory_outcome = c.outcome;
+    status.trajectory_elapsed = c.elapsed;
+    status.trajectory_duration = c.duration;
+    status.trajectory_time_scale = c.scale;
+    status.trajectory_waypoint = c.waypoint;
+    status.trajectory_message = c.message;
+    std::vector<uint8_t> bytes(size_t(status.getEncodedSize()));
+    ASSERT_EQ(status.encode(bytes.data(), 0, static_cast<int>(bytes.size())), static_cast<int>(bytes.size()));
+    const auto deadline = Clock::now() + std::chrono::seconds(10);
+    while (monitor.running() && Clock::now() < deadline) {  // the controller's 100 Hz
+      bus.publish("CHASLES_STATUS", bytes);
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    ASSERT_EQ(monitor.wait(), 0) << monitor.stderr_text();
+    const std::string out = monitor.stdout_text();
+    EXPECT_NE(out.find("controller  RUNNING"), std::string::npos) << out;
+    EXPECT_NE(out.find(c.expected), std::string::npos) << out;
+    EXPECT_EQ(out.find("ignored "), std::string::npos) << out;
+  }
+}
+
+// End to end: `chasles target --trajectory` sends three waypoints to the live controller, which
+// runs them to SUCCEEDED; the monitor's line then holds the status's frozen figures, to the digit.
+TEST(monitor, ATrajectorySentWithTheCliIsFollowedToItsEnd) {
+  StatusListener bus(kLcmUrl);
+  ChildProcess plant(concat({CHASLES_PLANT, "--q0", kBentPose, "--damping", "0.5"}, model()));
+  ChildProcess controller(concat({CHASLES_CONTROLLER, "--damping", "0.5", "--stale-ms", "100"}, model()));
+  ASSERT_TRUE(bus.wait_for(controller_status_t::HOLDING, 5.0)) << controller.stderr_text();
+  const TempFile file("monitor_test_trajectory.json",
+                      R"({"id": 31, "points": [
+                           {"time_from_start": 0.3, "positions": [0.15, 0.5, -0.2, -1.2, 0.3, 1.0, 0.7]},
+                           {"time_from_start": 0.6, "positions": [0.2, 0.45, -0.2, -1.2, 0.3, 1.05, 0.7]},
+                           {"time_from_start": 0.9, "positions": [0.2, 0.4, -0.2, -1.25, 0.3, 1.1, 0.7]}],
+                         "path_tolerance": 0.05, "goal_tolerance": 0.005, "goal_time_tolerance": 1.0,
+                         "time_scaling": true})");
+  const RunResult sent = run_to_completion(
+      concat({CHASLES_CLI, "target", "--trajectory", file.path, "--lcm-url", kLcmUrl},
+             {"--robot", data_path("panda.urdf"), "--tip", kTip}));
+  ASSERT_EQ(sent.exit_code, 0) << sent.err;
+  ASSERT_TRUE(bus.wait_until(
+      [](const controller_status_t& s) {
+        return s.trajectory_id == 31 && s.trajectory_outcome == controller_status_t::TRAJECTORY_SUCCEEDED;
+      },
+      10.0))
+      << controller.stderr_text();
+  const controller_status_t done = *bus.latest;
+
+  const RunResult r = monitor({"--once", "--seconds", "1"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find(trajectory_line(done, "SUCCEEDED", "100.0 %")), std::string::npos)
+      << trajectory_line(done, "SUCCEEDED", "100.0 %") << "in:\n" << r.out;
+  EXPECT_EQ(done.trajectory_waypoint, 3);
+  EXPECT_GE(done.trajectory_time_scale, 1.0);
+  EXPECT_NEAR(done.trajectory_duration, 0.9 * done.trajectory_time_scale, 1e-9);
 }
 
 // Live, to a pipe: a frame a second. The controller stops after the first frames: the later ones

@@ -1,8 +1,9 @@
 // chasles monitor: the running controller on one terminal screen, refreshed 10 times a second —
 // for a shell over SSH where lcm-spy has no display. It listens to <prefix>STATUS for the
 // controller's own report, counts <prefix>STATE and <prefix>COMMAND to show that the loop is
-// closed, and shows the last <prefix>TARGET. Once the status stops, the screen says so instead of
-// showing numbers that are no longer true.
+// closed, and shows the last <prefix>TARGET and, from the status, the progress of the latest
+// waypoint trajectory. Once the status stops, the screen says so instead of showing numbers that
+// are no longer true.
 #include <sys/select.h>
 #include <termios.h>
 #include <unistd.h>
@@ -176,6 +177,37 @@ std::string state_name(int8_t state) {
   }
 }
 
+std::string outcome_name(int8_t outcome) {
+  switch (outcome) {
+    case controller_status_t::TRAJECTORY_NONE: return "NONE";
+    case controller_status_t::TRAJECTORY_ACTIVE: return "ACTIVE";
+    case controller_status_t::TRAJECTORY_SUCCEEDED: return "SUCCEEDED";
+    case controller_status_t::TRAJECTORY_ABORTED: return "ABORTED";
+    case controller_status_t::TRAJECTORY_PREEMPTED: return "PREEMPTED";
+    case controller_status_t::TRAJECTORY_REJECTED: return "REJECTED";
+    default: return "outcome " + std::to_string(int{outcome});
+  }
+}
+
+// The latest waypoint trajectory's progress, once the controller has seen one: its id and outcome,
+// the time into it against its duration (after time scaling) and as a share of it (past its end,
+// while the joints settle into the goal tolerance, 100 %), the waypoint approached (0-based; the
+// point count once past the last), the time scale, and on a line of its own the controller's
+// message about it.
+std::string trajectory_lines(const controller_status_t& s) {
+  if (s.trajectory_id == 0 && s.trajectory_outcome == controller_status_t::TRAJECTORY_NONE) return {};
+  std::string share = "-";
+  if (s.trajectory_duration > 0) {
+    share = printf_text("%.1f %%", std::min(100.0, 100.0 * std::max(0.0, s.trajectory_elapsed) / s.trajectory_duration));
+  }
+  std::string text = printf_text("trajectory  %lld %s, %.3f of %.3f s (%s), waypoint %d, time scale %.3f\n",
+                                 static_cast<long long>(s.trajectory_id), outcome_name(s.trajectory_outcome).c_str(),
+                                 s.trajectory_elapsed, s.trajectory_duration, share.c_str(), s.trajectory_waypoint,
+                                 s.trajectory_time_scale);
+  if (!s.trajectory_message.empty()) text += "            " + s.trajectory_message + "\n";
+  return text;
+}
+
 std::string wall_clock() {
   const std::time_t now = std::time(nullptr);
   std::tm local{};
@@ -247,6 +279,7 @@ std::string Monitor::frame(int64_t now_ns) {
                        s.tip_position[0], s.tip_position[1], s.tip_position[2], s.tip_quaternion[0],
                        s.tip_quaternion[1], s.tip_quaternion[2], s.tip_quaternion[3]);
     out << printf_text("tracking    max |e| %.3f %s\n", 1000.0 * worst, milli_unit());
+    out << trajectory_lines(s);
     const double* w = s.tip_wrench_ext;
     out << printf_text("contact     %s; external wrench at the tip (base-aligned) m (%.2f, %.2f, %.2f) N·m, "
                        "f (%.2f, %.2f, %.2f) N; %lld contacts, %lld reflexes\n",
@@ -436,7 +469,9 @@ Command register_monitor(CLI::App& app) {
       "Shows, 10 times a second: the controller's mode, the loop's rate and the rates of plant states and\n"
       "commands; per joint q, q_d, the tracking error and the torque (with --urdf: names, % of the effort\n"
       "limit); the tip pose; wake-up jitter, compute time and latency; IK figures; the overrun, stale-state,\n"
-      "rejected-message and fault counters; the last target. Without a status for 0.5 s it says\n"
+      "rejected-message and fault counters; the last target. Once a waypoint trajectory has been sent:\n"
+      "its id and outcome, the time into it of its duration and as a %, the waypoint approached, the time\n"
+      "scale, and the controller's message about it. Without a status for 0.5 s it says\n"
       "\"no controller on PREFIX STATUS for N s\" instead of numbers. On a pipe it prints a frame a second.\n"
       "--once exits 1 if no controller was heard.\n"
       "Examples:\n"
