@@ -135,16 +135,18 @@ TEST(monitor, ATrajectorysProgressIsShownExactly) {
     int32_t waypoint;
     std::string message, expected;
   };
-  const std::string slowed = "slowed by 1.425 to fit the limits: waypoint 3, panda_joint2's velocity";
+  const std::string slowed = "slowed 1.425x to fit the limits";
   const Case cases[] = {
       {42, controller_status_t::TRAJECTORY_ACTIVE, 1.0, 3.0, 1.425, 7, slowed,
        "\ntrajectory  42 ACTIVE, 1.000 of 3.000 s (33.3 %), waypoint 7, time scale 1.425\n            " + slowed + "\n"},
       {9, controller_status_t::TRAJECTORY_SUCCEEDED, 2.5631, 2.5, 1.0, 12, "",
        "\ntrajectory  9 SUCCEEDED, 2.563 of 2.500 s (100.0 %), waypoint 12, time scale 1.000\ncontact     "},
       {5, controller_status_t::TRAJECTORY_REJECTED, 0.0, 0.0, 1.0, 0,
-       "waypoint 2: panda_joint4 = -3.1 is outside its position limits",
+       "waypoint 2, joint panda_joint4: velocity 3.1 rad/s over its limit 2.175 rad/s; slowed 1.43x it fits "
+       "(allow time scaling)",
        "\ntrajectory  5 REJECTED, 0.000 of 0.000 s (-), waypoint 0, time scale 1.000\n"
-       "            waypoint 2: panda_joint4 = -3.1 is outside its position limits\n"},
+       "            waypoint 2, joint panda_joint4: velocity 3.1 rad/s over its limit 2.175 rad/s; slowed 1.43x it fits "
+       "(allow time scaling)\n"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.expected);
