@@ -6,7 +6,8 @@
 #   tools/demo.sh [--seconds N] [--robot ur5|panda|FILE.urdf] [--tip LINK] [--summary FILE]
 #                 [--tick state|clock]
 #
-#   --seconds N      length of the controlled run (default 16, at least 10)
+#   --seconds N      length of the programme of targets (default 16, at least 10); the waypoint
+#                    trajectory follows it (about 3 s)
 #   --robot R        ur5 or panda (tests/data/R.urdf), or a URDF file (default panda)
 #   --tip LINK       the chain's tip, for a URDF with several leaves (ur5: tool0, panda: panda_hand)
 #   --summary FILE   also copy the controller's summary JSON here
@@ -18,8 +19,12 @@
 # of targets with `chasles target` (hold; a joint move; another; a Cartesian move; back home;
 # hold; a push the stop reflex answers), then the compliant segment: the arm goes over the table,
 # switches to Cartesian impedance (`chasles mode`) and presses on it with its target 1 cm below
-# the surface, then holds and switches back. It stops every process after N seconds, then runs chasles_loop_bench (a bare 1 kHz loop and an LCM ping-pong, 3 s each) for
-# reference and prints the controller's figures beside it. Everything of the run (the LCM log,
+# the surface, then holds and switches back. After N seconds, the planner's part: a waypoint
+# trajectory (`chasles target --trajectory`) lifts the arm off the table and takes it through the
+# second pose and the first one back home, timed by trapezoidal profiles at a fraction of the
+# limits; once the controller says it SUCCEEDED, the demo stops every process, then runs
+# chasles_loop_bench (a bare 1 kHz loop and an LCM ping-pong, 3 s each) for reference and prints
+# the controller's figures beside it, the trajectory's outcome, time scale and tracking error. Everything of the run (the LCM log,
 # each process's output, the summaries) is kept in build/demo/<time>/. CHASLES_BUILD_DIR chooses
 # another build tree.
 set -euo pipefail
@@ -115,6 +120,39 @@ send() {
   fi
 }
 
+# wait_trajectory ID REFUSALS TIMEOUT: waits for the controller's stderr to say what became of
+# trajectory ID ("chasles_controller: trajectory ID SUCCEEDED", or ABORTED or PREEMPTED with the
+# reason; a refusal is said as "target refused: ..." beyond the REFUSALS there were before it was
+# sent), checking every 0.05 s that everything still runs. Fails the demo unless it SUCCEEDED
+# within TIMEOUT seconds of the run's start.
+wait_trajectory() {
+  local id=$1 refusals=$2 deadline line err=$DEMO_DIR/chasles_controller.err
+  deadline=$(awk -v s="$run_start" -v o="$3" 'BEGIN { printf "%.6f", s + o }')
+  while true; do
+    check_alive
+    line=$(grep -E "^chasles_controller: trajectory $id (SUCCEEDED|ABORTED|PREEMPTED)" "$err" | tail -n 1 || true)
+    if [ -n "$line" ]; then
+      printf '  %6.2f s  %s\n' "$(awk -v s="$run_start" -v n="$(now)" 'BEGIN { print n - s }')" "$line"
+      case "$line" in
+        *" SUCCEEDED"*) return 0 ;;
+        *) echo "demo.sh: the waypoint trajectory did not succeed: $line" >&2; stop_all; exit 1 ;;
+      esac
+    fi
+    if [ "$(grep -c 'target refused' "$err" || true)" -gt "$refusals" ]; then
+      echo "demo.sh: the controller refused the waypoint trajectory: $(grep 'target refused' "$err" | tail -n 1)" >&2
+      stop_all
+      exit 1
+    fi
+    if awk -v d="$deadline" -v n="$(now)" 'BEGIN { exit !(n > d) }'; then
+      echo "demo.sh: no outcome for the waypoint trajectory by $3 s; the end of the controller's stderr:" >&2
+      stderr_tail chasles_controller
+      stop_all
+      exit 1
+    fi
+    sleep 0.05
+  done
+}
+
 # mode WHAT LAW ARGS...: one `chasles mode`.
 mode() {
   local what=$1 err
@@ -191,6 +229,52 @@ print(pose(b, -0.015))
 PY
   )
 
+  # The planner's trajectory: from the arm at rest on the table, up to pose_b in 0.5 s, then pose_b ->
+  # pose_a -> home, each leg a straight line in joint space timed by one trapezoidal profile for all
+  # joints (at 40 % of each joint's velocity limit and 15 % of its acceleration limit, the slowest
+  # joint setting the leg's time) and sampled at 7 equal steps: 15 waypoints, positions only (the
+  # controller chooses the velocities), stopping at pose_a. The controller may slow it down to fit
+  # its limits (time_scaling); the report gives the scale it used.
+  local accel_limits=''
+  [ "$(basename "$DEMO_URDF")" = panda.urdf ] && accel_limits=15,7.5,10,12.5,15,20,20
+  local trajectory_id=1 trajectory_points trajectory_s
+  read -r trajectory_points trajectory_s < <(python3 - "$dir/model.json" "$pose_b" "$pose_a" "$home" \
+    "$accel_limits" "$trajectory_id" "$dir/trajectory_plan.json" <<'PY'
+import json, math, sys
+m = json.load(open(sys.argv[1]))
+legs = [[float(x) for x in text.split(",")] for text in sys.argv[2:5]]  # pose_b, pose_a, home
+v_max = [v if v > 0 else 1.0 for v in m["limits"]["velocity"]]  # a URDF without one: 1 rad/s (m/s)
+# The controller's: the Panda's as the demo passes them, else its default, the velocity limit / 0.4 s.
+a_max = [float(a) for a in sys.argv[5].split(",")] if sys.argv[5] else [v / 0.4 for v in v_max]
+V, A = 0.40, 0.15
+points, t = [{"time_from_start": 0.5, "positions": legs[0]}], 0.5
+for q0, q1 in zip(legs, legs[1:]):
+    d = [b - a for a, b in zip(q0, q1)]
+    # s in [0, 1] along the line: its speed and acceleration limits are the tightest joint's.
+    vs = min(V * v / abs(x) for v, x in zip(v_max, d) if abs(x) > 1e-12)
+    as_ = min(A * a / abs(x) for a, x in zip(a_max, d) if abs(x) > 1e-12)
+    if vs * vs / as_ >= 1.0:  # no cruise: a triangle
+        vs = math.sqrt(as_)
+    T = 1.0 / vs + vs / as_
+    ta = vs / as_
+    def s(tau):
+        if tau < ta:
+            return 0.5 * as_ * tau * tau
+        if tau > T - ta:
+            return 1.0 - 0.5 * as_ * (T - tau) ** 2
+        return 0.5 * as_ * ta * ta + vs * (tau - ta)
+    for k in range(1, 8):
+        tau = T * k / 7
+        points.append({"time_from_start": round(t + tau, 6), "positions": [a + s(tau) * x for a, x in zip(q0, d)]})
+    t += T
+plan = {"id": int(sys.argv[6]), "points": points, "path_tolerance": 0.05, "goal_tolerance": 0.005,
+        "goal_time_tolerance": 1.0, "time_scaling": True,
+        "planner": f"trapezoids at {V:.0%} of the velocity and {A:.0%} of the acceleration limits"}
+json.dump(plan, open(sys.argv[7], "w"), indent=1)
+print(len(points), f"{t:.3f}")
+PY
+  )
+
   # The programme, as fractions of the run: for 16 s, moves of 1.76 s starting at 0.8, 2.7, 4.6
   # and 6.6 s, the push at 8.6 s, the compliant segment from 9.6 s.
   local move t_hold t_a t_b t_cart t_home t_hold2 t_push push_s t_release push
@@ -259,6 +343,13 @@ PY
   wait_until "$t_back"
   mode "computed torque" computed-torque
   wait_until "$seconds"
+  local refusals
+  refusals=$(grep -c 'target refused' "$dir/chasles_controller.err" || true)
+  send "waypoint trajectory $trajectory_id: $trajectory_points waypoints, off the table to pose_b, to pose_a, home, planned in ${trajectory_s} s" \
+    "${model[@]}" --trajectory "$dir/trajectory_plan.json"
+  # Its end: the planned time, slowed by up to 3x, its goal time and 2 s for a loaded machine.
+  wait_trajectory "$trajectory_id" "$refusals" \
+    "$(awk -v n="$seconds" -v t="$trajectory_s" 'BEGIN { printf "%.3f", n + 3 * t + 1 + 2 }')"
 
   # The controller first: its summary covers a run in which the plant never stopped answering.
   for i in 2 1 0; do
@@ -291,7 +382,7 @@ report() {
   "$DEMO_BUILD/tools/chasles" log export "$DEMO_DIR/chasles.lcmlog" --channel CHASLES_STATUS \
     --out "$DEMO_DIR/status.csv" >/dev/null
   python3 - "$DEMO_DIR" <<'PY'
-import csv, json, os, re, struct, sys
+import csv, json, math, os, re, struct, sys
 from collections import Counter
 
 d = sys.argv[1]
@@ -410,10 +501,72 @@ else:
 if faulted:
     print("  a FAULT came during the press (a stall of the machine past --stale-ms, see the controller's stderr): the")
     print("  controller then held where the arm was, which released the press; the figure above is not the press's")
+# The waypoint trajectory, from the controller's statuses in the log: the trajectory_* fields come
+# after everything else known before them (chasles log export has no columns for them), so each
+# status is read from its start: fingerprint, utime, state, message, the joint arrays and the rest.
+plan = json.load(open(os.path.join(d, "trajectory_plan.json")))
+def status_fields(data):
+    o = 8 + 8 + 1
+    length = struct.unpack_from(">i", data, o)[0]
+    o += 4 + length
+    n = struct.unpack_from(">i", data, o)[0]
+    o += 4
+    q, o = doubles(data, o, n)
+    _, o = doubles(data, o, n)  # q_desired
+    e, o = doubles(data, o, n)
+    o += 8 * (3 + 4 + n) + 4 + 8 + 1 + 8 * 9 + 8 * 5 + 8 * (n + 6) + 2 + 8 * 2 + 1 + 8 * 2
+    tid, outcome = struct.unpack_from(">qb", data, o)
+    o += 9
+    elapsed, duration, scale = struct.unpack_from(">3d", data, o)
+    o += 24
+    waypoint, length = struct.unpack_from(">ii", data, o)
+    message = data[o + 8:o + 8 + length - 1].decode(errors="replace")
+    return {"e": e, "id": tid, "outcome": outcome, "elapsed": elapsed, "duration": duration, "scale": scale,
+            "waypoint": waypoint, "message": message}
+outcomes = ["NONE", "ACTIVE", "SUCCEEDED", "ABORTED", "PREEMPTED", "REJECTED"]
+active, last = [], None
+with open(log, "rb") as file:
+    while True:
+        head = file.read(28)
+        if len(head) < 28:
+            break
+        _, _, utime, channel_len, data_len = struct.unpack(">IqqII", head)
+        channel = file.read(channel_len).decode(errors="replace")
+        data = file.read(data_len)
+        if not channel.endswith("STATUS"):
+            continue
+        try:
+            st = status_fields(data)
+        except struct.error:
+            continue
+        if st["id"] != plan["id"]:
+            continue
+        last = st
+        if st["outcome"] == 1:
+            active.append(st)
+duration_planned = plan["points"][-1]["time_from_start"]
+print()
+print(f"Waypoint trajectory {plan['id']}: {len(plan['points'])} waypoints off the table to the second pose, the first and "
+      f"home, {duration_planned:.3f} s as planned ({plan['planner']}):")
+if last is None:
+    print("  the controller's statuses never named it")
+else:
+    outcome = outcomes[last["outcome"]] if 0 <= last["outcome"] < len(outcomes) else str(last["outcome"])
+    print(f"  outcome             {outcome} at {last['elapsed']:.3f} s of {last['duration']:.3f} s, waypoint "
+          f"{last['waypoint']} of {len(plan['points'])}" + (f"; {last['message']}" if last["message"] else ""))
+    print(f"  time scale          {last['scale']:.3f}" + (" (as planned: within every limit)" if last["scale"] == 1.0
+                                                         else " (the controller slowed it to fit its limits)"))
+    if active:
+        errors = [abs(x) for st in active for x in st["e"]]
+        rms = math.sqrt(sum(x * x for x in errors) / len(errors))
+        worst = max(active, key=lambda st: max(abs(x) for x in st["e"]))
+        milli = "mrad" if unit == "rad" else "mrad or mm"
+        print(f"  tracking error      rms {1e3 * rms:.4f}  max {1e3 * max(errors):.4f} {milli} ({worst['elapsed']:.3f} s into "
+              f"it) over {len(active)} statuses while it ran; {1e3 * max(abs(x) for x in active[0]['e']):.4f} at its start")
 print()
 print(f"Log: {log} ({os.path.getsize(log) / 1e6:.1f} MB; " +
       ", ".join(f"{c} {n}" for c, n in sorted(counts.items())) + ")")
-print(f"Run directory: {d} (each process's output, summary.json, loop_bench.json, targets.jsonl)")
+print(f"Run directory: {d} (each process's output, summary.json, loop_bench.json, targets.jsonl, trajectory_plan.json)")
 PY
 }
 
@@ -425,7 +578,7 @@ fi
 # ---------------------------------------------------------------------------------------------
 # Outside: arguments, packages, build, then the run in a fresh network namespace.
 # ---------------------------------------------------------------------------------------------
-usage() { sed -n '6,14s/^# \{0,1\}//p' "$0"; }
+usage() { sed -n '6,15s/^# \{0,1\}//p' "$0"; }
 seconds=16
 robot=panda
 tip=
