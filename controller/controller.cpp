@@ -67,6 +67,29 @@ double least_fitting(double infeasible, double largest, Fits fits) {
   return feasible;
 }
 
+// The generator needs finite limits; a joint without one (a URDF without a velocity limit, and so
+// no default acceleration or jerk) is given these, far beyond what an arm does.
+constexpr double kUnlimitedVelocity = 1e3, kUnlimitedAcceleration = 1e5, kUnlimitedJerk = 1e7;
+
+double finite_or(double x, double fallback) { return std::isfinite(x) ? x : fallback; }
+
+// From speed v with no acceleration, the distance a stop at acceleration limit A and jerk limit J
+// takes: the time-optimal profile (a trapezoid in acceleration, or a triangle when v < A²/J) is
+// symmetric, so the distance is v times half its duration.
+double stop_distance(double v, double A, double J) {
+  v = std::abs(v);
+  const double duration = v >= A * A / J ? v / A + A / J : 2.0 * std::sqrt(v / J);
+  return 0.5 * v * duration;
+}
+
+// The speed whose stop takes at most d (stop_distance's inverse, with its upper bound
+// v²/(2A) + vA/(2J) for both cases): the fastest a stream may head toward a limit d away.
+double speed_that_stops_within(double d, double A, double J) {
+  if (!(d > 0.0)) return 0.0;
+  const double b = A * A / J;
+  return 0.5 * (-b + std::sqrt(b * b + 8.0 * A * d));
+}
+
 void format_into(char (&buffer)[192], const char* format, va_list args) {
   std::vsnprintf(buffer, sizeof(buffer), format, args);
 }
@@ -134,6 +157,9 @@ void Config::validate(int dof) const {
   if (!(period > 0.0) || !std::isfinite(period)) throw ArgumentError("the period must be positive");
   if (stale_ns <= 0) throw ArgumentError("the stale-state timeout must be positive");
   if (!(torque_ramp > 0.0)) throw ArgumentError("the torque ramp time must be positive");
+  if (!(stream_timeout > 0.0) || !std::isfinite(stream_timeout)) {
+    throw ArgumentError("the stream timeout must be positive and finite");
+  }
   limits.validate(dof);
   if (damping.size() != 0) check_gains(damping, "damping");
 }
@@ -165,10 +191,18 @@ Controller::Controller(const RobotModel& model, const Config& config)
       spline_candidate_(model.dof()),
       path_tolerance_(Eigen::VectorXd::Zero(model.dof())),
       goal_tolerance_(Eigen::VectorXd::Zero(model.dof())),
+      otg_(model.dof()),
       contact_(model, config_.contact, config_.damping, config_.period),
       retract_goal_(Eigen::VectorXd::Zero(model.dof())),
       request_(model.dof()),
       state_period_(config_.period) {
+  otg_limits_.velocity = limits_.velocity.unaryExpr([](double x) { return finite_or(x, kUnlimitedVelocity); });
+  otg_limits_.acceleration =
+      limits_.acceleration.unaryExpr([](double x) { return finite_or(x, kUnlimitedAcceleration); });
+  otg_limits_.jerk = limits_.jerk.unaryExpr([](double x) { return finite_or(x, kUnlimitedJerk); });
+  for (motion::KinematicState* state : {&otg_from_, &otg_target_, &otg_out_}) {
+    state->p = state->v = state->a = Eigen::VectorXd::Zero(model.dof());
+  }
   for (int i = 0; i < model.dof(); ++i) {
     const double effort = model.joint(i).limits.effort;
     effort_limit_(i) = effort > 0.0 ? effort : kInf;
@@ -235,7 +269,7 @@ void Controller::set_model(const RobotModel& model) {
 void Controller::hold_at(const Eigen::VectorXd& q) {
   ref_.hold(q);
   mode_ = Mode::kHolding;
-  following_path_ = following_waypoints_ = compliant_ = retracting_ = false;
+  following_path_ = following_waypoints_ = streaming_ = compliant_ = retracting_ = false;
 }
 
 // Every new state, whatever the mode: the observer needs each sample and the torque the arm had
@@ -457,7 +491,7 @@ bool Controller::set_trajectory(const Waypoints& w, int64_t now_ns) {
   goal_tolerance_ = w.goal_tolerance;
   goal_time_ = w.goal_time;
   following_waypoints_ = true;
-  following_path_ = false;
+  following_path_ = streaming_ = false;
   motion_start_ns_ = now_ns;
   mode_ = Mode::kRunning;
   return true;
@@ -558,8 +592,103 @@ bool Controller::set_target(const Target& target, int64_t now_ns) {
   trajectory_.swap(candidate_);  // the quintic shortest_duration checked
   motion_start_ns_ = now_ns;
   mode_ = Mode::kRunning;
-  following_path_ = following_waypoints_ = false;
+  following_path_ = following_waypoints_ = streaming_ = false;
   return true;
+}
+
+bool Controller::set_setpoint(const Setpoint& setpoint, int64_t now_ns) {
+  if (mode_ == Mode::kWaiting) return refuse("setpoint: no robot state has arrived yet");
+  if (mode_ == Mode::kFault) return refuse("setpoint: the controller is in FAULT");
+  // A stream does not end a reflex by coming on: it would within a period. A target or law does.
+  if (mode_ == Mode::kReflex) return refuse("setpoint: the arm is in REFLEX (a target or control mode resumes)");
+  if (law_.law == Law::kFreeDrive) return refuse("setpoint: free drive follows no stream (send a control mode first)");
+  const int n = model_->dof();
+  if (setpoint.q.size() != n || setpoint.qd.size() != n || !setpoint.q.allFinite() || !setpoint.qd.allFinite()) {
+    return refuse("setpoint: of the wrong size or with non-finite values");
+  }
+  if (streaming_ && setpoint.utime <= setpoint_utime_) {
+    ++dropped_setpoints_;  // late or duplicated: the stream has moved past it
+    return false;
+  }
+  for (int i = 0; i < n; ++i) {
+    const double q = std::clamp(setpoint.q(i), limits_.lower(i), limits_.upper(i));
+    // Toward a limit, no faster than what can still stop before it.
+    const double room = setpoint.qd(i) > 0.0 ? limits_.upper(i) - q : q - limits_.lower(i);
+    const double speed = std::min({std::abs(setpoint.qd(i)), otg_limits_.velocity(i),
+                                   speed_that_stops_within(room, otg_limits_.acceleration(i), otg_limits_.jerk(i))});
+    otg_target_.p(i) = q;
+    otg_target_.v(i) = std::copysign(speed, setpoint.qd(i));
+    otg_target_.a(i) = 0.0;
+  }
+  if (!streaming_) {
+    end_trajectory(TrajectoryProgress::kPreempted, "a stream");
+    pending_request_ = -1;
+    following_path_ = following_waypoints_ = false;
+    streaming_ = true;
+    mode_ = Mode::kRunning;
+    stream_tick_ns_ = now_ns;
+  }
+  stream_stopping_ = false;
+  setpoint_utime_ = setpoint.utime;
+  setpoint_ns_ = now_ns;
+  ++setpoints_;
+  return true;
+}
+
+void Controller::aim_at_stop() {
+  for (int i = 0; i < ref_.q.size(); ++i) {
+    const double A = otg_limits_.acceleration(i), J = otg_limits_.jerk(i);
+    // The acceleration first brought to 0 (the velocity it leaves), then a stop from there.
+    const double ramp = std::abs(ref_.qdd(i)) / J;
+    const double v = ref_.qd(i) + 0.5 * ref_.qdd(i) * ramp;
+    const double travelled = ref_.qd(i) * ramp + ref_.qdd(i) * ramp * ramp / 3.0;
+    otg_target_.p(i) = std::clamp(ref_.q(i) + travelled + std::copysign(stop_distance(v, A, J), v), limits_.lower(i),
+                                  limits_.upper(i));
+  }
+  otg_target_.v.setZero();
+  otg_target_.a.setZero();
+}
+
+void Controller::update_stream(int64_t now_ns) {
+  const double dt = std::clamp(1e-9 * static_cast<double>(now_ns - stream_tick_ns_), 0.0, 0.1);
+  stream_tick_ns_ = now_ns;
+  if (!stream_stopping_ && now_ns - setpoint_ns_ > static_cast<int64_t>(config_.stream_timeout * 1e9)) {
+    stream_stopping_ = true;
+    aim_at_stop();
+  }
+  if (!stream_stopping_) {
+    // The setpoint moves on at its velocity; at a limit it stops there.
+    for (int i = 0; i < ref_.q.size(); ++i) {
+      const double p = otg_target_.p(i) + otg_target_.v(i) * dt;
+      otg_target_.p(i) = std::clamp(p, limits_.lower(i), limits_.upper(i));
+      const double room = otg_target_.v(i) > 0.0 ? limits_.upper(i) - otg_target_.p(i) : otg_target_.p(i) - limits_.lower(i);
+      const double speed = std::min(std::abs(otg_target_.v(i)), speed_that_stops_within(room, otg_limits_.acceleration(i),
+                                                                                        otg_limits_.jerk(i)));
+      otg_target_.v(i) = std::copysign(speed, otg_target_.v(i));
+    }
+  }
+  otg_from_.p = ref_.q;
+  otg_from_.v = ref_.qd;
+  otg_from_.a = ref_.qdd;
+  // Each joint on its own: a stream's target moves every period, so arriving together buys
+  // nothing, and the fixed-duration search it needs costs far more per tick.
+  if (!otg_.plan(otg_from_, otg_target_, otg_limits_, 0.0, motion::Synchronization::kNone)) {
+    // Never seen in the tests and benchmarks: the stream ends where the reference is.
+    snprintf(rejection_, sizeof(rejection_), "stream ended: the trajectory generator found no motion (%.120s)",
+             otg_.reason());
+    ++rejected_targets_;
+    hold_at(ref_.q);
+    return;
+  }
+  otg_.at_time(dt, otg_out_);
+  ref_.q = otg_out_.p;
+  ref_.qd = otg_out_.v;
+  ref_.qdd = otg_out_.a;
+  if (stream_stopping_ && otg_.duration() <= dt) {
+    streaming_ = false;
+    mode_ = Mode::kHolding;
+    ref_.hold(otg_target_.p);
+  }
 }
 
 bool Controller::request_cartesian(const Target& target) {
@@ -635,6 +764,10 @@ void Controller::update_reference(int64_t now_ns) {
     return;
   }
   if (mode_ != Mode::kRunning) return;
+  if (streaming_) {
+    update_stream(now_ns);
+    return;
+  }
   // Both samplers set the goal at rest once t is past the end.
   if (following_path_) {
     path_.sample(t, ref_);

@@ -25,6 +25,7 @@
 #include "chasles/controller/trajectory.hpp"
 #include "chasles/controller/waypoints.hpp"
 #include "chasles/core/model/model.hpp"
+#include "chasles/core/motion/online_generator.hpp"
 
 namespace chasles::controller {
 
@@ -46,6 +47,8 @@ struct Config {
   /// Acceleration and jerk limits (the URDF gives position and velocity), the position margin
   /// and the measured velocity's tolerance.
   LimitConfig limits;
+  /// A stream with no setpoint for this long, s, is taken as stopped: the arm decelerates to rest.
+  double stream_timeout = 0.1;
 
   /// K_p = ω², K_d = 2ω (critically damped error dynamics at the natural frequency ω, rad/s).
   static Config critically_damped(int dof, double omega);
@@ -74,6 +77,13 @@ struct Target {
   Eigen::Vector4d quaternion = Eigen::Vector4d(1, 0, 0, 0);  ///< (w, x, y, z)
   double duration = 0.0;
   explicit Target(int n = 0) : q(Eigen::VectorXd::Zero(n)) {}
+};
+
+/// One setpoint of a stream (joint_setpoint_t's content, sized and finite).
+struct Setpoint {
+  int64_t utime = 0;  ///< the sender's sample time, µs: orders the stream
+  Eigen::VectorXd q, qd;
+  explicit Setpoint(int n = 0) : q(Eigen::VectorXd::Zero(n)), qd(Eigen::VectorXd::Zero(n)) {}
 };
 
 enum class Mode : int8_t { kWaiting = 0, kRunning = 1, kHolding = 2, kFault = 3, kReflex = 4 };
@@ -130,6 +140,20 @@ class Controller {
   /// FAULT ABORTS it. Allocates nothing.
   bool set_trajectory(const Waypoints& waypoints, int64_t now_ns);
   const TrajectoryProgress& trajectory() const { return progress_; }
+
+  /// Takes one setpoint of a stream: the reference moves toward it (and on at its velocity) along
+  /// the time-optimal jerk-limited motion the online generator plans from the current reference at
+  /// every tick, so it stays C² and within every limit whatever the stream does. Returns false for
+  /// a setpoint dropped (not newer than the last taken: late or duplicated; counted in
+  /// dropped_setpoints()) or refused (before the first state, in FAULT or REFLEX, under free
+  /// drive; counted as a refused target, with its reason). The position is clamped into the
+  /// limits less the margin and the velocity toward a limit to what can stop before it. No
+  /// setpoint for Config::stream_timeout: the arm decelerates to rest and holds. A target, a
+  /// trajectory or a law ends the stream. Allocates nothing.
+  bool set_setpoint(const Setpoint& setpoint, int64_t now_ns);
+  bool streaming() const { return streaming_; }
+  int64_t setpoints() const { return setpoints_; }
+  int64_t dropped_setpoints() const { return dropped_setpoints_; }
 
   /// The Cartesian request set_target() made, once: true and `request` filled, else false.
   bool take_request(CartesianRequest& request);
@@ -210,6 +234,10 @@ class Controller {
   bool request_cartesian(const Target& target);
   /// The reference at now_ns; finishing a motion turns RUNNING into HOLDING.
   void update_reference(int64_t now_ns);
+  /// The stream's reference one tick on: the generator's plan from ref_ toward the setpoint.
+  void update_stream(int64_t now_ns);
+  /// The stream's target: where a stop from the reference's motion would end (at rest).
+  void aim_at_stop();
   /// A waypoint trajectory's tolerances and outcome, after the reference is updated.
   void judge_trajectory(int64_t now_ns);
   /// Ends an active waypoint trajectory with `outcome`, saying why.
@@ -246,6 +274,12 @@ class Controller {
   double goal_time_ = 0.0;
   bool following_waypoints_ = false;
   TrajectoryProgress progress_;
+  motion::OnlineGenerator otg_;
+  motion::Limits otg_limits_;  // limits_, with ∞ replaced by large finite values (the generator needs them)
+  motion::KinematicState otg_from_, otg_target_, otg_out_;
+  bool streaming_ = false, stream_stopping_ = false;
+  int64_t setpoint_utime_ = 0, setpoint_ns_ = 0, stream_tick_ns_ = 0;
+  int64_t setpoints_ = 0, dropped_setpoints_ = 0;
   ContactMonitor contact_;
   int64_t observed_seq_ = 0;  // of the last state the contact monitor took, once observed_any_
   int64_t observed_utime_ = 0, observed_arrival_ns_ = 0;

@@ -63,6 +63,24 @@ std::string TargetReceiver::receive(const void* data, size_t size) {
   return {};
 }
 
+SetpointReceiver::SetpointReceiver(int num_joints, SpscRing<Setpoint>& queue)
+    : num_joints_(num_joints), setpoint_(num_joints), queue_(queue) {
+  message_.position.reserve(size_t(num_joints));
+  message_.velocity.reserve(size_t(num_joints));
+}
+
+std::string SetpointReceiver::receive(const void* data, size_t size) {
+  if (std::string why = messages::decode_checked(data, size, message_, num_joints_, messages::Finite::Required);
+      !why.empty()) {
+    return why;
+  }
+  setpoint_.utime = message_.utime;
+  setpoint_.q = Eigen::Map<const Eigen::VectorXd>(message_.position.data(), num_joints_);
+  setpoint_.qd = Eigen::Map<const Eigen::VectorXd>(message_.velocity.data(), num_joints_);
+  if (!queue_.push(setpoint_)) return "not taken: the controller has not caught up with the setpoints before it";
+  return {};
+}
+
 TrajectoryReceiver::TrajectoryReceiver(const RobotModel& model, SpscRing<Waypoints>& queue)
     : waypoints_(model.dof()), column_(size_t(model.dof()), -1), queue_(queue) {
   for (const Joint& joint : model.joints()) names_.push_back(joint.name);

@@ -11,6 +11,7 @@
 #include <atomic>
 #include <chasles/arm_target_t.hpp>
 #include <chasles/control_mode_t.hpp>
+#include <chasles/joint_setpoint_t.hpp>
 #include <chasles/joint_torque_command_t.hpp>
 #include <chasles/joint_trajectory_t.hpp>
 #include <chasles/payload_t.hpp>
@@ -29,7 +30,7 @@ namespace chasles::controller {
 
 /// Channel names: a configurable prefix, so several arms can share one network.
 struct Channels {
-  std::string state, command, target, status, mode, payload, trajectory;
+  std::string state, command, target, status, mode, payload, trajectory, setpoint;
   explicit Channels(const std::string& prefix = "CHASLES_")
       : state(prefix + "STATE"),
         command(prefix + "COMMAND"),
@@ -37,7 +38,8 @@ struct Channels {
         status(prefix + "STATUS"),
         mode(prefix + "MODE"),
         payload(prefix + "PAYLOAD"),
-        trajectory(prefix + "TRAJECTORY") {}
+        trajectory(prefix + "TRAJECTORY"),
+        setpoint(prefix + "SETPOINT") {}
 };
 
 /// Counts rejected messages and keeps the latest reason, for the status report. Lock-free: with
@@ -92,6 +94,24 @@ class TargetReceiver {
   arm_target_t message_;
   Target target_;
   SpscRing<Target>& queue_;
+};
+
+/// joint_setpoint_t → Setpoint in `queue` (sized, finite; ordered and clamped by
+/// Controller::set_setpoint). A queue: every setpoint of a tick is judged, newest by utime wins.
+class SetpointReceiver {
+ public:
+  SetpointReceiver(int num_joints, SpscRing<Setpoint>& queue);
+  SetpointReceiver(const SetpointReceiver&) = delete;
+  SetpointReceiver& operator=(const SetpointReceiver&) = delete;
+
+  /// Checks, decodes and queues one message; returns an empty string or why it was refused.
+  std::string receive(const void* data, size_t size);
+
+ private:
+  int num_joints_;
+  joint_setpoint_t message_;
+  Setpoint setpoint_;
+  SpscRing<Setpoint>& queue_;
 };
 
 /// joint_trajectory_t → Waypoints in `queue`, in the arm's joint order. Structure is checked here

@@ -84,6 +84,7 @@ struct Flags {
   std::string payload;
   // Motion limits beyond the URDF's: per-joint lists as text until the joint count is known.
   std::string acceleration_limit, jerk_limit;
+  double stream_timeout_ms = 100.0;
   chasles::controller::LimitConfig limits;
 };
 
@@ -256,6 +257,9 @@ int main(int argc, char** argv) {
                  "a measured joint velocity over its limit by more than this fraction stops the arm (REFLEX; "
                  "default 0.1)")
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--stream-timeout-ms", flags.stream_timeout_ms,
+                 "a stream of setpoints silent this long is over: the arm decelerates to rest (default 100)")
+      ->check(CLI::PositiveNumber);
   app.add_option("--retract-mm", flags.retract_mm, "how far the retract reflex backs off, mm (default 10)")
       ->check(CLI::PositiveNumber);
   app.add_flag("--realtime", options.realtime, "SCHED_FIFO, mlockall and --cpu for the loop (warns if refused)");
@@ -326,6 +330,7 @@ int main(int argc, char** argv) {
     options.control.contact = flags.contact;
     options.control.contact.retract_distance = flags.retract_mm * 1e-3;
     options.control.limits = flags.limits;
+    options.control.stream_timeout = flags.stream_timeout_ms * 1e-3;
     if (!flags.acceleration_limit.empty()) {
       options.control.limits.acceleration = gains(flags.acceleration_limit, n, "--acceleration-limit");
     }

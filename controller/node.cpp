@@ -50,6 +50,7 @@ Node::Loop::Loop(const RobotModel& model, const Config& control, double payload_
       state(model.dof()),
       target(model.dof()),
       waypoints(model.dof()),
+      setpoint(model.dof()),
       mode(model.dof()),
       payload_mass(payload_mass_in),
       request(model.dof()),
@@ -79,12 +80,14 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
       states_(JointState(n_)),
       targets_(16, Target(n_)),
       trajectories_(2, Waypoints(n_)),
+      setpoints_(16, Setpoint(n_)),
       snapshots_(Snapshot(n_)),
       requests_(CartesianRequest(n_)),
       paths_(2, JointPath(n_)),
       state_receiver_(n_, states_),
       target_receiver_(n_, targets_),
       trajectory_receiver_(model, trajectories_),
+      setpoint_receiver_(n_, setpoints_),
       mode_receiver_(n_, modes_),
       payload_receiver_(payloads_, planner_bell_),
       command_watch_(sent_commands_),
@@ -103,6 +106,9 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
     if (const std::string why = trajectory_receiver_.receive(data, size); !why.empty()) {
       rejections_.add("trajectory " + why);
     }
+  }));
+  subscriptions_.push_back(buses.receive.subscribe(channels_.setpoint, [this](const uint8_t* data, size_t size) {
+    if (const std::string why = setpoint_receiver_.receive(data, size); !why.empty()) rejections_.add("setpoint " + why);
   }));
   subscriptions_.push_back(buses.receive.subscribe(channels_.mode, [this](const uint8_t* data, size_t size) {
     if (const std::string why = mode_receiver_.receive(data, size); !why.empty()) rejections_.add("control mode " + why);
@@ -153,6 +159,7 @@ int64_t Node::tick(int64_t scheduled) {
   while (modes_.pop(loop_.mode)) loop_.controller.set_law(loop_.mode, wake);
   while (targets_.pop(loop_.target)) loop_.controller.set_target(loop_.target, wake);
   while (trajectories_.pop(loop_.waypoints)) loop_.controller.set_trajectory(loop_.waypoints, wake);
+  while (setpoints_.pop(loop_.setpoint)) loop_.controller.set_setpoint(loop_.setpoint, wake);
   if (loop_.controller.take_request(loop_.request)) {
     requests_.write(loop_.request);
     planner_bell_.ring();
@@ -267,6 +274,9 @@ void Node::publish_snapshot() {
   s.ik_residual = loop_.controller.ik_residual();
   s.ik_converged = loop_.controller.ik_converged();
   s.trajectory = loop_.controller.trajectory();
+  s.streaming = loop_.controller.streaming();
+  s.setpoints = loop_.controller.setpoints();
+  s.dropped_setpoints = loop_.controller.dropped_setpoints();
   snapshots_.publish();
 }
 
@@ -405,6 +415,9 @@ void Node::fill_status() {
   status.trajectory_time_scale = s.trajectory.scale;
   status.trajectory_waypoint = s.trajectory.waypoint;
   status.trajectory_message = s.trajectory.message;
+  status.streaming = s.streaming;
+  status.setpoints = s.setpoints;
+  status.setpoints_dropped = s.dropped_setpoints;
   const Transform& T = forward_kinematics(model_, reporter_.data, s.q);
   const Eigen::Quaterniond quaternion(T.linear());
   for (int i = 0; i < 3; ++i) status.tip_position[i] = T.translation()(i);

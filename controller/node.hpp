@@ -125,6 +125,8 @@ class Node {
     int64_t rejected_modes = 0;
     bool mode_refused_last = false;  // the newer of the two refusals is the law's
     TrajectoryProgress trajectory;
+    bool streaming = false;
+    int64_t setpoints = 0, dropped_setpoints = 0;
     explicit Snapshot(int n = 0);
   };
   // Timing figures of the status window and of the whole run.
@@ -165,6 +167,7 @@ class Node {
   Mailbox<JointState> states_;
   SpscRing<Target> targets_;
   SpscRing<Waypoints> trajectories_;
+  SpscRing<Setpoint> setpoints_;
   Mailbox<Snapshot> snapshots_;
   SpscRing<TickRecord> records_{8192};
   Mailbox<CartesianRequest> requests_;  // loop → IK: only the newest request matters
@@ -172,6 +175,7 @@ class Node {
   StateReceiver state_receiver_;
   TargetReceiver target_receiver_;
   TrajectoryReceiver trajectory_receiver_;
+  SetpointReceiver setpoint_receiver_;
   ModeReceiver mode_receiver_;
   PayloadReceiver payload_receiver_;
   SentCommands sent_commands_;
@@ -190,6 +194,7 @@ class Node {
     JointState state;
     Target target;
     Waypoints waypoints;
+    Setpoint setpoint;
     LawSettings mode;
     double payload_mass;
     int64_t modes_seen = 0, targets_seen = 0;  // refused, to tell which refusal came last

@@ -15,6 +15,7 @@
 #include <chasles/control_mode_t.hpp>
 #include <chasles/controller_status_t.hpp>
 #include <chasles/joint_torque_command_t.hpp>
+#include <chasles/joint_setpoint_t.hpp>
 #include <chasles/joint_trajectory_t.hpp>
 #include <chasles/payload_t.hpp>
 #include <chasles/robot_state_t.hpp>
@@ -58,6 +59,7 @@ inline constexpr size_t kTargetCount = 8 + 8 + 1;            // utime, mode
 inline constexpr size_t kStatusStringLength = 8 + 8 + 1;     // utime, state
 inline constexpr size_t kTruthCount = 8 + 8 + 8;             // utime, seq
 inline constexpr size_t kModeCount = 8 + 8 + 1;              // utime, law
+inline constexpr size_t kSetpointCount = 8 + 8;               // utime
 inline constexpr size_t kTrajectoryCounts = 8 + 8 + 8;       // utime, id: then four counts
 // controller_status_t's trajectory_message follows its joint arrays (5 per joint) and 301 bytes of
 // fixed-size fields, counted from the end of num_joints.
@@ -152,6 +154,14 @@ inline std::string prepare(const void* data, size_t size, joint_trajectory_t& m)
   return {};
 }
 
+inline std::string prepare(const void* data, size_t size, joint_setpoint_t& m) {
+  if (!read_int32(data, size, kSetpointCount, m.num_joints)) return truncated(size);
+  if (std::string why = impossible_count(m.num_joints, size); !why.empty()) return why;
+  m.position.assign(size_t(m.num_joints), 0.0);
+  m.velocity.assign(size_t(m.num_joints), 0.0);
+  return {};
+}
+
 inline std::string prepare(const void* data, size_t size, sim_truth_t& m) {
   if (!read_int32(data, size, kTruthCount, m.num_joints)) return truncated(size);
   if (std::string why = impossible_count(m.num_joints, size); !why.empty()) return why;
@@ -228,6 +238,9 @@ inline const char* non_finite(const joint_trajectory_t& m) {
          : !finite(m.goal_tolerance)                ? "goal_tolerance"
          : !std::isfinite(m.goal_time_tolerance)    ? "goal_time_tolerance"
                                                     : nullptr;
+}
+inline const char* non_finite(const joint_setpoint_t& m) {
+  return !finite(m.position) ? "position" : !finite(m.velocity) ? "velocity" : nullptr;
 }
 inline const char* non_finite(const arm_target_t& m) {
   return !finite(m.joint_position)      ? "joint_position"

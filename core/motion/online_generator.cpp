@@ -883,7 +883,7 @@ bool refuse(std::array<char, N>& reason, const char* format, Args... args) {
 }  // namespace
 
 bool OnlineGenerator::plan(const KinematicState& current, const KinematicState& target, const Limits& limits,
-                           double min_duration) {
+                           double min_duration, Synchronization synchronization) {
   const Eigen::Index n = dof_;
   for (const Eigen::VectorXd* vec : {&current.p, &current.v, &current.a, &target.p, &target.v, &target.a,
                                       &limits.velocity, &limits.acceleration, &limits.jerk}) {
@@ -931,6 +931,13 @@ bool OnlineGenerator::plan(const KinematicState& current, const KinematicState& 
     lay_out(all, current.p[i], current.v[i], current.a[i], fastest);
     minimal_[static_cast<std::size_t>(i)] = fastest.duration();
     T = std::max(T, fastest.duration());
+  }
+
+  if (synchronization == Synchronization::kNone) {  // each axis on its own, as fast as it can
+    for (std::size_t k = 0; k < profiles_.size(); ++k) profiles_[k] = fastest_[k];
+    duration_ = T;
+    reason_[0] = '\0';
+    return true;
   }
 
   // Step 2: every axis at exactly T. An axis that cannot arrive at exactly T (a blocked interval

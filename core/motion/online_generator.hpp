@@ -37,6 +37,11 @@ struct AxisProfile {
   double duration() const { return start[phases]; }
 };
 
+/// Whether the axes arrive together (kTime: a straight line in joint space from rest to rest; what
+/// a planner's motion wants) or each as fast as it can (kNone: a moving target followed per axis,
+/// as a stream or a teleoperated arm wants, at a fraction of the cost: no fixed-duration search).
+enum class Synchronization { kTime, kNone };
+
 class OnlineGenerator {
  public:
   /// Allocates everything the generator will use. Throws ArgumentError unless dof ≥ 1.
@@ -52,11 +57,13 @@ class OnlineGenerator {
   /// lowered): then the plan first brings it back within them with full jerk (Ruckig's brake
   /// pre-trajectory), and only the brake may exceed them. Returns false (and a reason()) for
   /// invalid input (sizes, non-finite values, non-positive limits, target out of limits, negative
-  /// or non-finite min_duration), leaving the previous plan in place; or, in principle, when no
+  /// or non-finite min_duration), leaving the previous plan in place. With Synchronization::kNone
+  /// each axis takes its own time-optimal profile (min_duration is then only a floor of
+  /// duration(), the longest of them); or, in principle, when no
   /// profile is found (a numerical failure, never seen in the tests and benchmarks), after which
   /// the previous plan is not to be used. Allocates nothing.
   bool plan(const KinematicState& current, const KinematicState& target, const Limits& limits,
-            double min_duration = 0.0);
+            double min_duration = 0.0, Synchronization synchronization = Synchronization::kTime);
 
   /// The plan's duration in seconds (0 before the first successful plan()).
   double duration() const { return duration_; }

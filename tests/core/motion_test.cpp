@@ -316,6 +316,34 @@ TEST(Motion, MinDurationIsHonoured) {
   }
 }
 
+// Unsynchronised: each axis alone at its own minimal duration (the synchronised plan's step 1),
+// reaching its target then and moving on with it; within every limit throughout.
+TEST(Motion, UnsynchronisedEachAxisArrivesAtItsOwnMinimalDuration) {
+  std::mt19937_64 rng(5);
+  OnlineGenerator otg(7);
+  KinematicState s;
+  for (int k = 0; k < 200; ++k) {
+    const Problem pr = random_problem(rng, 7);
+    ASSERT_TRUE(otg.plan(pr.current, pr.target, pr.limits));
+    double minimal[7], longest = 0.0;
+    for (int i = 0; i < 7; ++i) minimal[i] = otg.minimal_duration(i), longest = std::max(longest, minimal[i]);
+    ASSERT_TRUE(otg.plan(pr.current, pr.target, pr.limits, 0.0, Synchronization::kNone)) << otg.reason();
+    EXPECT_EQ(otg.duration(), longest);
+    for (int i = 0; i < 7; ++i) {
+      EXPECT_EQ(otg.axis(i).duration(), minimal[i]) << "axis " << i;
+      otg.at_time(minimal[i], s);
+      EXPECT_NEAR(s.p[i], pr.target.p[i], 1e-8) << "axis " << i;
+      EXPECT_NEAR(s.v[i], pr.target.v[i], 1e-8) << "axis " << i;
+      // Sampled every 1 ms to its end, within its limits.
+      for (double t = 0.0; t <= minimal[i]; t += 1e-3) {
+        otg.at_time(t, s);
+        ASSERT_LE(std::abs(s.v[i]), pr.limits.velocity[i] * (1 + 1e-9)) << "axis " << i << " t " << t;
+        ASSERT_LE(std::abs(s.a[i]), pr.limits.acceleration[i] * (1 + 1e-9)) << "axis " << i << " t " << t;
+      }
+    }
+  }
+}
+
 TEST(Motion, AStateOutsideTheLimitsIsBroughtBackFirst) {
   // The limits were lowered under a moving arm: |v| > V, |a| > A, or a velocity bound to pass V.
   const double V = 1.0, A = 4.0, J = 50.0;

@@ -6,7 +6,8 @@
 // and Controller::set_law, 6 its payload_t receiver, the model built with the payload (as the
 // daemon's worker does) and Controller::set_model, 7 the direct Bus's reading of a UDP datagram as an
 // LCM small message (parse_lcm_datagram) and, when it is one, the state receiver on its payload; 8
-// its joint_trajectory_t receiver and Controller::set_trajectory.
+// its joint_trajectory_t receiver and Controller::set_trajectory; 9 its joint_setpoint_t receiver
+// and Controller::set_setpoint.
 // What a reader accepts must be what the contract
 // promises (the arm's joint count, finite values; for the watch, a command of its own, once; for a
 // payload, a body the model can carry), and after every input the controller ticks (1 ms later,
@@ -45,6 +46,8 @@ struct Readers {
   SpscRing<Target> targets{4, Target(n)};
   SpscRing<Waypoints> trajectories{1, Waypoints(n)};
   TrajectoryReceiver trajectory_receiver{model, trajectories};
+  SpscRing<Setpoint> setpoints{1, Setpoint(n)};
+  SetpointReceiver setpoint_receiver{n, setpoints};
   StateReceiver state_receiver{n, states};
   TargetReceiver target_receiver{n, targets};
   plant::CommandInbox commands{clock, "COMMAND", n};
@@ -222,7 +225,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   Readers& r = *readers;
   const uint8_t* message = data + 1;
   const int bytes = static_cast<int>(size - 1);
-  switch (data[0] % 9) {
+  switch (data[0] % 10) {
     case 0:
       if (r.state_receiver.receive(message, size_t(bytes), r.now_ns).empty()) {
         JointState state(r.n);
@@ -265,6 +268,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     case 8:
       judge_a_trajectory(r, message, bytes);
       break;
+    case 9:
+      if (r.setpoint_receiver.receive(message, size_t(bytes)).empty()) {
+        Setpoint setpoint(r.n);
+        FUZZ_CHECK(r.setpoints.pop(setpoint));
+        FUZZ_CHECK(setpoint.q.size() == r.n && setpoint.q.allFinite() && setpoint.qd.allFinite());
+        r.controller.set_setpoint(setpoint, r.now_ns);  // orders, clamps and follows it within the limits
+      }
+      break;
     default: {
       decode_as<robot_state_t>(message, size - 1);
       decode_as<joint_torque_command_t>(message, size - 1);
@@ -273,6 +284,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       decode_as<control_mode_t>(message, size - 1);
       decode_as<payload_t>(message, size - 1);
       decode_as<joint_trajectory_t>(message, size - 1);
+      decode_as<joint_setpoint_t>(message, size - 1);
       cli::Cells cells;
       cli::message_cells(cli::message_type(message, size - 1), message, size - 1, {}, cells);
       FUZZ_CHECK(cells.names.size() == cells.values.size());

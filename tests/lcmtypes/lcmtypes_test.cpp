@@ -8,6 +8,7 @@
 #include <chasles/control_mode_t.hpp>
 #include <chasles/controller_status_t.hpp>
 #include <chasles/joint_torque_command_t.hpp>
+#include <chasles/joint_setpoint_t.hpp>
 #include <chasles/joint_trajectory_t.hpp>
 #include <chasles/payload_t.hpp>
 #include <chasles/robot_state_t.hpp>
@@ -144,6 +145,9 @@ controller_status_t make_status() {
   status.trajectory_time_scale = 1.5;
   status.trajectory_waypoint = 3;
   status.trajectory_message = "joint j2: 0.02 rad off the path at 1.250 s, over its tolerance 0.01";
+  status.streaming = true;
+  status.setpoints = 1234;
+  status.setpoints_dropped = 56;
   return status;
 }
 
@@ -314,7 +318,7 @@ TEST(lcmtypes, ControllerStatusRoundTrips) {
   const size_t trajectory_string = 4 + status.trajectory_message.size() + 1;
   EXPECT_EQ(buffer.size(), kHash + 8 + 1 + string_size + 4 + 3 * 8 * kJoints + 8 * 3 + 8 * 4 + 8 * kJoints +
                                (4 + 8 + 1) + 9 * 8 + 5 * 8 + 8 * kJoints + 6 * 8 + 2 + 2 * 8 + 1 + 8 + 8 +
-                               (8 + 1 + 3 * 8 + 4) + trajectory_string);
+                               (8 + 1 + 3 * 8 + 4) + trajectory_string + (1 + 8 + 8));
   const auto back = decode<controller_status_t>(buffer);
   EXPECT_EQ(back.utime, status.utime);
   EXPECT_EQ(back.state, controller_status_t::FAULT);
@@ -359,6 +363,9 @@ TEST(lcmtypes, ControllerStatusRoundTrips) {
   EXPECT_EQ(back.trajectory_time_scale, 1.5);
   EXPECT_EQ(back.trajectory_waypoint, 3);
   EXPECT_EQ(back.trajectory_message, status.trajectory_message);
+  EXPECT_TRUE(back.streaming);
+  EXPECT_EQ(back.setpoints, 1234);
+  EXPECT_EQ(back.setpoints_dropped, 56);
   expect_damage_refused<controller_status_t>(buffer);
   // The checked decoder finds both strings' lengths in the raw bytes, with any message length.
   for (const std::string message : {"", "x", "a longer message of the controller's"}) {
@@ -371,7 +378,31 @@ TEST(lcmtypes, ControllerStatusRoundTrips) {
     EXPECT_EQ(checked.message, message);
     EXPECT_EQ(checked.trajectory_message, message + "!");
     EXPECT_EQ(checked.state_period, status.state_period);
+    EXPECT_EQ(checked.setpoints_dropped, 56);
   }
+}
+
+TEST(lcmtypes, JointSetpointRoundTripsAndIsChecked) {
+  joint_setpoint_t setpoint;
+  setpoint.utime = 1'790'000'000'000'777;
+  setpoint.num_joints = kJoints;
+  setpoint.position = values(kJoints, 0.25);
+  setpoint.velocity = values(kJoints, -0.5);
+  const std::vector<uint8_t> buffer = encode(setpoint);
+  // fingerprint, utime, num_joints, position[n], velocity[n]
+  EXPECT_EQ(buffer.size(), static_cast<size_t>(kHash + 8 + 4 + 2 * 8 * kJoints));
+  joint_setpoint_t checked;
+  ASSERT_EQ(messages::decode_checked(buffer.data(), buffer.size(), checked, kJoints, messages::Finite::Required), "");
+  EXPECT_EQ(checked.utime, setpoint.utime);
+  EXPECT_EQ(checked.position, setpoint.position);
+  EXPECT_EQ(checked.velocity, setpoint.velocity);
+  expect_damage_refused<joint_setpoint_t>(buffer);
+  EXPECT_EQ(decode_checked<joint_setpoint_t>(with_int32(buffer, 16, 6)), "for 6 joints; the arm has 7");
+  EXPECT_EQ(decode_checked<joint_setpoint_t>(with_int32(buffer, 16, 6), messages::kAnyArm),
+            "of " + std::to_string(buffer.size()) + " bytes; expected " + std::to_string(buffer.size() - 16) +
+                " for 6 joints");
+  setpoint.velocity[2] = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(decode_checked<joint_setpoint_t>(encode(setpoint)), "with non-finite velocity");
 }
 
 TEST(lcmtypes, JointTrajectoryRoundTripsAndItsCheckedDecoderReadsEveryCount) {
@@ -587,8 +618,8 @@ TEST(lcmtypes, TypesAreNotInterchangeable) {
   const std::set<int64_t> hashes = {robot_state_t::getHash(),  joint_torque_command_t::getHash(),
                                     arm_target_t::getHash(),   controller_status_t::getHash(),
                                     control_mode_t::getHash(), payload_t::getHash(),
-                                    joint_trajectory_t::getHash()};
-  EXPECT_EQ(hashes.size(), 7u);
+                                    joint_trajectory_t::getHash(), joint_setpoint_t::getHash()};
+  EXPECT_EQ(hashes.size(), 8u);
 
   const std::vector<uint8_t> state = encode(make_state(kJoints));
   joint_torque_command_t command;
@@ -606,13 +637,14 @@ TEST(lcmtypes, FingerprintsArePinned) {
   EXPECT_EQ(static_cast<uint64_t>(joint_torque_command_t::getHash()), 0xd037d1c904e0e80fu);
   EXPECT_EQ(static_cast<uint64_t>(arm_target_t::getHash()), 0x309277be8aae6666u);
   // controller_status_t gained the contact fields at its end ([K]), then the law and the payload's
-  // mass, then the state period ([M]), then the trajectory's progress ([N]) at its end; no field
+  // mass, then the state period ([M]), then the trajectory's progress and the stream's ([N]) at its end; no field
   // changed meaning, and a reader built on an older contract refuses the new one by its
   // fingerprint.
-  EXPECT_EQ(static_cast<uint64_t>(controller_status_t::getHash()), 0xb69f5d18da245f61u);
+  EXPECT_EQ(static_cast<uint64_t>(controller_status_t::getHash()), 0x0a7b946a4c90fbceu);
   EXPECT_EQ(static_cast<uint64_t>(control_mode_t::getHash()), 0xe4a15f556715af84u);
   EXPECT_EQ(static_cast<uint64_t>(payload_t::getHash()), 0x38b055cd3dfdfa1fu);
   EXPECT_EQ(static_cast<uint64_t>(joint_trajectory_t::getHash()), 0xd964c2fb834f2258u);
+  EXPECT_EQ(static_cast<uint64_t>(joint_setpoint_t::getHash()), 0x5c7e81c8a461c11au);
 }
 
 }  // namespace

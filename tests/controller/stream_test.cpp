@@ -1,0 +1,227 @@
+// Streams of setpoints: the online generator in the loop turns them into a reference that is C²
+// and within every limit, however the stream arrives (late, jittered, duplicated, out of order,
+// lost), follows it with little lag, and brings the arm to rest when it stops.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <random>
+#include <string>
+
+#include "chasles/controller/controller.hpp"
+#include "following.hpp"
+#include "support/allocation_counter.hpp"
+
+namespace chasles::controller {
+namespace {
+
+using Eigen::VectorXd;
+using testing::bent_pose;
+using testing::kMs;
+
+// Every tick's reference within every limit; its jerk by differences of its acceleration.
+class Streaming : public testing::Following {
+ protected:
+  void expect_within_limits(const Controller& c, const Reference& before) {
+    const MotionLimits& l = c.limits();
+    const Reference& r = c.reference();
+    for (int i = 0; i < 7; ++i) {
+      ASSERT_GE(r.q(i), l.lower(i) - 1e-9) << now_ << " joint " << i;
+      ASSERT_LE(r.q(i), l.upper(i) + 1e-9) << now_ << " joint " << i;
+      ASSERT_LE(std::abs(r.qd(i)), l.velocity(i) * (1 + 1e-9)) << now_ << " joint " << i;
+      ASSERT_LE(std::abs(r.qdd(i)), l.acceleration(i) * (1 + 1e-9)) << now_ << " joint " << i;
+      ASSERT_LE(std::abs(r.qdd(i) - before.qdd(i)) / 1e-3, l.jerk(i) * (1 + 1e-6)) << now_ << " joint " << i;
+    }
+  }
+  Setpoint setpoint(int64_t utime, const VectorXd& q, const VectorXd& qd) {
+    Setpoint s(7);
+    s.utime = utime, s.q = q, s.qd = qd;
+    return s;
+  }
+};
+
+// The sender's signal: a smooth motion of every joint about the bent pose, well within the limits.
+VectorXd signal(double t) {
+  VectorXd q = bent_pose();
+  for (int i = 0; i < 7; ++i) q(i) += 0.3 * std::sin(1.5 * t + i);
+  return q;
+}
+VectorXd signal_velocity(double t) {
+  VectorXd v(7);
+  for (int i = 0; i < 7; ++i) v(i) = 0.45 * std::cos(1.5 * t + i);
+  return v;
+}
+
+// The case: 30 Hz, 20 % of the setpoints delayed by up to 50 ms (so some arrive after a
+// newer one, and are dropped), 5 % lost. The reference stays C² within every limit at every tick,
+// and lags the sender's signal by at most two stream periods.
+TEST_F(Streaming, ThirtyHertzLateAndLostIsFollowedWithinTheLimitsAndTwoPeriods) {
+  Controller controller(model_, config_);
+  ASSERT_TRUE(tick(controller));
+  std::mt19937 rng(30);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::multimap<int64_t, Setpoint> arrivals;  // by arrival time, ns
+  constexpr double kPeriod = 1.0 / 30.0, kSeconds = 10.0;
+  int sent = 0, late = 0;
+  for (int k = 0; k * kPeriod < kSeconds; ++k) {
+    const double t = k * kPeriod;
+    if (unit(rng) < 0.05) continue;  // lost
+    double delay = 0.0;
+    if (unit(rng) < 0.2) delay = 0.05 * unit(rng), ++late;
+    const int64_t sampled = now_ + static_cast<int64_t>(t * 1e9);
+    arrivals.emplace(sampled + static_cast<int64_t>(delay * 1e9),
+                     setpoint(sampled / 1000, signal(t), signal_velocity(t)));
+    ++sent;
+  }
+  // The longest silence between setpoints the controller will take (newer than any before).
+  int64_t newest = -1, last_taken_ns = now_, longest_silence_ns = 0;
+  for (const auto& [arrival, s] : arrivals) {
+    if (s.utime <= newest) continue;
+    newest = s.utime;
+    longest_silence_ns = std::max(longest_silence_ns, arrival - last_taken_ns);
+    last_taken_ns = arrival;
+  }
+  const int64_t start = now_;
+  // The reference, tick by tick, for the lag.
+  std::vector<VectorXd> reference;
+  Reference before = controller.reference();
+  long allocations = 0;
+  while (now_ < start + static_cast<int64_t>(kSeconds * 1e9)) {
+    {
+      const chasles::testing::AllocationCounter counter;
+      for (auto it = arrivals.begin(); it != arrivals.end() && it->first <= now_ + kMs; it = arrivals.erase(it)) {
+        controller.set_setpoint(it->second, now_ + kMs);
+      }
+      ASSERT_TRUE(tick(controller));
+      allocations += counter.count();
+    }
+    expect_within_limits(controller, before);
+    if (HasFatalFailure()) return;
+    before = controller.reference();
+    reference.push_back(controller.reference().q);
+    state_.q = controller.reference().q, state_.qd = controller.reference().qd;
+  }
+  EXPECT_EQ(allocations, 0);
+  EXPECT_TRUE(controller.streaming());
+  EXPECT_EQ(controller.setpoints() + controller.dropped_setpoints(), sent);
+  EXPECT_GT(controller.dropped_setpoints(), 0) << "some late setpoints came after a newer one";
+  EXPECT_LT(controller.dropped_setpoints(), late);
+  // The lag: the delay τ that brings the signal closest to the reference after the first second.
+  // reference[k] is at t = (k + 1) ms; so is sent[k].
+  std::vector<VectorXd> sent_signal;
+  for (size_t k = 0; k < reference.size(); ++k) sent_signal.push_back(signal(1e-3 * static_cast<double>(k + 1)));
+  double best_rms = 1e9;
+  int best_lag_ms = -1;
+  for (int lag_ms = 0; lag_ms <= 150; ++lag_ms) {
+    double sum = 0.0;
+    int count = 0;
+    for (size_t k = 1000; k < reference.size(); ++k) {
+      sum += (reference[k] - sent_signal[k - size_t(lag_ms)]).squaredNorm(), count += 7;
+    }
+    const double rms = std::sqrt(sum / count);
+    if (rms < best_rms) best_rms = rms, best_lag_ms = lag_ms;
+  }
+  double worst = 0.0;
+  for (size_t k = 1000; k < reference.size(); ++k) {
+    worst = std::max(worst, (reference[k] - sent_signal[k - size_t(best_lag_ms)]).cwiseAbs().maxCoeff());
+  }
+  std::printf("[ stream ] 30 Hz, %d sent, %d late, %lld dropped: lag %d ms, RMS %.3f mrad and at most %.1f mrad "
+              "about it\n",
+              sent, late, static_cast<long long>(controller.dropped_setpoints()), best_lag_ms, 1e3 * best_rms,
+              1e3 * worst);
+  EXPECT_LE(best_lag_ms, 66);  // two periods of 33.3 ms
+  // No joint further from the lagged signal than the signal moves (0.45 rad/s at most) over the
+  // longest silence of the stream and the lag: the target then stands on the last setpoint's
+  // extrapolation.
+  const double silence = 1e-9 * static_cast<double>(longest_silence_ns);
+  std::printf("[ stream ] longest silence %.0f ms\n", 1e3 * silence);
+  EXPECT_LT(worst, 0.45 * (silence + 1e-3 * best_lag_ms));
+}
+
+// A stream that stops: after the timeout the reference decelerates to rest, within the limits,
+// without coming back, and the arm holds. One that heads into a limit stops before it.
+TEST_F(Streaming, AStreamThatStopsComesToRestAndOneIntoALimitStopsShortOfIt) {
+  Controller controller(model_, config_);
+  ASSERT_TRUE(tick(controller));
+  VectorXd velocity = VectorXd::Zero(7);
+  velocity(0) = 1.5;  // panda_joint1, toward its upper limit 2.8973
+  Reference before = controller.reference();
+  VectorXd q = bent_pose();
+  for (int k = 0; k < 600; ++k) {  // 20 Hz for 0.6 s, the setpoint moving at 1.5 rad/s
+    if (k % 50 == 0) {
+      q(0) = bent_pose()(0) + 1.5 * 1e-3 * k;
+      ASSERT_TRUE(controller.set_setpoint(setpoint(1000 * k, q, velocity), now_ + kMs));
+    }
+    ASSERT_TRUE(tick(controller));
+    expect_within_limits(controller, before);
+    before = controller.reference();
+    state_.q = before.q, state_.qd = before.qd;
+  }
+  EXPECT_GT(controller.reference().qd(0), 1.0);
+  // Silent from here: 100 ms on, the stop; the position only grows until rest.
+  double last = controller.reference().q(0);
+  int ticks = 0;
+  while (controller.mode() == Mode::kRunning && ticks < 5000) {
+    ASSERT_TRUE(tick(controller));
+    expect_within_limits(controller, before);
+    before = controller.reference();
+    state_.q = before.q, state_.qd = before.qd;
+    EXPECT_GE(before.q(0), last - 1e-12) << "no coming back";
+    last = before.q(0);
+    ++ticks;
+  }
+  EXPECT_EQ(controller.mode(), Mode::kHolding);
+  EXPECT_FALSE(controller.streaming());
+  EXPECT_EQ(controller.reference().qd, VectorXd::Zero(7));
+  // 100 ms of timeout plus a stop from 1.5 rad/s at 15 rad/s² and 7500 rad/s³: 0.1 + 0.102 s.
+  EXPECT_LT(ticks, 260) << ticks;
+
+  // Into the limit: a setpoint past it, moving on at full speed.
+  q = controller.reference().q;
+  q(0) = 10.0;
+  velocity(0) = 2.0;
+  for (int k = 0; k < 3000; ++k) {
+    if (k % 20 == 0) {
+      ASSERT_TRUE(controller.set_setpoint(setpoint(1'000'000 + 1000 * k, q, velocity), now_ + kMs));
+    }
+    ASSERT_TRUE(tick(controller));
+    expect_within_limits(controller, before);
+    before = controller.reference();
+    state_.q = before.q, state_.qd = before.qd;
+  }
+  EXPECT_NEAR(controller.reference().q(0), controller.limits().upper(0), 1e-9);
+  EXPECT_NEAR(controller.reference().qd(0), 0.0, 1e-12);
+  EXPECT_EQ(controller.reflexes(), 0);
+}
+
+TEST_F(Streaming, SetpointsOutOfTurnAreDroppedOrRefusedAndOthersEndTheStream) {
+  Controller controller(model_, config_);
+  EXPECT_FALSE(controller.set_setpoint(setpoint(1, bent_pose(), VectorXd::Zero(7)), now_));
+  EXPECT_NE(std::string(controller.last_rejection()).find("no robot state"), std::string::npos);
+  ASSERT_TRUE(tick(controller));
+  ASSERT_TRUE(controller.set_setpoint(setpoint(10, bent_pose(), VectorXd::Zero(7)), now_));
+  EXPECT_EQ(controller.mode(), Mode::kRunning);
+  EXPECT_FALSE(controller.set_setpoint(setpoint(10, bent_pose(), VectorXd::Zero(7)), now_));  // duplicated
+  EXPECT_FALSE(controller.set_setpoint(setpoint(9, bent_pose(), VectorXd::Zero(7)), now_));   // late
+  EXPECT_EQ(controller.dropped_setpoints(), 2);
+  EXPECT_EQ(controller.rejected_targets(), 1);
+  VectorXd nan = bent_pose();
+  nan(3) = std::nan("");
+  EXPECT_FALSE(controller.set_setpoint(setpoint(11, nan, VectorXd::Zero(7)), now_));
+  EXPECT_NE(std::string(controller.last_rejection()).find("non-finite"), std::string::npos);
+  // A JOINT target ends the stream.
+  Target target(7);
+  target.mode = Target::kJoint, target.num_joints = 7, target.q = bent_pose(), target.duration = 1.0;
+  ASSERT_TRUE(controller.set_target(target, now_));
+  EXPECT_FALSE(controller.streaming());
+  // In REFLEX a stream is refused: it would otherwise resume the motion within a period.
+  state_.qd(2) = 5.0;
+  ASSERT_TRUE(tick(controller));
+  ASSERT_EQ(controller.mode(), Mode::kReflex);
+  EXPECT_FALSE(controller.set_setpoint(setpoint(12, bent_pose(), VectorXd::Zero(7)), now_));
+  EXPECT_NE(std::string(controller.last_rejection()).find("REFLEX"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace chasles::controller
