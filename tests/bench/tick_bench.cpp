@@ -84,7 +84,11 @@ double percentile(std::vector<int64_t> sorted, double p) {
   return 1e-3 * static_cast<double>(sorted[std::min(k, sorted.size() - 1)]);
 }
 
-Figures run(const chasles::RobotModel& model, Law law, double seconds) {
+// What drives the reference: JOINT targets back and forth, or a 30 Hz stream of setpoints (a
+// smooth motion about the start, with its velocity) that the online generator follows every tick.
+enum class Source { kTargets, kStream };
+
+Figures run(const chasles::RobotModel& model, Law law, double seconds, Source source = Source::kTargets) {
   const int n = model.dof();
   // The monitor runs and classifies as always, with no threshold to cross: free drive's push is
   // an external force by design, and a reflex would end the programme.
@@ -110,6 +114,7 @@ Figures run(const chasles::RobotModel& model, Law law, double seconds) {
   target.num_joints = n;
   target.duration = kLegSeconds;
   const auto leg_ticks = static_cast<int64_t>(kLegSeconds * 1e9 / kPeriodNs);
+  chasles::controller::Setpoint setpoint(n);
   long allocations = 0;
   for (int64_t k = 0; k < total_ticks; ++k) {
     const int64_t t = k * kPeriodNs;
@@ -121,9 +126,18 @@ Figures run(const chasles::RobotModel& model, Law law, double seconds) {
       std::fprintf(stderr, "chasles_tick_bench: %s refused: %s\n", to_string(law), controller.mode_rejection());
       std::exit(1);
     }
-    if (law != Law::kFreeDrive && k >= 1 && k % leg_ticks == 1) {
+    if (source == Source::kTargets && law != Law::kFreeDrive && k >= 1 && k % leg_ticks == 1) {
       target.q = poses[(k / leg_ticks) % 2];
       controller.set_target(target, t);
+    }
+    if (source == Source::kStream && k >= 1 && k % 33 == 1) {
+      const double time = 1e-9 * static_cast<double>(t);
+      for (int i = 0; i < n; ++i) {
+        setpoint.q(i) = q_start(i) + 0.2 * std::sin(1.5 * time + i);
+        setpoint.qd(i) = 0.3 * std::cos(1.5 * time + i);
+      }
+      setpoint.utime = t / 1000;
+      controller.set_setpoint(setpoint, t);
     }
     const bool counted = k >= warm_up;
     const chasles::testing::AllocationCounter counter;
@@ -192,25 +206,27 @@ int main(int argc, char** argv) {
     if (!json) {
       std::printf("%s: %d joints to %s; %.0f s per law at 1 kHz after %.0f s of warm-up\n\n", model.name().c_str(),
                   model.dof(), model.tip_link().c_str(), seconds, kWarmUpSeconds);
-      std::printf("%-20s %8s %8s %8s %8s %8s %12s\n", "law", "ticks", "p50 us", "p99 us", "max us", "mean us",
+      std::printf("%-26s %8s %8s %8s %8s %8s %12s\n", "law", "ticks", "p50 us", "p99 us", "max us", "mean us",
                   "allocations");
     } else {
       std::printf("{");
     }
     const char* separator = "";
-    for (Law law : laws) {
-      const Figures f = run(model, law, seconds);
+    const auto print = [&](const std::string& name, const Figures& f) {
       if (json) {
         std::printf("%s\"%s\": {\"ticks\": %lld, \"p50_us\": %.3f, \"p99_us\": %.3f, \"max_us\": %.3f, "
                     "\"mean_us\": %.3f, \"allocations\": %ld}",
-                    separator, to_string(law), static_cast<long long>(f.ticks), f.p50, f.p99, f.max, f.mean,
+                    separator, name.c_str(), static_cast<long long>(f.ticks), f.p50, f.p99, f.max, f.mean,
                     f.allocations);
         separator = ", ";
       } else {
-        std::printf("%-20s %8lld %8.2f %8.2f %8.2f %8.2f %12ld\n", to_string(law), static_cast<long long>(f.ticks),
+        std::printf("%-26s %8lld %8.2f %8.2f %8.2f %8.2f %12ld\n", name.c_str(), static_cast<long long>(f.ticks),
                     f.p50, f.p99, f.max, f.mean, f.allocations);
       }
-    }
+    };
+    for (Law law : laws) print(to_string(law), run(model, law, seconds));
+    // The same computed-torque law with its reference from a stream through the online generator.
+    print("computed-torque-stream", run(model, Law::kComputedTorque, seconds, Source::kStream));
     std::printf(json ? "}\n" : "\n");
   } catch (const std::exception& e) {
     std::fprintf(stderr, "chasles_tick_bench: %s\n", e.what());
