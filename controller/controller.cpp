@@ -90,6 +90,14 @@ double speed_that_stops_within(double d, double A, double J) {
   return 0.5 * (-b + std::sqrt(b * b + 8.0 * A * d));
 }
 
+// Velocity v at position p in [lower, upper], cut so that heading toward a limit it can still stop
+// before it (and to at most `fastest`).
+double velocity_that_stops_in_range(double v, double p, double lower, double upper, double fastest, double A,
+                                    double J) {
+  const double room = v > 0.0 ? upper - p : p - lower;
+  return std::copysign(std::min({std::abs(v), fastest, speed_that_stops_within(room, A, J)}), v);
+}
+
 void format_into(char (&buffer)[192], const char* format, va_list args) {
   std::vsnprintf(buffer, sizeof(buffer), format, args);
 }
@@ -611,13 +619,10 @@ bool Controller::set_setpoint(const Setpoint& setpoint, int64_t now_ns) {
     return false;
   }
   for (int i = 0; i < n; ++i) {
-    const double q = std::clamp(setpoint.q(i), limits_.lower(i), limits_.upper(i));
-    // Toward a limit, no faster than what can still stop before it.
-    const double room = setpoint.qd(i) > 0.0 ? limits_.upper(i) - q : q - limits_.lower(i);
-    const double speed = std::min({std::abs(setpoint.qd(i)), otg_limits_.velocity(i),
-                                   speed_that_stops_within(room, otg_limits_.acceleration(i), otg_limits_.jerk(i))});
-    otg_target_.p(i) = q;
-    otg_target_.v(i) = std::copysign(speed, setpoint.qd(i));
+    otg_target_.p(i) = std::clamp(setpoint.q(i), limits_.lower(i), limits_.upper(i));
+    otg_target_.v(i) = velocity_that_stops_in_range(setpoint.qd(i), otg_target_.p(i), limits_.lower(i),
+                                                    limits_.upper(i), otg_limits_.velocity(i),
+                                                    otg_limits_.acceleration(i), otg_limits_.jerk(i));
     otg_target_.a(i) = 0.0;
   }
   if (!streaming_) {
@@ -659,12 +664,10 @@ void Controller::update_stream(int64_t now_ns) {
   if (!stream_stopping_) {
     // The setpoint moves on at its velocity; at a limit it stops there.
     for (int i = 0; i < ref_.q.size(); ++i) {
-      const double p = otg_target_.p(i) + otg_target_.v(i) * dt;
-      otg_target_.p(i) = std::clamp(p, limits_.lower(i), limits_.upper(i));
-      const double room = otg_target_.v(i) > 0.0 ? limits_.upper(i) - otg_target_.p(i) : otg_target_.p(i) - limits_.lower(i);
-      const double speed = std::min(std::abs(otg_target_.v(i)), speed_that_stops_within(room, otg_limits_.acceleration(i),
-                                                                                        otg_limits_.jerk(i)));
-      otg_target_.v(i) = std::copysign(speed, otg_target_.v(i));
+      otg_target_.p(i) = std::clamp(otg_target_.p(i) + otg_target_.v(i) * dt, limits_.lower(i), limits_.upper(i));
+      otg_target_.v(i) = velocity_that_stops_in_range(otg_target_.v(i), otg_target_.p(i), limits_.lower(i),
+                                                      limits_.upper(i), otg_limits_.velocity(i),
+                                                      otg_limits_.acceleration(i), otg_limits_.jerk(i));
     }
   }
   otg_from_.p = ref_.q;
@@ -674,9 +677,7 @@ void Controller::update_stream(int64_t now_ns) {
   // nothing, and the fixed-duration search it needs costs far more per tick.
   if (!otg_.plan(otg_from_, otg_target_, otg_limits_, 0.0, motion::Synchronization::kNone)) {
     // Never seen in the tests and benchmarks: the stream ends where the reference is.
-    snprintf(rejection_, sizeof(rejection_), "stream ended: the trajectory generator found no motion (%.120s)",
-             otg_.reason());
-    ++rejected_targets_;
+    refuse("stream ended: the trajectory generator found no motion (%.120s)", otg_.reason());
     hold_at(ref_.q);
     return;
   }

@@ -94,23 +94,24 @@ std::string TrajectoryReceiver::receive(const void* data, size_t size) {
     return why;
   }
   const joint_trajectory_t& m = message_;
-  const std::string id = std::to_string(m.id) + ": ";  // after the node's "trajectory "
+  // Built only for a refusal (after the node's "trajectory "): a trajectory taken costs no string.
+  const auto id = [&m] { return std::to_string(m.id) + ": "; };
   if (m.num_points < 1 || m.num_points > Waypoints::kMaxPoints) {
-    return id + std::to_string(m.num_points) + " waypoints; 1 to " + std::to_string(Waypoints::kMaxPoints) + " are taken";
+    return id() + std::to_string(m.num_points) + " waypoints; 1 to " + std::to_string(Waypoints::kMaxPoints) + " are taken";
   }
   if ((m.num_velocities != 0 && m.num_velocities != m.num_points) ||
       (m.num_accelerations != 0 && m.num_accelerations != m.num_points)) {
-    return id + "velocities and accelerations come for every waypoint or none (" + std::to_string(m.num_points) +
+    return id() + "velocities and accelerations come for every waypoint or none (" + std::to_string(m.num_points) +
            " waypoints, " + std::to_string(m.num_velocities) + " velocities, " + std::to_string(m.num_accelerations) +
            " accelerations)";
   }
-  if (m.num_accelerations != 0 && m.num_velocities == 0) return id + "accelerations without velocities";
+  if (m.num_accelerations != 0 && m.num_velocities == 0) return id() + "accelerations without velocities";
   std::fill(column_.begin(), column_.end(), -1);
   for (int c = 0; c < n; ++c) {
     const auto it = std::find(names_.begin(), names_.end(), m.joint_names[size_t(c)]);
-    if (it == names_.end()) return id + "joint '" + m.joint_names[size_t(c)] + "' is not one of the arm's";
+    if (it == names_.end()) return id() + "joint '" + m.joint_names[size_t(c)] + "' is not one of the arm's";
     int& column = column_[size_t(it - names_.begin())];
-    if (column >= 0) return id + "joint '" + m.joint_names[size_t(c)] + "' is named twice";
+    if (column >= 0) return id() + "joint '" + m.joint_names[size_t(c)] + "' is named twice";
     column = c;
   }
   Waypoints& w = waypoints_;
@@ -133,7 +134,7 @@ std::string TrajectoryReceiver::receive(const void* data, size_t size) {
   }
   w.goal_time = m.goal_time_tolerance;
   w.time_scaling = m.time_scaling;
-  if (!queue_.push(w)) return id + "not taken: the controller has not caught up with the trajectories before it";
+  if (!queue_.push(w)) return id() + "not taken: the controller has not caught up with the trajectories before it";
   return {};
 }
 
