@@ -466,21 +466,24 @@ with open(log, "rb") as file:
 press = json.load(open(os.path.join(d, "press.json")))
 def doubles(data, offset, n):
     return list(struct.unpack_from(f">{n}d", data, offset)), offset + 8 * n
+# The LCM log's events, (utime, channel, data), in order (LCM's log format: a 28-byte header each).
+def events(path):
+    with open(path, "rb") as file:
+        while True:
+            head = file.read(28)
+            if len(head) < 28:
+                return
+            _, _, utime, channel_len, data_len = struct.unpack(">IqqII", head)
+            channel = file.read(channel_len).decode(errors="replace")
+            yield utime, channel, file.read(data_len)
 truth_f = []
-with open(log, "rb") as file:
-    while True:
-        head = file.read(28)
-        if len(head) < 28:
-            break
-        _, _, utime, channel_len, data_len = struct.unpack(">IqqII", head)
-        channel = file.read(channel_len).decode(errors="replace")
-        data = file.read(data_len)
-        if not (press["from_utime"] <= utime <= press["to_utime"]):
-            continue
-        if channel.endswith("TRUTH"):  # hash, utime, seq, num_joints, tau_ext[n], tip_wrench_ext[6], contact
-            n = struct.unpack_from(">i", data, 24)[0]
-            wrench, _ = doubles(data, 28 + 8 * n, 6)
-            truth_f.append(wrench[5])
+for utime, channel, data in events(log):
+    if not (press["from_utime"] <= utime <= press["to_utime"]):
+        continue
+    if channel.endswith("TRUTH"):  # hash, utime, seq, num_joints, tau_ext[n], tip_wrench_ext[6], contact
+        n = struct.unpack_from(">i", data, 24)[0]
+        wrench, _ = doubles(data, 28 + 8 * n, 6)
+        truth_f.append(wrench[5])
 k, K, depth = press["press_k"], press["table_k"], press["depth"]
 expected = k * K / (k + K) * depth
 # The controller's side of the same window: its estimate of the force, and whether it faulted.
@@ -525,25 +528,18 @@ def status_fields(data):
             "waypoint": waypoint, "message": message}
 outcomes = ["NONE", "ACTIVE", "SUCCEEDED", "ABORTED", "PREEMPTED", "REJECTED"]
 active, last = [], None
-with open(log, "rb") as file:
-    while True:
-        head = file.read(28)
-        if len(head) < 28:
-            break
-        _, _, utime, channel_len, data_len = struct.unpack(">IqqII", head)
-        channel = file.read(channel_len).decode(errors="replace")
-        data = file.read(data_len)
-        if not channel.endswith("STATUS"):
-            continue
-        try:
-            st = status_fields(data)
-        except struct.error:
-            continue
-        if st["id"] != plan["id"]:
-            continue
-        last = st
-        if st["outcome"] == 1:
-            active.append(st)
+for _, channel, data in events(log):
+    if not channel.endswith("STATUS"):
+        continue
+    try:
+        st = status_fields(data)
+    except struct.error:
+        continue
+    if st["id"] != plan["id"]:
+        continue
+    last = st
+    if st["outcome"] == 1:
+        active.append(st)
 duration_planned = plan["points"][-1]["time_from_start"]
 print()
 print(f"Waypoint trajectory {plan['id']}: {len(plan['points'])} waypoints off the table to the second pose, the first and "

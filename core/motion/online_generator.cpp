@@ -96,7 +96,11 @@ bool within_limits_and_reaches(const AxisProfile& pr, const Axis& x) {
 // acceleration s·ap, held there only if that peak is the limit A, then −s·J down to a1. s is
 // chosen so that the velocity change asks for more (s = +1) or less (s = −1) than moving a
 // straight from a0 to a1 gives.
-Phases velocity_ramp(double v0, double a0, double v1, double a1, double A, double J) {
+// The ramp's three phases: jerk s·J for t1, 0 for hold, −s·J for t3.
+struct Ramp {
+  double s, t1, hold, t3;
+};
+inline Ramp ramp_of(double v0, double a0, double v1, double a1, double A, double J) {
   const double straight = (a0 + a1) / 2.0 * std::abs(a1 - a0) / J;  // (a1² − a0²)/(2J) in the ramp's direction
   const double s = (v1 - v0 >= straight) ? 1.0 : -1.0;
   // In the mirrored frame (s = +1): the peak ap ≥ max(b0, b1) from Δw = (2ap² − b0² − b1²)/(2J).
@@ -107,10 +111,15 @@ Phases velocity_ramp(double v0, double a0, double v1, double a1, double A, doubl
     ap = A;
     hold = (dw - (2.0 * A * A - b0 * b0 - b1 * b1) / (2.0 * J)) / A;
   }
+  return {s, std::max(0.0, (ap - b0) / J), std::max(0.0, hold), std::max(0.0, (ap - b1) / J)};
+}
+
+Phases velocity_ramp(double v0, double a0, double v1, double a1, double A, double J) {
+  const Ramp r = ramp_of(v0, a0, v1, a1, A, J);
   Phases out;
-  out.add(s * J, std::max(0.0, (ap - b0) / J));
-  out.add(0.0, std::max(0.0, hold));
-  out.add(-s * J, std::max(0.0, (ap - b1) / J));
+  out.add(r.s * J, r.t1);
+  out.add(0.0, r.hold);
+  out.add(-r.s * J, r.t3);
   return out;
 }
 
@@ -118,21 +127,12 @@ Phases velocity_ramp(double v0, double a0, double v1, double a1, double A, doubl
 // out: the inner loop of the fixed-duration search.
 inline void ramp_time_distance(double v0, double a0, double v1, double a1, double A, double J, double& duration,
                                double& distance) {
-  const double straight = (a0 + a1) / 2.0 * std::abs(a1 - a0) / J;
-  const double s = (v1 - v0 >= straight) ? 1.0 : -1.0;
-  const double b0 = s * a0, b1 = s * a1, dw = s * (v1 - v0);
-  double ap = std::sqrt(std::max(0.0, J * dw + (b0 * b0 + b1 * b1) / 2.0));
-  double hold = 0.0;
-  if (ap > A) {
-    ap = A;
-    hold = std::max(0.0, (dw - (2.0 * A * A - b0 * b0 - b1 * b1) / (2.0 * J)) / A);
-  }
-  const double t1 = std::max(0.0, (ap - b0) / J), t3 = std::max(0.0, (ap - b1) / J);
+  const Ramp r = ramp_of(v0, a0, v1, a1, A, J);
   double p = 0.0, v = v0, a = a0;
-  advance(p, v, a, s * J, t1);
-  advance(p, v, a, 0.0, hold);
-  advance(p, v, a, -s * J, t3);
-  duration = t1 + hold + t3;
+  advance(p, v, a, r.s * J, r.t1);
+  advance(p, v, a, 0.0, r.hold);
+  advance(p, v, a, -r.s * J, r.t3);
+  duration = r.t1 + r.hold + r.t3;
   distance = p;
 }
 
