@@ -882,15 +882,11 @@ bool refuse(std::array<char, N>& reason, const char* format, Args... args) {
 
 }  // namespace
 
-bool OnlineGenerator::plan(const KinematicState& current, const KinematicState& target, const Limits& limits,
-                           double min_duration, Synchronization synchronization) {
+bool OnlineGenerator::valid_input(const KinematicState& current, const Limits& limits) {
   const Eigen::Index n = dof_;
-  for (const Eigen::VectorXd* vec : {&current.p, &current.v, &current.a, &target.p, &target.v, &target.a,
-                                      &limits.velocity, &limits.acceleration, &limits.jerk}) {
+  for (const Eigen::VectorXd* vec : {&current.p, &current.v, &current.a, &limits.velocity, &limits.acceleration,
+                                      &limits.jerk}) {
     if (vec->size() != n) return refuse(reason_, "a state or limit vector has not one entry per axis (%d axes)", dof_);
-  }
-  if (!std::isfinite(min_duration) || min_duration < 0.0) {
-    return refuse(reason_, "min_duration must be finite and >= 0, not %g", min_duration);
   }
   for (int i = 0; i < dof_; ++i) {
     const double V = limits.velocity[i], A = limits.acceleration[i], J = limits.jerk[i];
@@ -900,6 +896,22 @@ bool OnlineGenerator::plan(const KinematicState& current, const KinematicState& 
     if (!(std::isfinite(current.p[i]) && std::isfinite(current.v[i]) && std::isfinite(current.a[i]))) {
       return refuse(reason_, "axis %d: the current state is not finite", i);
     }
+  }
+  return true;
+}
+
+bool OnlineGenerator::plan(const KinematicState& current, const KinematicState& target, const Limits& limits,
+                           double min_duration, Synchronization synchronization) {
+  if (!valid_input(current, limits)) return false;
+  const Eigen::Index n = dof_;
+  for (const Eigen::VectorXd* vec : {&target.p, &target.v, &target.a}) {
+    if (vec->size() != n) return refuse(reason_, "a state or limit vector has not one entry per axis (%d axes)", dof_);
+  }
+  if (!std::isfinite(min_duration) || min_duration < 0.0) {
+    return refuse(reason_, "min_duration must be finite and >= 0, not %g", min_duration);
+  }
+  for (int i = 0; i < dof_; ++i) {
+    const double V = limits.velocity[i], A = limits.acceleration[i], J = limits.jerk[i];
     if (!(std::isfinite(target.p[i]) && std::isfinite(target.v[i]) && std::isfinite(target.a[i]))) {
       return refuse(reason_, "axis %d: the target state is not finite", i);
     }
@@ -989,6 +1001,48 @@ bool OnlineGenerator::plan(const KinematicState& current, const KinematicState& 
     }
     synchronise(hi);
     T = hi;
+  }
+  duration_ = T;
+  reason_[0] = '\0';
+  return true;
+}
+
+namespace {
+
+// The brake back within the limits, then the velocity ramp to vf at a = 0: one axis of
+// plan_velocity, as phases from (x.p0, x.v0, x.a0) before the brake.
+Phases velocity_phases(Axis x, double vf) {
+  Phases phases;
+  brake(x, phases);
+  phases.append(velocity_ramp(x.v0, x.a0, vf, 0.0, x.A, x.J));
+  return phases;
+}
+
+}  // namespace
+
+double stop_position(double p, double v, double a, double V, double A, double J) {
+  const Phases phases = velocity_phases({p, v, a, 0.0, 0.0, 0.0, V, A, J}, 0.0);
+  for (int k = 0; k < phases.n; ++k) advance(p, v, a, phases.j[k], phases.t[k]);
+  return p;
+}
+
+bool OnlineGenerator::plan_velocity(const KinematicState& current, const Eigen::VectorXd& target_velocity,
+                                    const Limits& limits) {
+  if (!valid_input(current, limits)) return false;
+  if (target_velocity.size() != dof_) return refuse(reason_, "the target velocity has not one entry per axis (%d axes)", dof_);
+  for (int i = 0; i < dof_; ++i) {
+    if (!(std::abs(target_velocity[i]) <= limits.velocity[i])) {
+      return refuse(reason_, "axis %d: the target velocity %g is not finite or exceeds its limit", i, target_velocity[i]);
+    }
+  }
+  double T = 0.0;
+  for (int i = 0; i < dof_; ++i) {
+    const Axis x{current.p[i], current.v[i], current.a[i], 0.0, 0.0, 0.0, limits.velocity[i], limits.acceleration[i],
+                 limits.jerk[i]};
+    AxisProfile& profile = profiles_[static_cast<std::size_t>(i)];
+    lay_out(velocity_phases(x, target_velocity[i]), x.p0, x.v0, x.a0, profile);
+    minimal_[static_cast<std::size_t>(i)] = profile.duration();
+    T = std::max(T, profile.duration());
   }
   duration_ = T;
   reason_[0] = '\0';

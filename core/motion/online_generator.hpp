@@ -42,6 +42,10 @@ struct AxisProfile {
 /// as a stream or a teleoperated arm wants, at a fraction of the cost: no fixed-duration search).
 enum class Synchronization { kTime, kNone };
 
+/// Where an axis at (p, v, a) comes to rest when it brakes as fast as `V`, `A`, `J` allow (the end
+/// of plan_velocity toward 0): the stop a limit or a singularity must stay clear of.
+double stop_position(double p, double v, double a, double V, double A, double J);
+
 class OnlineGenerator {
  public:
   /// Allocates everything the generator will use. Throws ArgumentError unless dof ≥ 1.
@@ -64,6 +68,14 @@ class OnlineGenerator {
   /// the previous plan is not to be used. Allocates nothing.
   bool plan(const KinematicState& current, const KinematicState& target, const Limits& limits,
             double min_duration = 0.0, Synchronization synchronization = Synchronization::kTime);
+
+  /// Ruckig's velocity interface: each axis from `current` to the velocity `target_velocity` at zero
+  /// acceleration, as fast as it can (no synchronisation, no position target), within `limits`;
+  /// past its end it moves on at that velocity. A jog's reference. `target_velocity` within the
+  /// velocity limit; `current` may be outside the limits (braked back first, as in plan()).
+  /// Returns false (and a reason()) for invalid input, leaving the previous plan in place.
+  /// Allocates nothing.
+  bool plan_velocity(const KinematicState& current, const Eigen::VectorXd& target_velocity, const Limits& limits);
 
   /// The plan's duration in seconds (0 before the first successful plan()).
   double duration() const { return duration_; }
@@ -90,6 +102,9 @@ class OnlineGenerator {
   std::vector<AxisProfile> fastest_;   // each axis's time-optimal profile (work space)
   std::vector<double> minimal_;
   std::array<char, 160> reason_{};  // formatted in place: plan() allocates nothing
+
+  /// Checks sizes, finiteness and positive limits of what every plan takes; false with reason_.
+  bool valid_input(const KinematicState& current, const Limits& limits);
 };
 
 }  // namespace chasles::motion

@@ -452,6 +452,100 @@ TEST(Motion, BadInputIsRefusedWithAReason) {
   EXPECT_THROW(OnlineGenerator(0), ArgumentError);
 }
 
+// The velocity interface: each axis reaches its target velocity at a = 0 exactly as fast as the
+// fastest velocity change allows (written independently above), along a valid jerk-limited motion,
+// and moves on at that velocity past its end.
+TEST(Motion, VelocityInterfaceReachesEachVelocityInTheFastestVelocityChange) {
+  std::mt19937_64 rng(31);
+  OnlineGenerator otg(7);
+  for (int k = 0; k < 1000; ++k) {
+    Problem pr = random_problem(rng, 7);
+    pr.target.a.setZero();
+    for (int i = 0; i < 7; ++i) {
+      pr.target.v[i] = std::uniform_real_distribution<double>(-1.0, 1.0)(rng) * pr.limits.velocity[i];
+    }
+    ASSERT_TRUE(otg.plan_velocity(pr.current, pr.target.v, pr.limits)) << otg.reason();
+    double slowest = 0;
+    for (int i = 0; i < 7; ++i) {
+      double T = 0;
+      for (const auto& phase : fastest_velocity_change(pr.current.v[i], pr.current.a[i], pr.target.v[i], 0.0,
+                                                       pr.limits.acceleration[i], pr.limits.jerk[i])) {
+        T += phase.second;
+      }
+      ASSERT_NEAR(otg.axis(i).duration(), T, 1e-12) << "problem " << k << " axis " << i;
+      slowest = std::max(slowest, T);
+    }
+    ASSERT_NEAR(otg.duration(), slowest, 1e-12);
+    // Each axis ends where its own motion takes it: sampled at the plan's end, then moving on.
+    KinematicState end, later;
+    otg.at_time(otg.duration(), end);
+    pr.target.p = end.p;
+    otg.at_time(otg.duration() + 0.5, later);
+    for (int i = 0; i < 7; ++i) {
+      ASSERT_NEAR(later.p[i], end.p[i] + 0.5 * pr.target.v[i], 1e-12);
+      ASSERT_NEAR(later.a[i], 0.0, 1e-12);
+    }
+    // expect_valid wants every axis to end at the plan's duration: one axis at a time.
+    for (int i = 0; i < 7 && k < 200; ++i) {
+      const Problem axis = single(pr.current.p[i], pr.current.v[i], pr.current.a[i], 0.0, pr.target.v[i], 0.0,
+                                  pr.limits.velocity[i], pr.limits.acceleration[i], pr.limits.jerk[i]);
+      OnlineGenerator one(1);
+      ASSERT_TRUE(one.plan_velocity(axis.current, axis.target.v, axis.limits));
+      Problem reached = axis;
+      KinematicState s;
+      one.at_time(one.duration(), s);
+      reached.target.p[0] = s.p[0];
+      expect_valid(one, reached, 1e-4);
+      if (HasFatalFailure()) {
+        ADD_FAILURE() << "problem " << k << " axis " << i;
+        return;
+      }
+    }
+  }
+}
+
+// From constant velocity v (a = 0) the fastest stop covers v²/(2A) + vA/(2J) when it reaches the
+// acceleration limit (v ≥ A²/J), else v·√(v/J); from any state, it is where braking ends.
+TEST(Motion, StopPositionIsWhereTheFastestBrakeEnds) {
+  const double V = 2.0, A = 5.0, J = 50.0;
+  for (const double v : {0.0, 0.1, 0.4, 0.5, 0.9, 2.0, -0.3, -1.7}) {
+    const double speed = std::abs(v);
+    const double d = speed >= A * A / J ? speed * speed / (2 * A) + speed * A / (2 * J) : speed * std::sqrt(speed / J);
+    EXPECT_NEAR(stop_position(1.0, v, 0.0, V, A, J), 1.0 + std::copysign(d, v), 1e-14) << "v = " << v;
+  }
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  OnlineGenerator otg(1);
+  for (int k = 0; k < 500; ++k) {
+    const double a = A * unit(rng), v = V * unit(rng) * 0.9;
+    const Problem pr = single(0.2, v, a, 0.0, 0.0, 0.0, V, A, J);
+    ASSERT_TRUE(otg.plan_velocity(pr.current, pr.target.v, pr.limits));
+    KinematicState s;
+    otg.at_time(otg.duration() + 1.0, s);
+    EXPECT_NEAR(stop_position(0.2, v, a, V, A, J), s.p[0], 1e-12);
+    EXPECT_NEAR(s.v[0], 0.0, 1e-12);
+  }
+}
+
+TEST(Motion, VelocityInterfaceRefusesBadInputWithAReason) {
+  OnlineGenerator otg(1);
+  const Problem good = single(0, 0, 0, 0, 0.5, 0, 1, 1, 1);
+  ASSERT_TRUE(otg.plan_velocity(good.current, good.target.v, good.limits));
+  const auto refused = [&](const Problem& pr, const Eigen::VectorXd& velocity, const char* words) {
+    EXPECT_FALSE(otg.plan_velocity(pr.current, velocity, pr.limits));
+    EXPECT_NE(std::string(otg.reason()).find(words), std::string::npos) << otg.reason();
+  };
+  refused(good, vec({1.5}), "target velocity 1.5 is not finite or exceeds its limit");
+  refused(good, vec({NAN}), "is not finite or exceeds its limit");
+  refused(good, vec({0.1, 0.1}), "one entry per axis");
+  Problem pr = good;
+  pr.current.a[0] = INFINITY;
+  refused(pr, good.target.v, "current state is not finite");
+  pr = good;
+  pr.limits.acceleration[0] = -1;
+  refused(pr, good.target.v, "limit must be finite and > 0");
+}
+
 TEST(Motion, PlanAndSamplingAllocateNothing) {
   std::mt19937_64 rng(9);
   std::vector<Problem> problems;
@@ -465,6 +559,8 @@ TEST(Motion, PlanAndSamplingAllocateNothing) {
     ASSERT_TRUE(otg.plan(pr.current, pr.target, pr.limits));
     otg.at_time(0.5 * otg.duration(), s);
     otg.at_time(2 * otg.duration(), s);
+    ASSERT_TRUE(otg.plan_velocity(pr.current, pr.target.v, pr.limits));
+    otg.at_time(0.5 * otg.duration(), s);
   }
   EXPECT_FALSE(otg.plan(bad.current, bad.target, bad.limits));
   EXPECT_EQ(counter.count(), 0);
