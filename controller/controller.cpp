@@ -73,31 +73,6 @@ constexpr double kUnlimitedVelocity = 1e3, kUnlimitedAcceleration = 1e5, kUnlimi
 
 double finite_or(double x, double fallback) { return std::isfinite(x) ? x : fallback; }
 
-// From speed v with no acceleration, the distance a stop at acceleration limit A and jerk limit J
-// takes: the time-optimal profile (a trapezoid in acceleration, or a triangle when v < A²/J) is
-// symmetric, so the distance is v times half its duration.
-double stop_distance(double v, double A, double J) {
-  v = std::abs(v);
-  const double duration = v >= A * A / J ? v / A + A / J : 2.0 * std::sqrt(v / J);
-  return 0.5 * v * duration;
-}
-
-// The speed whose stop takes at most d (stop_distance's inverse, with its upper bound
-// v²/(2A) + vA/(2J) for both cases): the fastest a stream may head toward a limit d away.
-double speed_that_stops_within(double d, double A, double J) {
-  if (!(d > 0.0)) return 0.0;
-  const double b = A * A / J;
-  return 0.5 * (-b + std::sqrt(b * b + 8.0 * A * d));
-}
-
-// Velocity v at position p in [lower, upper], cut so that heading toward a limit it can still stop
-// before it (and to at most `fastest`).
-double velocity_that_stops_in_range(double v, double p, double lower, double upper, double fastest, double A,
-                                    double J) {
-  const double room = v > 0.0 ? upper - p : p - lower;
-  return std::copysign(std::min({std::abs(v), fastest, speed_that_stops_within(room, A, J)}), v);
-}
-
 void format_into(char (&buffer)[192], const char* format, va_list args) {
   std::vsnprintf(buffer, sizeof(buffer), format, args);
 }
@@ -169,6 +144,7 @@ void Config::validate(int dof) const {
     throw ArgumentError("the stream timeout must be positive and finite");
   }
   limits.validate(dof);
+  jog.validate();
   if (damping.size() != 0) check_gains(damping, "damping");
 }
 
@@ -200,6 +176,8 @@ Controller::Controller(const RobotModel& model, const Config& config)
       path_tolerance_(Eigen::VectorXd::Zero(model.dof())),
       goal_tolerance_(Eigen::VectorXd::Zero(model.dof())),
       otg_(model.dof()),
+      jogger_(model, config_.jog),
+      jog_(model.dof()),
       contact_(model, config_.contact, config_.damping, config_.period),
       retract_goal_(Eigen::VectorXd::Zero(model.dof())),
       request_(model.dof()),
@@ -264,7 +242,13 @@ bool Controller::set_law(const LawSettings& settings, int64_t now_ns) {
   switch_pending_ = true;
   switch_start_ns_ = now_ns;
   // A new law ends a reflex where the arm is; free drive follows no reference, so a motion ends.
-  if (mode_ == Mode::kReflex || law_.law == Law::kFreeDrive) hold_at(q_);
+  // It ends a trajectory, a stream or a jog too: the reference brakes to rest from its motion.
+  if (mode_ == Mode::kReflex || law_.law == Law::kFreeDrive) {
+    hold_at(q_);
+  } else if (mode_ == Mode::kRunning &&
+             (drive_ == Drive::kWaypoints || drive_ == Drive::kStream || drive_ == Drive::kJog)) {
+    stop_motion(now_ns);
+  }
   return true;
 }
 
@@ -277,7 +261,18 @@ void Controller::set_model(const RobotModel& model) {
 void Controller::hold_at(const Eigen::VectorXd& q) {
   ref_.hold(q);
   mode_ = Mode::kHolding;
-  following_path_ = following_waypoints_ = streaming_ = compliant_ = retracting_ = false;
+  compliant_ = retracting_ = false;
+}
+
+void Controller::start_drive(Drive drive, int64_t now_ns) {
+  drive_ = drive;
+  mode_ = Mode::kRunning;
+  motion_start_ns_ = stream_tick_ns_ = now_ns;
+}
+
+void Controller::stop_motion(int64_t now_ns) {
+  aim_at_stop();
+  start_drive(Drive::kStop, now_ns);
 }
 
 // Every new state, whatever the mode: the observer needs each sample and the torque the arm had
@@ -397,7 +392,6 @@ void Controller::end_trajectory(TrajectoryProgress::Outcome outcome, const char*
   va_start(args, format);
   std::vsnprintf(progress_.message, sizeof(progress_.message), format, args);
   va_end(args);
-  following_waypoints_ = false;
 }
 
 double Controller::least_time_scale(const Waypoints& waypoints) {
@@ -498,10 +492,7 @@ bool Controller::set_trajectory(const Waypoints& w, int64_t now_ns) {
   path_tolerance_ = w.path_tolerance;
   goal_tolerance_ = w.goal_tolerance;
   goal_time_ = w.goal_time;
-  following_waypoints_ = true;
-  following_path_ = streaming_ = false;
-  motion_start_ns_ = now_ns;
-  mode_ = Mode::kRunning;
+  start_drive(Drive::kWaypoints, now_ns);
   return true;
 }
 
@@ -509,7 +500,7 @@ void Controller::judge_trajectory(int64_t now_ns) {
   const double t = 1e-9 * static_cast<double>(now_ns - motion_start_ns_);
   progress_.elapsed = t;
   progress_.waypoint = spline_.waypoint_at(t);
-  if (following_waypoints_) {
+  if (mode_ == Mode::kRunning && drive_ == Drive::kWaypoints) {
     for (int i = 0; i < error_.size(); ++i) {
       if (path_tolerance_(i) > 0.0 && std::abs(error_(i)) > path_tolerance_(i)) {
         end_trajectory(TrajectoryProgress::kAborted, "joint %s: %g rad off the path at %.3f s, over its tolerance %g",
@@ -598,9 +589,7 @@ bool Controller::set_target(const Target& target, int64_t now_ns) {
     return true;
   }
   trajectory_.swap(candidate_);  // the quintic shortest_duration checked
-  motion_start_ns_ = now_ns;
-  mode_ = Mode::kRunning;
-  following_path_ = following_waypoints_ = streaming_ = false;
+  start_drive(Drive::kGoal, now_ns);
   return true;
 }
 
@@ -614,7 +603,7 @@ bool Controller::set_setpoint(const Setpoint& setpoint, int64_t now_ns) {
   if (setpoint.q.size() != n || setpoint.qd.size() != n || !setpoint.q.allFinite() || !setpoint.qd.allFinite()) {
     return refuse("setpoint: of the wrong size or with non-finite values");
   }
-  if (streaming_ && setpoint.utime <= setpoint_utime_) {
+  if (streaming() && setpoint.utime <= setpoint_utime_) {
     ++dropped_setpoints_;  // late or duplicated: the stream has moved past it
     return false;
   }
@@ -625,15 +614,11 @@ bool Controller::set_setpoint(const Setpoint& setpoint, int64_t now_ns) {
                                                     otg_limits_.acceleration(i), otg_limits_.jerk(i));
     otg_target_.a(i) = 0.0;
   }
-  if (!streaming_) {
+  if (!streaming()) {
     end_trajectory(TrajectoryProgress::kPreempted, "a stream");
     pending_request_ = -1;
-    following_path_ = following_waypoints_ = false;
-    streaming_ = true;
-    mode_ = Mode::kRunning;
-    stream_tick_ns_ = now_ns;
+    start_drive(Drive::kStream, now_ns);
   }
-  stream_stopping_ = false;
   setpoint_utime_ = setpoint.utime;
   setpoint_ns_ = now_ns;
   ++setpoints_;
@@ -642,13 +627,9 @@ bool Controller::set_setpoint(const Setpoint& setpoint, int64_t now_ns) {
 
 void Controller::aim_at_stop() {
   for (int i = 0; i < ref_.q.size(); ++i) {
-    const double A = otg_limits_.acceleration(i), J = otg_limits_.jerk(i);
-    // The acceleration first brought to 0 (the velocity it leaves), then a stop from there.
-    const double ramp = std::abs(ref_.qdd(i)) / J;
-    const double v = ref_.qd(i) + 0.5 * ref_.qdd(i) * ramp;
-    const double travelled = ref_.qd(i) * ramp + ref_.qdd(i) * ramp * ramp / 3.0;
-    otg_target_.p(i) = std::clamp(ref_.q(i) + travelled + std::copysign(stop_distance(v, A, J), v), limits_.lower(i),
-                                  limits_.upper(i));
+    otg_target_.p(i) = std::clamp(motion::stop_position(ref_.q(i), ref_.qd(i), ref_.qdd(i), otg_limits_.velocity(i),
+                                                        otg_limits_.acceleration(i), otg_limits_.jerk(i)),
+                                  limits_.lower(i), limits_.upper(i));
   }
   otg_target_.v.setZero();
   otg_target_.a.setZero();
@@ -657,11 +638,11 @@ void Controller::aim_at_stop() {
 void Controller::update_stream(int64_t now_ns) {
   const double dt = std::clamp(1e-9 * static_cast<double>(now_ns - stream_tick_ns_), 0.0, 0.1);
   stream_tick_ns_ = now_ns;
-  if (!stream_stopping_ && now_ns - setpoint_ns_ > static_cast<int64_t>(config_.stream_timeout * 1e9)) {
-    stream_stopping_ = true;
+  if (drive_ == Drive::kStream && now_ns - setpoint_ns_ > static_cast<int64_t>(config_.stream_timeout * 1e9)) {
+    drive_ = Drive::kStop;
     aim_at_stop();
   }
-  if (!stream_stopping_) {
+  if (drive_ == Drive::kStream) {
     // The setpoint moves on at its velocity; at a limit it stops there.
     for (int i = 0; i < ref_.q.size(); ++i) {
       otg_target_.p(i) = std::clamp(otg_target_.p(i) + otg_target_.v(i) * dt, limits_.lower(i), limits_.upper(i));
@@ -685,11 +666,46 @@ void Controller::update_stream(int64_t now_ns) {
   ref_.q = otg_out_.p;
   ref_.qd = otg_out_.v;
   ref_.qdd = otg_out_.a;
-  if (stream_stopping_ && otg_.duration() <= dt) {
-    streaming_ = false;
-    mode_ = Mode::kHolding;
-    ref_.hold(otg_target_.p);
+  if (drive_ == Drive::kStop && otg_.duration() <= dt) hold_at(otg_target_.p);
+}
+
+bool Controller::set_jog(const Jog& jog, int64_t now_ns) {
+  if (mode_ == Mode::kWaiting) return refuse("jog: no robot state has arrived yet");
+  if (mode_ == Mode::kFault) return refuse("jog: the controller is in FAULT");
+  if (mode_ == Mode::kReflex) return refuse("jog: the arm is in REFLEX (a target or control mode resumes)");
+  if (law_.law == Law::kFreeDrive) return refuse("jog: free drive follows no jog (send a control mode first)");
+  if (jog.kind != Jog::kJointVelocity && jog.kind != Jog::kTwist) return refuse("jog: unknown kind %d", jog.kind);
+  if (jog.kind == Jog::kTwist && jog.frame != Jog::kBase && jog.frame != Jog::kTool) {
+    return refuse("jog: unknown frame %d", jog.frame);
   }
+  if (jog.joint_velocity.size() != model_->dof() || !jog.joint_velocity.allFinite() || !jog.twist.allFinite()) {
+    return refuse("jog: of the wrong size or with non-finite values");
+  }
+  if (jogging() && jog.utime <= jog_utime_) {
+    ++dropped_jogs_;  // late or duplicated: a newer command is in force
+    return false;
+  }
+  if (!jogging()) {
+    end_trajectory(TrajectoryProgress::kPreempted, "a jog");
+    pending_request_ = -1;
+    start_drive(Drive::kJog, now_ns);
+  }
+  jog_.utime = jog.utime;
+  jog_.kind = jog.kind;
+  jog_.frame = jog.frame;
+  jog_.joint_velocity = jog.joint_velocity;
+  jog_.twist = jog.twist;
+  jog_utime_ = jog.utime;
+  jog_ns_ = now_ns;
+  ++jogs_;
+  return true;
+}
+
+void Controller::update_jog(int64_t now_ns) {
+  const double dt = std::clamp(1e-9 * static_cast<double>(now_ns - stream_tick_ns_), 0.0, 0.1);
+  stream_tick_ns_ = now_ns;
+  const bool halt = now_ns - jog_ns_ > static_cast<int64_t>(config_.stream_timeout * 1e9);
+  if (jogger_.step(*model_, jog_, halt, limits_, otg_limits_, dt, ref_, jog_progress_) && halt) hold_at(ref_.q);
 }
 
 bool Controller::request_cartesian(const Target& target) {
@@ -747,9 +763,7 @@ bool Controller::follow(const JointPath& path, int64_t now_ns) {
   }
   end_trajectory(TrajectoryProgress::kPreempted, "a CARTESIAN target");
   path_.start(path);
-  following_path_ = true;
-  motion_start_ns_ = now_ns;
-  mode_ = Mode::kRunning;
+  start_drive(Drive::kPath, now_ns);
   return true;
 }
 
@@ -765,20 +779,27 @@ void Controller::update_reference(int64_t now_ns) {
     return;
   }
   if (mode_ != Mode::kRunning) return;
-  if (streaming_) {
-    update_stream(now_ns);
-    return;
-  }
-  // Both samplers set the goal at rest once t is past the end.
-  if (following_path_) {
-    path_.sample(t, ref_);
-    if (t >= path_.duration()) following_path_ = false, mode_ = Mode::kHolding;
-  } else if (following_waypoints_) {
-    spline_.sample(t, ref_);
-    if (t >= spline_.duration()) following_waypoints_ = false, mode_ = Mode::kHolding;
-  } else {
-    trajectory_.sample(t, ref_);
-    if (t >= trajectory_.duration()) mode_ = Mode::kHolding;
+  // The samplers set the goal at rest once t is past the end.
+  switch (drive_) {
+    case Drive::kGoal:
+      trajectory_.sample(t, ref_);
+      if (t >= trajectory_.duration()) mode_ = Mode::kHolding;
+      break;
+    case Drive::kPath:
+      path_.sample(t, ref_);
+      if (t >= path_.duration()) mode_ = Mode::kHolding;
+      break;
+    case Drive::kWaypoints:
+      spline_.sample(t, ref_);
+      if (t >= spline_.duration()) mode_ = Mode::kHolding;
+      break;
+    case Drive::kStream:
+    case Drive::kStop:
+      update_stream(now_ns);
+      break;
+    case Drive::kJog:
+      update_jog(now_ns);
+      break;
   }
 }
 

@@ -20,6 +20,7 @@
 
 #include "chasles/controller/cartesian.hpp"
 #include "chasles/controller/contact.hpp"
+#include "chasles/controller/jog.hpp"
 #include "chasles/controller/law.hpp"
 #include "chasles/controller/limits.hpp"
 #include "chasles/controller/trajectory.hpp"
@@ -47,8 +48,11 @@ struct Config {
   /// Acceleration and jerk limits (the URDF gives position and velocity), the position margin
   /// and the measured velocity's tolerance.
   LimitConfig limits;
-  /// A stream with no setpoint for this long, s, is taken as stopped: the arm decelerates to rest.
+  /// A stream or a jog with no message for this long, s, is taken as stopped: the arm decelerates
+  /// to rest.
   double stream_timeout = 0.1;
+  /// The condition numbers where a twist jog toward a singularity slows and stops.
+  JogConfig jog;
 
   /// K_p = ω², K_d = 2ω (critically damped error dynamics at the natural frequency ω, rad/s).
   static Config critically_damped(int dof, double omega);
@@ -151,9 +155,24 @@ class Controller {
   /// setpoint for Config::stream_timeout: the arm decelerates to rest and holds. A target, a
   /// trajectory or a law ends the stream. Allocates nothing.
   bool set_setpoint(const Setpoint& setpoint, int64_t now_ns);
-  bool streaming() const { return streaming_; }
+  bool streaming() const { return mode_ == Mode::kRunning && drive_ == Drive::kStream; }
   int64_t setpoints() const { return setpoints_; }
   int64_t dropped_setpoints() const { return dropped_setpoints_; }
+
+  /// Takes one jog command: joint velocities or a tip twist, held until the next (jog.hpp says how
+  /// they become the reference: within every limit, short of a singularity). Ordered by utime like
+  /// setpoints (late or duplicated ones dropped, counted in dropped_jogs()); refused in the same
+  /// cases, and for a kind or frame it does not know. No command for Config::stream_timeout: the
+  /// arm decelerates to rest and holds. A target, a trajectory, a stream or a law ends the jog.
+  /// Allocates nothing.
+  bool set_jog(const Jog& jog, int64_t now_ns);
+  bool jogging() const { return mode_ == Mode::kRunning && drive_ == Drive::kJog; }
+  /// How the latest jog tick went: the condition number, the speed's scale and what cut it.
+  const JogProgress& jog_progress() const { return jog_progress_; }
+  /// The condition numbers in force.
+  const JogConfig& jog_config() const { return jogger_.config(); }
+  int64_t jogs() const { return jogs_; }
+  int64_t dropped_jogs() const { return dropped_jogs_; }
 
   /// The Cartesian request set_target() made, once: true and `request` filled, else false.
   bool take_request(CartesianRequest& request);
@@ -221,6 +240,10 @@ class Controller {
   int64_t rejected_targets() const { return rejected_targets_; }
 
  private:
+  /// What drives the reference while RUNNING: a quintic to a goal, a planned Cartesian path, a
+  /// waypoint trajectory, a stream of setpoints, a jog, or the stop after one of them.
+  enum class Drive : int8_t { kGoal, kPath, kWaypoints, kStream, kJog, kStop };
+
   bool refuse(const char* format, ...) __attribute__((format(printf, 2, 3)));
   void fault(const char* format, ...) __attribute__((format(printf, 2, 3)));
   void hold_at(const Eigen::VectorXd& q);
@@ -234,10 +257,18 @@ class Controller {
   bool request_cartesian(const Target& target);
   /// The reference at now_ns; finishing a motion turns RUNNING into HOLDING.
   void update_reference(int64_t now_ns);
-  /// The stream's reference one tick on: the generator's plan from ref_ toward the setpoint.
+  /// The stream's reference one tick on (and a stop's): the generator's plan from ref_ toward the
+  /// setpoint (the stop's end).
   void update_stream(int64_t now_ns);
-  /// The stream's target: where a stop from the reference's motion would end (at rest).
+  /// A jog's reference one tick on.
+  void update_jog(int64_t now_ns);
+  /// The generator's target for a stop: where the fastest brake from the reference ends (at rest,
+  /// within the position limits).
   void aim_at_stop();
+  /// Brakes the reference to rest along the generator's stop (Drive::kStop) from now_ns.
+  void stop_motion(int64_t now_ns);
+  /// Starts driving the reference by `drive` (RUNNING) from now_ns, ending what drove it before.
+  void start_drive(Drive drive, int64_t now_ns);
   /// A waypoint trajectory's tolerances and outcome, after the reference is updated.
   void judge_trajectory(int64_t now_ns);
   /// Ends an active waypoint trajectory with `outcome`, saying why.
@@ -267,19 +298,21 @@ class Controller {
   char limit_reason_[160] = {};  // room for "; reflex stop" in reflex_reason_
   Reference ref_;
   QuinticTrajectory trajectory_, candidate_;
+  Drive drive_ = Drive::kGoal;
   JointPathSampler path_;
-  bool following_path_ = false;
   WaypointSpline spline_, spline_candidate_;  // the one followed; the one being checked
   Eigen::VectorXd path_tolerance_, goal_tolerance_;
   double goal_time_ = 0.0;
-  bool following_waypoints_ = false;
   TrajectoryProgress progress_;
   motion::OnlineGenerator otg_;
   motion::Limits otg_limits_;  // limits_, with ∞ replaced by large finite values (the generator needs them)
   motion::KinematicState otg_from_, otg_target_, otg_out_;
-  bool streaming_ = false, stream_stopping_ = false;
   int64_t setpoint_utime_ = 0, setpoint_ns_ = 0, stream_tick_ns_ = 0;
   int64_t setpoints_ = 0, dropped_setpoints_ = 0;
+  Jogger jogger_;
+  Jog jog_;  // the latest command taken
+  JogProgress jog_progress_;
+  int64_t jog_utime_ = 0, jog_ns_ = 0, jogs_ = 0, dropped_jogs_ = 0;
   ContactMonitor contact_;
   int64_t observed_seq_ = 0;  // of the last state the contact monitor took, once observed_any_
   int64_t observed_utime_ = 0, observed_arrival_ns_ = 0;

@@ -152,6 +152,18 @@ double max_abs_polynomial(const double* c, int degree, double T) {
   return std::max(-low, high);
 }
 
+double speed_that_stops_within(double d, double A, double J) {
+  if (!(d > 0.0)) return 0.0;
+  const double b = A * A / J;
+  return 0.5 * (-b + std::sqrt(b * b + 8.0 * A * d));
+}
+
+double velocity_that_stops_in_range(double v, double p, double lower, double upper, double fastest, double A,
+                                    double J) {
+  const double room = v > 0.0 ? upper - p : p - lower;
+  return std::copysign(std::min({std::abs(v), fastest, speed_that_stops_within(room, A, J)}), v);
+}
+
 LimitExcess measured_excess(const MotionLimits& limits, const Eigen::VectorXd& q_before, const Eigen::VectorXd& q,
                             const Eigen::VectorXd& qd) {
   for (int i = 0; i < limits.dof(); ++i) {

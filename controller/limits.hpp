@@ -62,6 +62,16 @@ void polynomial_range(const double* c, int degree, double T, double& low, double
 /// max |Σ_k c_k t^k| for t in [0, T], degree ≤ 5.
 double max_abs_polynomial(const double* c, int degree, double T);
 
+/// The fastest speed from which a stop at acceleration limit A and jerk limit J, starting at zero
+/// acceleration, takes at most d (the stop's exact distance v²/(2A) + vA/(2J) inverted, an upper
+/// bound of it below v = A²/J): the fastest a joint may head toward a limit d away. 0 for d ≤ 0.
+double speed_that_stops_within(double d, double A, double J);
+
+/// Velocity v at position p in [lower, upper], cut to at most `fastest` and, heading toward a
+/// limit, to what can still stop before it.
+double velocity_that_stops_in_range(double v, double p, double lower, double upper, double fastest, double A,
+                                    double J);
+
 /// The guard on a measured state: a joint faster than its velocity limit by more than the
 /// tolerance, or one that has just crossed a position limit outward (from q_before inside to q
 /// outside: a joint that starts outside may be brought back). The first such joint; none: false.

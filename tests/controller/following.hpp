@@ -1,10 +1,11 @@
-// The Panda's controller ticked once a millisecond in a test, the state set by the test: its own
-// reference (perfect tracking) or the model integrated under the command. Shared by the tests of
-// the limits and of waypoint trajectories.
+// An arm's controller (the Panda's unless said) ticked once a millisecond in a test, the state set
+// by the test: its own reference (perfect tracking) or the model integrated under the command.
+// Shared by the tests of the limits, waypoint trajectories, streams and jogs.
 #pragma once
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <limits>
 
 #include "chasles/controller/controller.hpp"
@@ -26,17 +27,21 @@ inline Eigen::VectorXd bent_pose() { return (Eigen::VectorXd(7) << 0.1, 0.5, -0.
 
 class Following : public ::testing::Test {
  protected:
-  explicit Following(double omega = 20.0) : model_(chasles::testing::panda()), state_(7) {
-    constexpr double kInf = std::numeric_limits<double>::infinity();
-    config_ = Config::critically_damped(7, omega);
+  explicit Following(double omega = 20.0) : Following(chasles::testing::panda(), bent_pose(), omega) {
     config_.limits.acceleration = franka_acceleration();
     config_.limits.jerk = franka_jerk();
+  }
+  /// Another arm from `start`, with the default acceleration and jerk limits.
+  Following(const RobotModel& model, const Eigen::VectorXd& start, double omega = 20.0)
+      : model_(model), state_(model.dof()) {
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+    config_ = Config::critically_damped(model.dof(), omega);
     // The state may be the reference itself, not an arm's answer to the torque: the contact
     // monitor, which would read the difference as a push, is off; the limits' guard stays on.
-    config_.contact.collision_torque = config_.contact.contact_torque = Eigen::VectorXd::Constant(7, kInf);
+    config_.contact.collision_torque = config_.contact.contact_torque = Eigen::VectorXd::Constant(model.dof(), kInf);
     config_.contact.collision_force = config_.contact.contact_force = kInf;
     config_.contact.collision_moment = config_.contact.contact_moment = kInf;
-    state_.q = bent_pose();
+    state_.q = start;
   }
   /// One tick a millisecond after the last, with the state as it is now.
   bool tick(Controller& controller) {
@@ -46,12 +51,24 @@ class Following : public ::testing::Test {
     return controller.tick(now_, &state_);
   }
   bool send(Controller& controller, const Eigen::VectorXd& goal, double duration) {
-    Target target(7);
+    Target target(model_.dof());
     target.mode = Target::kJoint;
-    target.num_joints = 7;
+    target.num_joints = model_.dof();
     target.q = goal;
     target.duration = duration;
     return controller.set_target(target, now_);
+  }
+  /// Every tick's reference within every limit; its jerk by differences of its acceleration.
+  void expect_within_limits(const Controller& c, const Reference& before) {
+    const MotionLimits& l = c.limits();
+    const Reference& r = c.reference();
+    for (int i = 0; i < model_.dof(); ++i) {
+      ASSERT_GE(r.q(i), l.lower(i) - 1e-9) << now_ << " joint " << i;
+      ASSERT_LE(r.q(i), l.upper(i) + 1e-9) << now_ << " joint " << i;
+      ASSERT_LE(std::abs(r.qd(i)), l.velocity(i) * (1 + 1e-9)) << now_ << " joint " << i;
+      ASSERT_LE(std::abs(r.qdd(i)), l.acceleration(i) * (1 + 1e-9)) << now_ << " joint " << i;
+      ASSERT_LE(std::abs(r.qdd(i) - before.qdd(i)) / 1e-3, l.jerk(i) * (1 + 1e-6)) << now_ << " joint " << i;
+    }
   }
   /// The arm: the model itself under the command, 10 substeps of semi-implicit Euler per tick.
   void integrate(const Controller& controller, Data& data) {

@@ -20,20 +20,8 @@ using Eigen::VectorXd;
 using testing::bent_pose;
 using testing::kMs;
 
-// Every tick's reference within every limit; its jerk by differences of its acceleration.
 class Streaming : public testing::Following {
  protected:
-  void expect_within_limits(const Controller& c, const Reference& before) {
-    const MotionLimits& l = c.limits();
-    const Reference& r = c.reference();
-    for (int i = 0; i < 7; ++i) {
-      ASSERT_GE(r.q(i), l.lower(i) - 1e-9) << now_ << " joint " << i;
-      ASSERT_LE(r.q(i), l.upper(i) + 1e-9) << now_ << " joint " << i;
-      ASSERT_LE(std::abs(r.qd(i)), l.velocity(i) * (1 + 1e-9)) << now_ << " joint " << i;
-      ASSERT_LE(std::abs(r.qdd(i)), l.acceleration(i) * (1 + 1e-9)) << now_ << " joint " << i;
-      ASSERT_LE(std::abs(r.qdd(i) - before.qdd(i)) / 1e-3, l.jerk(i) * (1 + 1e-6)) << now_ << " joint " << i;
-    }
-  }
   Setpoint setpoint(int64_t utime, const VectorXd& q, const VectorXd& qd) {
     Setpoint s(7);
     s.utime = utime, s.q = q, s.qd = qd;

@@ -266,6 +266,47 @@ TEST_F(Following, StartsWithoutAJumpAndEndsAsItsTolerancesSay) {
   EXPECT_STREQ(p.message, "a JOINT target");
 }
 
+// A control law preempts a running trajectory: the reference brakes to rest from where it was
+// going, within the limits and without a jump, and holds there.
+TEST_F(Following, ALawPreemptsATrajectoryAndTheReferenceBrakesToRest) {
+  Controller controller(model_, config_);
+  ASSERT_TRUE(tick(controller));
+  Waypoints w(7);
+  w.count = 1;
+  w.time(0) = 1.0;
+  w.q.col(0) = bent_pose();
+  w.q(0, 0) += 0.6;
+  ASSERT_TRUE(controller.set_trajectory(w, now_)) << controller.last_rejection();
+  for (int k = 0; k < 400; ++k) {
+    ASSERT_TRUE(tick(controller));
+    state_.q = controller.reference().q;
+  }
+  const Reference moving = controller.reference();
+  ASSERT_GT(moving.qd(0), 0.5);
+  LawSettings settings(7);
+  settings.law = Law::kJointImpedance;
+  settings.joint_stiffness = VectorXd::Constant(7, 300.0);
+  ASSERT_TRUE(controller.set_law(settings, now_)) << controller.mode_rejection();
+  EXPECT_EQ(controller.trajectory().outcome, TrajectoryProgress::kPreempted);
+  Reference before = moving;
+  int ticks = 0;
+  while (controller.mode() == Mode::kRunning && ticks < 2000) {
+    ASSERT_TRUE(tick(controller));
+    expect_within_limits(controller, before);
+    ASSERT_FALSE(HasFatalFailure());
+    // No jump: each tick moves on from the last by what its velocity and acceleration say.
+    const Reference& r = controller.reference();
+    ASSERT_LT(std::abs(r.q(0) - before.q(0) - 1e-3 * before.qd(0)), 1e-3 * 1e-3 * 15.0) << ticks;
+    before = r;
+    state_.q = r.q;
+    ++ticks;
+  }
+  EXPECT_EQ(controller.mode(), Mode::kHolding);
+  EXPECT_EQ(controller.reference().qd.norm(), 0.0);
+  EXPECT_LT(controller.reference().q(0), bent_pose()(0) + 0.6) << "stopped before the preempted goal";
+  EXPECT_LT(ticks, 300);  // from under 1.2 rad/s at 15 rad/s², jerk-limited: about 0.1 s
+}
+
 // Past the end the arm must come within the goal tolerance within goal_time, else ABORTED.
 TEST_F(Following, AGoalMissedPastGoalTimeAborts) {
   Controller controller(model_, config_);

@@ -1,0 +1,182 @@
+#include "chasles/controller/jog.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "chasles/core/error.hpp"
+#include "chasles/core/kinematics/kinematics.hpp"
+
+namespace chasles::controller {
+namespace {
+
+// The probe that tells whether a twist leads toward a singularity: the condition number a step
+// this long (rad or m, on the joint moving most) along its joint velocity reaches. Small enough
+// to see the local slope, large enough to stand above round-off (κ changes by ~1e-3 relative).
+constexpr double kProbeStep = 1e-3;
+
+}  // namespace
+
+const char* to_string(JogProgress::Limit limit) {
+  switch (limit) {
+    case JogProgress::kNone:
+      return "none";
+    case JogProgress::kVelocity:
+      return "velocity limit";
+    case JogProgress::kPosition:
+      return "position limit";
+    case JogProgress::kSingularity:
+      return "singularity";
+  }
+  return "?";
+}
+
+void JogConfig::validate() const {
+  if (!(std::isfinite(slow_condition) && std::isfinite(stop_condition) && slow_condition >= 1.0 &&
+        stop_condition > slow_condition)) {
+    throw ArgumentError("jog: the condition numbers must be finite with 1 <= slow (" + std::to_string(slow_condition) +
+                        ") < stop (" + std::to_string(stop_condition) + ")");
+  }
+}
+
+void JacobianSpectrum::compute(const Matrix6Xd& J) {
+  rank_ = static_cast<int>(std::min<Eigen::Index>(6, J.cols()));
+  eigen_.compute(J * J.transpose());  // eigenvalues ascending: σ_k² of the rank_ largest at the end
+  const auto& lambda = eigen_.eigenvalues();
+  const double largest = lambda(5), smallest = lambda(6 - rank_);
+  condition_ = smallest > 0.0 ? std::sqrt(largest / smallest) : std::numeric_limits<double>::infinity();
+}
+
+void JacobianSpectrum::solve(const Matrix6Xd& J, const Vector6d& V, Eigen::VectorXd& qd) const {
+  // J⁺ = Jᵀ (J Jᵀ)⁺, the inverse taken on the rank_ largest eigenvalues; one at round-off level of
+  // the largest is a direction J cannot move in, left out rather than divided by.
+  const auto& lambda = eigen_.eigenvalues();
+  const auto& U = eigen_.eigenvectors();
+  const double floor = lambda(5) * 1e-14;
+  Vector6d w = Vector6d::Zero();
+  for (int k = 6 - rank_; k < 6; ++k) {
+    if (lambda(k) > floor) w += U.col(k) * (U.col(k).dot(V) / lambda(k));
+  }
+  qd.noalias() = J.transpose() * w;
+}
+
+Jogger::Jogger(const RobotModel& model, const JogConfig& config)
+    : config_(config),
+      data_(model),
+      otg_(model.dof()),
+      qd_(Eigen::VectorXd::Zero(model.dof())),
+      probe_(Eigen::VectorXd::Zero(model.dof())),
+      stop_(Eigen::VectorXd::Zero(model.dof())) {
+  config_.validate();
+  for (motion::KinematicState* state : {&from_, &out_}) {
+    state->p = state->v = state->a = Eigen::VectorXd::Zero(model.dof());
+  }
+}
+
+double Jogger::condition_at(const RobotModel& model, const Eigen::VectorXd& q) {
+  spectrum_.compute(body_jacobian(model, data_, q));
+  return spectrum_.condition();
+}
+
+bool Jogger::step(const RobotModel& model, const Jog& jog, bool halt, const MotionLimits& limits,
+                  const motion::Limits& otg_limits, double dt, Reference& ref, JogProgress& progress) {
+  const int n = model.dof();
+  const bool twist = jog.kind == Jog::kTwist;
+  const Matrix6Xd& J = body_jacobian(model, data_, ref.q);
+  spectrum_.compute(J);
+  progress = JogProgress{};
+  progress.condition = spectrum_.condition();
+  qd_.setZero();
+  if (!halt) {
+    if (twist) {
+      Vector6d V_b = jog.twist;
+      if (jog.frame == Jog::kBase) {  // both halves from the base's axes into the tip's
+        const Matrix3d& R = data_.T_sb.linear();
+        V_b.head<3>() = R.transpose() * jog.twist.head<3>();
+        V_b.tail<3>() = R.transpose() * jog.twist.tail<3>();
+      }
+      spectrum_.solve(J, V_b, qd_);
+    } else {
+      qd_ = jog.joint_velocity;
+    }
+    // One factor for every joint, so that the motion keeps the direction asked for.
+    double scale = 1.0;
+    const auto cut = [&](double allowed, double speed, JogProgress::Limit why, int joint) {
+      if (speed * scale > allowed) {
+        scale = allowed / speed;
+        progress.limited_by = why;
+        progress.joint = joint;
+      }
+    };
+    for (int i = 0; i < n; ++i) {
+      const double speed = std::abs(qd_(i));
+      if (speed == 0.0) continue;
+      cut(otg_limits.velocity(i), speed, JogProgress::kVelocity, i);
+      const double room = qd_(i) > 0.0 ? limits.upper(i) - ref.q(i) : ref.q(i) - limits.lower(i);
+      cut(speed_that_stops_within(room, otg_limits.acceleration(i), otg_limits.jerk(i)), speed, JogProgress::kPosition,
+          i);
+    }
+    const double fastest = qd_.cwiseAbs().maxCoeff();
+    if (twist && fastest > 0.0 && progress.condition > config_.slow_condition) {
+      probe_ = ref.q + (kProbeStep / fastest) * qd_;
+      if (condition_at(model, probe_) > progress.condition) {  // toward the singularity: slower as κ rises
+        const double allowed = std::clamp((config_.stop_condition - progress.condition) /
+                                              (config_.stop_condition - config_.slow_condition),
+                                          0.0, 1.0);
+        if (allowed < scale) {
+          scale = allowed;
+          progress.limited_by = JogProgress::kSingularity;
+          progress.joint = -1;
+        }
+      }
+    }
+    qd_ *= scale;
+    progress.scale = scale;
+  }
+  from_.p = ref.q;
+  from_.v = ref.qd;
+  from_.a = ref.qdd;
+  // Within the limits by construction (the velocity target is), so the plan is always found.
+  otg_.plan_velocity(from_, qd_, otg_limits);
+  otg_.at_time(dt, out_);
+
+  // The guarantee: from where this step leaves the reference it must still be able to stop within
+  // the position limits and, for a twist heading into a singularity, short of the stop threshold.
+  // Else it halts: that brake was the last step's stop, checked then.
+  if (!halt && qd_.cwiseAbs().maxCoeff() > 0.0) {
+    bool safe = true;
+    for (int i = 0; i < n && safe; ++i) {
+      stop_(i) = motion::stop_position(out_.p(i), out_.v(i), out_.a(i), otg_limits.velocity(i),
+                                       otg_limits.acceleration(i), otg_limits.jerk(i));
+      // A joint outside its range (the arm started there) may come back in, not go further out.
+      const bool out_above = stop_(i) > limits.upper(i) && stop_(i) > ref.q(i);
+      const bool out_below = stop_(i) < limits.lower(i) && stop_(i) < ref.q(i);
+      if (out_above || out_below) {
+        safe = false;
+        progress.limited_by = JogProgress::kPosition;
+        progress.joint = i;
+      }
+    }
+    if (safe && twist) {
+      const double at_stop = condition_at(model, stop_);
+      if (at_stop >= config_.stop_condition && at_stop > progress.condition) {
+        safe = false;
+        progress.limited_by = JogProgress::kSingularity;
+        progress.joint = -1;
+      }
+    }
+    if (!safe) {
+      qd_.setZero();
+      progress.scale = 0.0;
+      otg_.plan_velocity(from_, qd_, otg_limits);
+      otg_.at_time(dt, out_);
+    }
+  }
+  ref.q = out_.p;
+  ref.qd = out_.v;
+  ref.qdd = out_.a;
+  return qd_.cwiseAbs().maxCoeff() == 0.0 && otg_.duration() <= dt;
+}
+
+}  // namespace chasles::controller

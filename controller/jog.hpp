@@ -1,0 +1,109 @@
+// Jogging (docs/controller.md, "Jogging"): joint velocities or a tip twist held until the next
+// command, as a teach pendant, a space mouse or MoveIt Servo sends them, turned every tick into a
+// reference that stays within every joint limit and stops short of a singularity.
+//
+// A twist is resolved into joint velocities at the reference by the pseudo-inverse of the body
+// Jacobian, q̇ = J_b⁺ V_b (least squares, minimum norm). Near a singularity those velocities grow
+// without bound, so a twist that drives the arm toward one (its condition number rising) is slowed
+// linearly from JogConfig::slow_condition and stopped before JogConfig::stop_condition — MoveIt
+// Servo's lower and hard-stop thresholds, 17 and 30 — while one that leads away keeps its speed.
+// Joint velocities stay bounded at a singularity and are not slowed there. Either command's speed
+// is cut, its direction kept, so that no joint exceeds its velocity limit and every joint can
+// still stop before its position limit; the reference follows it through the online generator's
+// velocity interface (jerk-limited, C²). Before each step is taken, the stop the reference could
+// still make from it is checked: outside a position limit, or (for a twist) at a condition number
+// past the stop threshold, the step becomes a halt, so the arm always stops in time.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Eigenvalues>
+#include <cstdint>
+
+#include "chasles/controller/limits.hpp"
+#include "chasles/controller/trajectory.hpp"
+#include "chasles/core/lie/types.hpp"
+#include "chasles/core/model/model.hpp"
+#include "chasles/core/motion/online_generator.hpp"
+
+namespace chasles::controller {
+
+/// One jog command as received (jog_command_t's content, sized and finite).
+struct Jog {
+  enum Kind : int8_t { kJointVelocity = 0, kTwist = 1 };
+  /// The twist's frame: kBase, the tip's angular velocity and the velocity of its origin, both in
+  /// the base frame's axes (Pinocchio's LOCAL_WORLD_ALIGNED; what a space mouse in the robot's
+  /// frame means); kTool, the body twist V_b in the tip frame.
+  enum Frame : int8_t { kBase = 0, kTool = 1 };
+  int64_t utime = 0;  ///< the sender's sample time, µs: orders the commands
+  int8_t kind = kJointVelocity;
+  int8_t frame = kBase;
+  Eigen::VectorXd joint_velocity;     ///< rad/s (m/s), root to tip (kJointVelocity)
+  Vector6d twist = Vector6d::Zero();  ///< (ω, v), rad/s and m/s, in `frame` (kTwist)
+  explicit Jog(int n = 0) : joint_velocity(Eigen::VectorXd::Zero(n)) {}
+};
+
+struct JogConfig {
+  /// Condition number of J_b where a twist toward a singularity starts slowing down (MoveIt
+  /// Servo's lower_singularity_threshold)...
+  double slow_condition = 17.0;
+  /// ...and the one it stops before (its hard_stop_singularity_threshold).
+  double stop_condition = 30.0;
+  /// Throws ArgumentError unless 1 ≤ slow_condition < stop_condition, both finite.
+  void validate() const;
+};
+
+/// How the latest jog tick went.
+struct JogProgress {
+  /// What cut the command's speed, if anything: a joint's velocity limit, a joint that would
+  /// otherwise not stop before its position limit, a singularity ahead.
+  enum Limit : int8_t { kNone = 0, kVelocity = 1, kPosition = 2, kSingularity = 3 };
+  double condition = 0.0;  ///< κ(J_b) at the reference (σ_max / σ_min of its min(6, n) largest)
+  double scale = 1.0;      ///< the speed taken over the speed asked, in [0, 1]; 0: halted
+  Limit limited_by = kNone;
+  int joint = -1;          ///< the joint at its velocity or position limit (kVelocity, kPosition)
+};
+const char* to_string(JogProgress::Limit limit);
+
+/// The singular values of a 6 × n Jacobian J from the eigenvalues of J Jᵀ (6 × 6, fixed size: no
+/// allocation), its condition number and its pseudo-inverse applied to a twist.
+class JacobianSpectrum {
+ public:
+  void compute(const Matrix6Xd& J);
+  /// σ_max / σ_min over the min(6, n) largest singular values; ∞ at a singularity.
+  double condition() const { return condition_; }
+  /// q̇ = J⁺ V: the joint velocity of least norm among those whose twist is closest to V.
+  void solve(const Matrix6Xd& J, const Vector6d& V, Eigen::VectorXd& qd) const;
+
+ private:
+  Eigen::SelfAdjointEigenSolver<Matrix6d> eigen_;
+  int rank_ = 0;  // min(6, n)
+  double condition_ = 0.0;
+};
+
+/// Turns the latest jog into the reference, tick by tick. Allocates everything when built.
+class Jogger {
+ public:
+  Jogger(const RobotModel& model, const JogConfig& config);
+
+  /// Moves `ref` on by dt toward the jog's velocity (a zero command: a halt), within `limits`
+  /// (`otg_limits`: the same, finite) and short of a singularity; says how in `progress`. Returns
+  /// whether the reference has come to rest with a zero command (the jog is over). The model
+  /// may be another of the same chain than the one built with (a payload). Allocates nothing.
+  bool step(const RobotModel& model, const Jog& jog, bool halt, const MotionLimits& limits,
+            const motion::Limits& otg_limits, double dt, Reference& ref, JogProgress& progress);
+
+  const JogConfig& config() const { return config_; }
+
+ private:
+  /// κ(J_b) at q.
+  double condition_at(const RobotModel& model, const Eigen::VectorXd& q);
+
+  JogConfig config_;
+  Data data_;  // J_b at the reference, the probe and the stop
+  JacobianSpectrum spectrum_;
+  motion::OnlineGenerator otg_;
+  motion::KinematicState from_, out_;
+  Eigen::VectorXd qd_, probe_, stop_;
+};
+
+}  // namespace chasles::controller
