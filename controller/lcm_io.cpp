@@ -81,6 +81,32 @@ std::string SetpointReceiver::receive(const void* data, size_t size) {
   return {};
 }
 
+JogReceiver::JogReceiver(int num_joints, SpscRing<Jog>& queue) : num_joints_(num_joints), jog_(num_joints), queue_(queue) {
+  message_.joint_velocity.reserve(size_t(num_joints));
+}
+
+std::string JogReceiver::receive(const void* data, size_t size) {
+  if (std::string why = messages::decode_checked(data, size, message_, num_joints_, messages::Finite::Required);
+      !why.empty()) {
+    return why;
+  }
+  if (message_.kind == jog_command_t::JOINT_VELOCITY && message_.num_joints != num_joints_) {
+    return "JOINT_VELOCITY for " + std::to_string(message_.num_joints) + " joints; the arm has " +
+           std::to_string(num_joints_);
+  }
+  jog_.utime = message_.utime;
+  jog_.kind = message_.kind;
+  jog_.frame = message_.frame;
+  if (message_.num_joints == num_joints_) {
+    jog_.joint_velocity = Eigen::Map<const Eigen::VectorXd>(message_.joint_velocity.data(), num_joints_);
+  } else {
+    jog_.joint_velocity.setZero();
+  }
+  jog_.twist = Eigen::Map<const Vector6d>(message_.twist);
+  if (!queue_.push(jog_)) return "not taken: the controller has not caught up with the jog commands before it";
+  return {};
+}
+
 TrajectoryReceiver::TrajectoryReceiver(const RobotModel& model, SpscRing<Waypoints>& queue)
     : waypoints_(model.dof()), column_(size_t(model.dof()), -1), queue_(queue) {
   for (const Joint& joint : model.joints()) names_.push_back(joint.name);

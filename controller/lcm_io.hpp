@@ -11,6 +11,7 @@
 #include <atomic>
 #include <chasles/arm_target_t.hpp>
 #include <chasles/control_mode_t.hpp>
+#include <chasles/jog_command_t.hpp>
 #include <chasles/joint_setpoint_t.hpp>
 #include <chasles/joint_torque_command_t.hpp>
 #include <chasles/joint_trajectory_t.hpp>
@@ -30,7 +31,7 @@ namespace chasles::controller {
 
 /// Channel names: a configurable prefix, so several arms can share one network.
 struct Channels {
-  std::string state, command, target, status, mode, payload, trajectory, setpoint;
+  std::string state, command, target, status, mode, payload, trajectory, setpoint, jog;
   explicit Channels(const std::string& prefix = "CHASLES_")
       : state(prefix + "STATE"),
         command(prefix + "COMMAND"),
@@ -39,7 +40,8 @@ struct Channels {
         mode(prefix + "MODE"),
         payload(prefix + "PAYLOAD"),
         trajectory(prefix + "TRAJECTORY"),
-        setpoint(prefix + "SETPOINT") {}
+        setpoint(prefix + "SETPOINT"),
+        jog(prefix + "JOG") {}
 };
 
 /// Counts rejected messages and keeps the latest reason, for the status report. Lock-free: with
@@ -112,6 +114,24 @@ class SetpointReceiver {
   joint_setpoint_t message_;
   Setpoint setpoint_;
   SpscRing<Setpoint>& queue_;
+};
+
+/// jog_command_t → Jog in `queue` (sized, finite; kind, frame and order judged by
+/// Controller::set_jog). A twist may come without joint velocities (num_joints 0).
+class JogReceiver {
+ public:
+  JogReceiver(int num_joints, SpscRing<Jog>& queue);
+  JogReceiver(const JogReceiver&) = delete;
+  JogReceiver& operator=(const JogReceiver&) = delete;
+
+  /// Checks, decodes and queues one message; returns an empty string or why it was refused.
+  std::string receive(const void* data, size_t size);
+
+ private:
+  int num_joints_;
+  jog_command_t message_;
+  Jog jog_;
+  SpscRing<Jog>& queue_;
 };
 
 /// joint_trajectory_t → Waypoints in `queue`, in the arm's joint order. Structure is checked here

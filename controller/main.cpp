@@ -86,6 +86,7 @@ struct Flags {
   std::string acceleration_limit, jerk_limit;
   double stream_timeout_ms = 100.0;
   chasles::controller::LimitConfig limits;
+  chasles::controller::JogConfig jog;
 };
 
 // The config file's keys are the flags' names with '_' for '-'.
@@ -258,8 +259,15 @@ int main(int argc, char** argv) {
                  "default 0.1)")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--stream-timeout-ms", flags.stream_timeout_ms,
-                 "a stream of setpoints silent this long is over: the arm decelerates to rest (default 100)")
+                 "a stream of setpoints or jog commands silent this long is over: the arm decelerates to rest "
+                 "(default 100)")
       ->check(CLI::PositiveNumber);
+  app.add_option("--jog-slow-condition", flags.jog.slow_condition,
+                 "a twist jog heading toward a singularity slows from this condition number of J_b (default 17)")
+      ->check(CLI::Range(1.0, 1e12));
+  app.add_option("--jog-stop-condition", flags.jog.stop_condition,
+                 "...and stops before this one (default 30; above --jog-slow-condition)")
+      ->check(CLI::Range(1.0, 1e12));
   app.add_option("--retract-mm", flags.retract_mm, "how far the retract reflex backs off, mm (default 10)")
       ->check(CLI::PositiveNumber);
   app.add_flag("--realtime", options.realtime, "SCHED_FIFO, mlockall and --cpu for the loop (warns if refused)");
@@ -331,6 +339,7 @@ int main(int argc, char** argv) {
     options.control.contact.retract_distance = flags.retract_mm * 1e-3;
     options.control.limits = flags.limits;
     options.control.stream_timeout = flags.stream_timeout_ms * 1e-3;
+    options.control.jog = flags.jog;
     if (!flags.acceleration_limit.empty()) {
       options.control.limits.acceleration = gains(flags.acceleration_limit, n, "--acceleration-limit");
     }

@@ -51,6 +51,7 @@ Node::Loop::Loop(const RobotModel& model, const Config& control, double payload_
       target(model.dof()),
       waypoints(model.dof()),
       setpoint(model.dof()),
+      jog(model.dof()),
       mode(model.dof()),
       payload_mass(payload_mass_in),
       request(model.dof()),
@@ -81,6 +82,7 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
       targets_(16, Target(n_)),
       trajectories_(2, Waypoints(n_)),
       setpoints_(16, Setpoint(n_)),
+      jogs_(16, Jog(n_)),
       snapshots_(Snapshot(n_)),
       requests_(CartesianRequest(n_)),
       paths_(2, JointPath(n_)),
@@ -88,6 +90,7 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
       target_receiver_(n_, targets_),
       trajectory_receiver_(model, trajectories_),
       setpoint_receiver_(n_, setpoints_),
+      jog_receiver_(n_, jogs_),
       mode_receiver_(n_, modes_),
       payload_receiver_(payloads_, planner_bell_),
       command_watch_(sent_commands_),
@@ -109,6 +112,9 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
   }));
   subscriptions_.push_back(buses.receive.subscribe(channels_.setpoint, [this](const uint8_t* data, size_t size) {
     if (const std::string why = setpoint_receiver_.receive(data, size); !why.empty()) rejections_.add("setpoint " + why);
+  }));
+  subscriptions_.push_back(buses.receive.subscribe(channels_.jog, [this](const uint8_t* data, size_t size) {
+    if (const std::string why = jog_receiver_.receive(data, size); !why.empty()) rejections_.add("jog " + why);
   }));
   subscriptions_.push_back(buses.receive.subscribe(channels_.mode, [this](const uint8_t* data, size_t size) {
     if (const std::string why = mode_receiver_.receive(data, size); !why.empty()) rejections_.add("control mode " + why);
@@ -160,6 +166,7 @@ int64_t Node::tick(int64_t scheduled) {
   while (targets_.pop(loop_.target)) loop_.controller.set_target(loop_.target, wake);
   while (trajectories_.pop(loop_.waypoints)) loop_.controller.set_trajectory(loop_.waypoints, wake);
   while (setpoints_.pop(loop_.setpoint)) loop_.controller.set_setpoint(loop_.setpoint, wake);
+  while (jogs_.pop(loop_.jog)) loop_.controller.set_jog(loop_.jog, wake);
   if (loop_.controller.take_request(loop_.request)) {
     requests_.write(loop_.request);
     planner_bell_.ring();
@@ -277,6 +284,10 @@ void Node::publish_snapshot() {
   s.streaming = loop_.controller.streaming();
   s.setpoints = loop_.controller.setpoints();
   s.dropped_setpoints = loop_.controller.dropped_setpoints();
+  s.jogging = loop_.controller.jogging();
+  s.jogs = loop_.controller.jogs();
+  s.dropped_jogs = loop_.controller.dropped_jogs();
+  s.jog = loop_.controller.jog_progress();
   snapshots_.publish();
 }
 
@@ -418,6 +429,13 @@ void Node::fill_status() {
   status.streaming = s.streaming;
   status.setpoints = s.setpoints;
   status.setpoints_dropped = s.dropped_setpoints;
+  status.jogging = s.jogging;
+  status.jogs = s.jogs;
+  status.jogs_dropped = s.dropped_jogs;
+  status.jog_condition = s.jog.condition;
+  status.jog_scale = s.jog.scale;
+  status.jog_limited_by = static_cast<int8_t>(s.jog.limited_by);
+  status.jog_joint = s.jog.joint;
   const Transform& T = forward_kinematics(model_, reporter_.data, s.q);
   const Eigen::Quaterniond quaternion(T.linear());
   for (int i = 0; i < 3; ++i) status.tip_position[i] = T.translation()(i);

@@ -127,6 +127,9 @@ class Node {
     TrajectoryProgress trajectory;
     bool streaming = false;
     int64_t setpoints = 0, dropped_setpoints = 0;
+    bool jogging = false;
+    int64_t jogs = 0, dropped_jogs = 0;
+    JogProgress jog;
     explicit Snapshot(int n = 0);
   };
   // Timing figures of the status window and of the whole run.
@@ -168,6 +171,7 @@ class Node {
   SpscRing<Target> targets_;
   SpscRing<Waypoints> trajectories_;
   SpscRing<Setpoint> setpoints_;
+  SpscRing<Jog> jogs_;
   Mailbox<Snapshot> snapshots_;
   SpscRing<TickRecord> records_{8192};
   Mailbox<CartesianRequest> requests_;  // loop → IK: only the newest request matters
@@ -176,6 +180,7 @@ class Node {
   TargetReceiver target_receiver_;
   TrajectoryReceiver trajectory_receiver_;
   SetpointReceiver setpoint_receiver_;
+  JogReceiver jog_receiver_;
   ModeReceiver mode_receiver_;
   PayloadReceiver payload_receiver_;
   SentCommands sent_commands_;
@@ -195,6 +200,7 @@ class Node {
     Target target;
     Waypoints waypoints;
     Setpoint setpoint;
+    Jog jog;
     LawSettings mode;
     double payload_mass;
     int64_t modes_seen = 0, targets_seen = 0;  // refused, to tell which refusal came last

@@ -14,6 +14,7 @@
 #include <chasles/arm_target_t.hpp>
 #include <chasles/control_mode_t.hpp>
 #include <chasles/controller_status_t.hpp>
+#include <chasles/jog_command_t.hpp>
 #include <chasles/joint_torque_command_t.hpp>
 #include <chasles/joint_setpoint_t.hpp>
 #include <chasles/joint_trajectory_t.hpp>
@@ -60,6 +61,7 @@ inline constexpr size_t kStatusStringLength = 8 + 8 + 1;     // utime, state
 inline constexpr size_t kTruthCount = 8 + 8 + 8;             // utime, seq
 inline constexpr size_t kModeCount = 8 + 8 + 1;              // utime, law
 inline constexpr size_t kSetpointCount = 8 + 8;               // utime
+inline constexpr size_t kJogCount = 8 + 8 + 1 + 1;            // utime, kind, frame
 inline constexpr size_t kTrajectoryCounts = 8 + 8 + 8;       // utime, id: then four counts
 // controller_status_t's trajectory_message follows its joint arrays (5 per joint) and 301 bytes of
 // fixed-size fields, counted from the end of num_joints.
@@ -162,6 +164,13 @@ inline std::string prepare(const void* data, size_t size, joint_setpoint_t& m) {
   return {};
 }
 
+inline std::string prepare(const void* data, size_t size, jog_command_t& m) {
+  if (!read_int32(data, size, kJogCount, m.num_joints)) return truncated(size);
+  if (std::string why = impossible_count(m.num_joints, size); !why.empty()) return why;
+  m.joint_velocity.assign(size_t(m.num_joints), 0.0);
+  return {};
+}
+
 inline std::string prepare(const void* data, size_t size, sim_truth_t& m) {
   if (!read_int32(data, size, kTruthCount, m.num_joints)) return truncated(size);
   if (std::string why = impossible_count(m.num_joints, size); !why.empty()) return why;
@@ -242,6 +251,9 @@ inline const char* non_finite(const joint_trajectory_t& m) {
 inline const char* non_finite(const joint_setpoint_t& m) {
   return !finite(m.position) ? "position" : !finite(m.velocity) ? "velocity" : nullptr;
 }
+inline const char* non_finite(const jog_command_t& m) {
+  return !finite(m.joint_velocity) ? "joint_velocity" : !finite(m.twist, 6) ? "twist" : nullptr;
+}
 inline const char* non_finite(const arm_target_t& m) {
   return !finite(m.joint_position)      ? "joint_position"
          : !finite(m.tip_position, 3)   ? "tip_position"
@@ -252,10 +264,11 @@ inline const char* non_finite(const arm_target_t& m) {
 
 // Whether a message for `count` joints fits an arm of `arm_joints`: states, commands and truths carry
 // every joint; a target carries all of them (JOINT) or none (HOLD, CARTESIAN), and the controller says
-// which its mode needs.
+// which its mode needs; a jog all of them or none (a TWIST).
 template <typename Message>
 bool fits_arm(int32_t count, int arm_joints) {
   if constexpr (std::is_same_v<Message, arm_target_t>) return count <= arm_joints;
+  if constexpr (std::is_same_v<Message, jog_command_t>) return count == 0 || count == arm_joints;
   return count == arm_joints;
 }
 // A control mode carries all of the arm's joints or none, in each of its two counts.

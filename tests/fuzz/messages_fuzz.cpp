@@ -7,7 +7,8 @@
 // daemon's worker does) and Controller::set_model, 7 the direct Bus's reading of a UDP datagram as an
 // LCM small message (parse_lcm_datagram) and, when it is one, the state receiver on its payload; 8
 // its joint_trajectory_t receiver and Controller::set_trajectory; 9 its joint_setpoint_t receiver
-// and Controller::set_setpoint.
+// and Controller::set_setpoint; 10 its jog_command_t receiver and Controller::set_jog; 11–15 as 3.
+// (Byte 0 modulo 16, so the seeds' ASCII selectors '0'…'9' and ':' pick 0…10.)
 // What a reader accepts must be what the contract
 // promises (the arm's joint count, finite values; for the watch, a command of its own, once; for a
 // payload, a body the model can carry), and after every input the controller ticks (1 ms later,
@@ -48,6 +49,8 @@ struct Readers {
   TrajectoryReceiver trajectory_receiver{model, trajectories};
   SpscRing<Setpoint> setpoints{1, Setpoint(n)};
   SetpointReceiver setpoint_receiver{n, setpoints};
+  SpscRing<Jog> jogs{1, Jog(n)};
+  JogReceiver jog_receiver{n, jogs};
   StateReceiver state_receiver{n, states};
   TargetReceiver target_receiver{n, targets};
   plant::CommandInbox commands{clock, "COMMAND", n};
@@ -225,7 +228,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   Readers& r = *readers;
   const uint8_t* message = data + 1;
   const int bytes = static_cast<int>(size - 1);
-  switch (data[0] % 10) {
+  switch (data[0] % 16) {
     case 0:
       if (r.state_receiver.receive(message, size_t(bytes), r.now_ns).empty()) {
         JointState state(r.n);
@@ -276,6 +279,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         r.controller.set_setpoint(setpoint, r.now_ns);  // orders, clamps and follows it within the limits
       }
       break;
+    case 10:
+      if (r.jog_receiver.receive(message, size_t(bytes)).empty()) {
+        Jog jog(r.n);
+        FUZZ_CHECK(r.jogs.pop(jog));
+        FUZZ_CHECK(jog.joint_velocity.size() == r.n && jog.joint_velocity.allFinite() && jog.twist.allFinite());
+        r.controller.set_jog(jog, r.now_ns);  // judges kind, frame and order; jogs within the limits
+      }
+      break;
     default: {
       decode_as<robot_state_t>(message, size - 1);
       decode_as<joint_torque_command_t>(message, size - 1);
@@ -285,6 +296,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       decode_as<payload_t>(message, size - 1);
       decode_as<joint_trajectory_t>(message, size - 1);
       decode_as<joint_setpoint_t>(message, size - 1);
+      decode_as<jog_command_t>(message, size - 1);
       cli::Cells cells;
       cli::message_cells(cli::message_type(message, size - 1), message, size - 1, {}, cells);
       FUZZ_CHECK(cells.names.size() == cells.values.size());

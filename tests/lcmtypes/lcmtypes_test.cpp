@@ -7,6 +7,7 @@
 #include <chasles/arm_target_t.hpp>
 #include <chasles/control_mode_t.hpp>
 #include <chasles/controller_status_t.hpp>
+#include <chasles/jog_command_t.hpp>
 #include <chasles/joint_torque_command_t.hpp>
 #include <chasles/joint_setpoint_t.hpp>
 #include <chasles/joint_trajectory_t.hpp>
@@ -148,6 +149,13 @@ controller_status_t make_status() {
   status.streaming = true;
   status.setpoints = 1234;
   status.setpoints_dropped = 56;
+  status.jogging = true;
+  status.jogs = 789;
+  status.jogs_dropped = 12;
+  status.jog_condition = 23.5;
+  status.jog_scale = 0.5;
+  status.jog_limited_by = controller_status_t::JOG_SINGULARITY;
+  status.jog_joint = -1;
   return status;
 }
 
@@ -318,7 +326,7 @@ TEST(lcmtypes, ControllerStatusRoundTrips) {
   const size_t trajectory_string = 4 + status.trajectory_message.size() + 1;
   EXPECT_EQ(buffer.size(), kHash + 8 + 1 + string_size + 4 + 3 * 8 * kJoints + 8 * 3 + 8 * 4 + 8 * kJoints +
                                (4 + 8 + 1) + 9 * 8 + 5 * 8 + 8 * kJoints + 6 * 8 + 2 + 2 * 8 + 1 + 8 + 8 +
-                               (8 + 1 + 3 * 8 + 4) + trajectory_string + (1 + 8 + 8));
+                               (8 + 1 + 3 * 8 + 4) + trajectory_string + (1 + 8 + 8) + (1 + 8 + 8 + 8 + 8 + 1 + 4));
   const auto back = decode<controller_status_t>(buffer);
   EXPECT_EQ(back.utime, status.utime);
   EXPECT_EQ(back.state, controller_status_t::FAULT);
@@ -366,6 +374,13 @@ TEST(lcmtypes, ControllerStatusRoundTrips) {
   EXPECT_TRUE(back.streaming);
   EXPECT_EQ(back.setpoints, 1234);
   EXPECT_EQ(back.setpoints_dropped, 56);
+  EXPECT_TRUE(back.jogging);
+  EXPECT_EQ(back.jogs, 789);
+  EXPECT_EQ(back.jogs_dropped, 12);
+  EXPECT_EQ(back.jog_condition, 23.5);
+  EXPECT_EQ(back.jog_scale, 0.5);
+  EXPECT_EQ(back.jog_limited_by, 3);
+  EXPECT_EQ(back.jog_joint, -1);
   expect_damage_refused<controller_status_t>(buffer);
   // The checked decoder finds both strings' lengths in the raw bytes, with any message length.
   for (const std::string message : {"", "x", "a longer message of the controller's"}) {
@@ -379,6 +394,7 @@ TEST(lcmtypes, ControllerStatusRoundTrips) {
     EXPECT_EQ(checked.trajectory_message, message + "!");
     EXPECT_EQ(checked.state_period, status.state_period);
     EXPECT_EQ(checked.setpoints_dropped, 56);
+    EXPECT_EQ(checked.jog_joint, -1);
   }
 }
 
@@ -403,6 +419,37 @@ TEST(lcmtypes, JointSetpointRoundTripsAndIsChecked) {
                 " for 6 joints");
   setpoint.velocity[2] = std::numeric_limits<double>::infinity();
   EXPECT_EQ(decode_checked<joint_setpoint_t>(encode(setpoint)), "with non-finite velocity");
+}
+
+TEST(lcmtypes, JogCommandRoundTripsAndIsChecked) {
+  EXPECT_EQ(jog_command_t::JOINT_VELOCITY, 0);
+  EXPECT_EQ(jog_command_t::TWIST, 1);
+  EXPECT_EQ(jog_command_t::BASE, 0);
+  EXPECT_EQ(jog_command_t::TOOL, 1);
+  jog_command_t jog;
+  jog.utime = 1'790'000'000'000'999;
+  jog.kind = jog_command_t::JOINT_VELOCITY;
+  jog.frame = jog_command_t::BASE;
+  jog.num_joints = kJoints;
+  jog.joint_velocity = values(kJoints, 0.125);
+  for (int k = 0; k < 6; ++k) jog.twist[k] = 0.01 * (k + 1);
+  const std::vector<uint8_t> buffer = encode(jog);
+  // fingerprint, utime, kind, frame, num_joints, joint_velocity[n], twist[6]
+  EXPECT_EQ(buffer.size(), static_cast<size_t>(kHash + 8 + 1 + 1 + 4 + 8 * kJoints + 6 * 8));
+  jog_command_t checked;
+  ASSERT_EQ(messages::decode_checked(buffer.data(), buffer.size(), checked, kJoints, messages::Finite::Required), "");
+  EXPECT_EQ(checked.utime, jog.utime);
+  EXPECT_EQ(checked.joint_velocity, jog.joint_velocity);
+  for (int k = 0; k < 6; ++k) EXPECT_EQ(checked.twist[k], jog.twist[k]);
+  expect_damage_refused<jog_command_t>(buffer);
+  EXPECT_EQ(decode_checked<jog_command_t>(with_int32(buffer, 18, 6)), "for 6 joints; the arm has 7");
+  // A twist may leave the joints out.
+  jog.kind = jog_command_t::TWIST;
+  jog.num_joints = 0;
+  jog.joint_velocity.clear();
+  EXPECT_EQ(decode_checked<jog_command_t>(encode(jog)), "");
+  jog.twist[4] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(decode_checked<jog_command_t>(encode(jog)), "with non-finite twist");
 }
 
 TEST(lcmtypes, JointTrajectoryRoundTripsAndItsCheckedDecoderReadsEveryCount) {
@@ -618,8 +665,9 @@ TEST(lcmtypes, TypesAreNotInterchangeable) {
   const std::set<int64_t> hashes = {robot_state_t::getHash(),  joint_torque_command_t::getHash(),
                                     arm_target_t::getHash(),   controller_status_t::getHash(),
                                     control_mode_t::getHash(), payload_t::getHash(),
-                                    joint_trajectory_t::getHash(), joint_setpoint_t::getHash()};
-  EXPECT_EQ(hashes.size(), 8u);
+                                    joint_trajectory_t::getHash(), joint_setpoint_t::getHash(),
+                                    jog_command_t::getHash()};
+  EXPECT_EQ(hashes.size(), 9u);
 
   const std::vector<uint8_t> state = encode(make_state(kJoints));
   joint_torque_command_t command;
@@ -637,14 +685,15 @@ TEST(lcmtypes, FingerprintsArePinned) {
   EXPECT_EQ(static_cast<uint64_t>(joint_torque_command_t::getHash()), 0xd037d1c904e0e80fu);
   EXPECT_EQ(static_cast<uint64_t>(arm_target_t::getHash()), 0x309277be8aae6666u);
   // controller_status_t gained the contact fields at its end ([K]), then the law and the payload's
-  // mass, then the state period ([M]), then the trajectory's progress and the stream's ([N]) at its end; no field
+  // mass, then the state period ([M]), then the trajectory's progress, the stream's and the jog's ([N]) at its end; no field
   // changed meaning, and a reader built on an older contract refuses the new one by its
   // fingerprint.
-  EXPECT_EQ(static_cast<uint64_t>(controller_status_t::getHash()), 0x0a7b946a4c90fbceu);
+  EXPECT_EQ(static_cast<uint64_t>(controller_status_t::getHash()), 0x01052e38ad849b41u);
   EXPECT_EQ(static_cast<uint64_t>(control_mode_t::getHash()), 0xe4a15f556715af84u);
   EXPECT_EQ(static_cast<uint64_t>(payload_t::getHash()), 0x38b055cd3dfdfa1fu);
   EXPECT_EQ(static_cast<uint64_t>(joint_trajectory_t::getHash()), 0xd964c2fb834f2258u);
   EXPECT_EQ(static_cast<uint64_t>(joint_setpoint_t::getHash()), 0x5c7e81c8a461c11au);
+  EXPECT_EQ(static_cast<uint64_t>(jog_command_t::getHash()), 0xbcbed304703b833cu);
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chasles/jog_command_t.hpp>
 #include <chasles/joint_setpoint_t.hpp>
 #include <chasles/joint_trajectory_t.hpp>
 #include <cmath>
@@ -11,6 +12,7 @@
 #include <string>
 
 #include "chasles/controller/limits.hpp"
+#include "chasles/core/kinematics/kinematics.hpp"
 #include "world.hpp"
 
 namespace chasles::faults {
@@ -219,6 +221,68 @@ TEST(stream, ThirtyHertzOverTheBusIsFollowedAndComesToRestWhenItStops) {
   std::printf("[ stream ] 30 Hz over the bus: %d sent, %d duplicated; the arm within %.3f mrad RMS of the reference\n",
               sent, duplicated, 1e3 * rms);
   EXPECT_LT(rms, 1e-3);
+  for (double v : world.recorder().state()->velocity) EXPECT_LT(std::abs(v), 1e-2);
+}
+
+// A space mouse's jog over the bus: the tip sent down at 5 cm/s in the base frame, 30 commands a
+// second (some twice), for one second, then a zero command. The simulated arm's tip goes down
+// 5 cm with its orientation kept, the status counts the commands and the duplicates, and the arm
+// comes to rest and holds.
+TEST(jog, ATwistOverTheBusMovesTheSimulatedTipAndStopsWhenTold) {
+  World world;
+  world.start_plant(bent_pose());
+  world.add_controller(options());
+  ASSERT_TRUE(world.run_until([&] { return world.recorder().status_is(controller_status_t::HOLDING); }, 1.0));
+  const RobotModel& model = world.model();
+  Data data(model);
+  const auto measured_tip = [&] {
+    const std::vector<double>& q = world.recorder().state()->position;
+    return forward_kinematics(model, data, Eigen::Map<const VectorXd>(q.data(), 7));
+  };
+  const Transform before = measured_tip();
+  jog_command_t jog{};
+  jog.kind = jog_command_t::TWIST;
+  jog.frame = jog_command_t::BASE;
+  jog.num_joints = 0;
+  jog.twist[5] = -0.05;  // m/s, down
+  const int64_t start = world.now();
+  int sent = 0, duplicated = 0;
+  for (int k = 0; k < 30; ++k) {
+    jog.utime = 1'790'000'000'000'000 + static_cast<int64_t>(k / 30.0 * 1e6);
+    world.recorder().publish("JOG", jog), ++sent;
+    if (k % 10 == 4) world.recorder().publish("JOG", jog), ++duplicated;
+    const int64_t next = start + static_cast<int64_t>((k + 1) / 30.0 * 1e9);
+    world.run_until([&] { return world.now() >= next; }, 1.0);
+  }
+  const controller_status_t during = *world.recorder().status();
+  EXPECT_TRUE(during.jogging);
+  EXPECT_EQ(during.state, controller_status_t::RUNNING);
+  EXPECT_EQ(during.jog_scale, 1.0);
+  EXPECT_EQ(during.jog_limited_by, controller_status_t::JOG_NONE);
+  EXPECT_GT(during.jog_condition, 1.0);
+  jog.twist[5] = 0.0;
+  jog.utime += 1;
+  world.recorder().publish("JOG", jog), ++sent;
+  // Told to stop, it stops within the brake (0.05 m/s at the Panda's limits: a few tens of ms),
+  // long before the 100 ms timeout would; then the timeout ends the jog and the arm holds.
+  ASSERT_TRUE(world.run_until([&] { return world.recorder().status_is(controller_status_t::HOLDING); }, 1.0));
+  const controller_status_t& after = *world.recorder().status();
+  EXPECT_FALSE(after.jogging);
+  EXPECT_EQ(after.jogs, sent);
+  EXPECT_EQ(after.jogs_dropped, duplicated);
+  EXPECT_EQ(after.faults, 0);
+  EXPECT_EQ(after.reflexes, 0);
+  const Transform tip = measured_tip();
+  const Vector3d moved = tip.translation() - before.translation();
+  std::printf("[ jog ] 1 s down at 5 cm/s over the bus: the tip moved (%.2f, %.2f, %.2f) mm, turned %.3f mrad\n",
+              1e3 * moved.x(), 1e3 * moved.y(), 1e3 * moved.z(),
+              1e3 * Eigen::AngleAxisd(before.linear().transpose() * tip.linear()).angle());
+  // 1 s at 5 cm/s, give or take the ramps at both ends (a few ms at the limits) and tracking.
+  EXPECT_NEAR(moved.z(), -0.05, 2e-3);
+  EXPECT_LT(moved.head<2>().norm(), 1e-3);
+  EXPECT_LT(Eigen::AngleAxisd(before.linear().transpose() * tip.linear()).angle(), 2e-3);
+  const int64_t settled = world.now() + 200 * kMs;  // the arm settles onto the held reference
+  world.run_until([&] { return world.now() >= settled; }, 1.0);
   for (double v : world.recorder().state()->velocity) EXPECT_LT(std::abs(v), 1e-2);
 }
 

@@ -1,6 +1,7 @@
 #include "chasles/tools/cli/messages.hpp"
 
 #include <algorithm>
+#include <array>
 #include <charconv>
 #include <type_traits>
 #include <cmath>
@@ -35,15 +36,18 @@ class Row {
     }
   }
   /// A wrench (m, f): columns name[mx] … name[fz].
-  void wrench(const char* name, const double* values) {
-    static const char* const kLabels[] = {"mx", "my", "mz", "fx", "fy", "fz"};
+  void wrench(const char* name, const double* values) { sextuple(name, values, {"mx", "my", "mz", "fx", "fy", "fz"}); }
+  /// A twist (ω, v): columns name[wx] … name[vz].
+  void twist(const char* name, const double* values) { sextuple(name, values, {"wx", "wy", "wz", "vx", "vy", "vz"}); }
+
+ private:
+  void sextuple(const char* name, const double* values, const std::array<const char*, 6>& labels) {
     for (size_t i = 0; i < 6; ++i) {
-      cells_.names.push_back(std::string(name) + "[" + kLabels[i] + "]");
+      cells_.names.push_back(std::string(name) + "[" + labels[i] + "]");
       cells_.values.push_back(number_text(values[i]));
     }
   }
 
- private:
   Cells& cells_;
   const std::vector<std::string>& joints_;
 };
@@ -112,6 +116,39 @@ void lay_out(const controller_status_t& m, Row& row) {
   row.add("law", int64_t{m.law});
   row.add("payload_mass", m.payload_mass);
   row.add("state_period", m.state_period);
+  row.add("trajectory_id", m.trajectory_id);
+  row.add("trajectory_outcome", int64_t{m.trajectory_outcome});
+  row.add("trajectory_elapsed", m.trajectory_elapsed);
+  row.add("trajectory_duration", m.trajectory_duration);
+  row.add("trajectory_time_scale", m.trajectory_time_scale);
+  row.add("trajectory_waypoint", int64_t{m.trajectory_waypoint});
+  row.add("trajectory_message", m.trajectory_message);
+  row.add("streaming", int64_t{m.streaming ? 1 : 0});
+  row.add("setpoints", m.setpoints);
+  row.add("setpoints_dropped", m.setpoints_dropped);
+  row.add("jogging", int64_t{m.jogging ? 1 : 0});
+  row.add("jogs", m.jogs);
+  row.add("jogs_dropped", m.jogs_dropped);
+  row.add("jog_condition", m.jog_condition);
+  row.add("jog_scale", m.jog_scale);
+  row.add("jog_limited_by", int64_t{m.jog_limited_by});
+  row.add("jog_joint", int64_t{m.jog_joint});
+}
+
+void lay_out(const joint_setpoint_t& m, Row& row) {
+  row.add("utime", m.utime);
+  row.add("num_joints", int64_t{m.num_joints});
+  row.joints("position", m.position);
+  row.joints("velocity", m.velocity);
+}
+
+void lay_out(const jog_command_t& m, Row& row) {
+  row.add("utime", m.utime);
+  row.add("kind", int64_t{m.kind});
+  row.add("frame", int64_t{m.frame});
+  row.add("num_joints", int64_t{m.num_joints});
+  row.joints("joint_velocity", m.joint_velocity);
+  row.twist("twist", m.twist);
 }
 
 void lay_out(const control_mode_t& m, Row& row) {
@@ -193,6 +230,8 @@ MessageType message_type(const void* data, size_t size) {
   if (messages::starts_as<control_mode_t>(data, size)) return MessageType::Mode;
   if (messages::starts_as<payload_t>(data, size)) return MessageType::Payload;
   if (messages::starts_as<sim_truth_t>(data, size)) return MessageType::Truth;
+  if (messages::starts_as<joint_setpoint_t>(data, size)) return MessageType::Setpoint;
+  if (messages::starts_as<jog_command_t>(data, size)) return MessageType::Jog;
   return MessageType::Unknown;
 }
 
@@ -205,6 +244,8 @@ std::string type_name(MessageType type) {
     case MessageType::Mode: return std::string("chasles.") + control_mode_t::getTypeName();
     case MessageType::Payload: return std::string("chasles.") + payload_t::getTypeName();
     case MessageType::Truth: return std::string("chasles.") + sim_truth_t::getTypeName();
+    case MessageType::Setpoint: return std::string("chasles.") + joint_setpoint_t::getTypeName();
+    case MessageType::Jog: return std::string("chasles.") + jog_command_t::getTypeName();
     case MessageType::Unknown: break;
   }
   return "unknown";
@@ -226,6 +267,8 @@ int joint_count(MessageType type, const void* data, size_t size) {
     case MessageType::Mode: return count_of<control_mode_t>(data, size);
     case MessageType::Payload: return count_of<payload_t>(data, size);
     case MessageType::Truth: return count_of<sim_truth_t>(data, size);
+    case MessageType::Setpoint: return count_of<joint_setpoint_t>(data, size);
+    case MessageType::Jog: return count_of<jog_command_t>(data, size);
     case MessageType::Unknown: break;
   }
   return -1;
@@ -241,6 +284,8 @@ std::string message_cells(MessageType type, const void* data, size_t size, const
     case MessageType::Mode: return cells_of<control_mode_t>(data, size, joints, cells);
     case MessageType::Payload: return cells_of<payload_t>(data, size, joints, cells);
     case MessageType::Truth: return cells_of<sim_truth_t>(data, size, joints, cells);
+    case MessageType::Setpoint: return cells_of<joint_setpoint_t>(data, size, joints, cells);
+    case MessageType::Jog: return cells_of<jog_command_t>(data, size, joints, cells);
     case MessageType::Unknown: break;
   }
   return "not a chasles message (unknown fingerprint)";
