@@ -10,6 +10,7 @@
 #include <string>
 
 #include "chasles/core/dynamics/dynamics.hpp"
+#include "chasles/core/lie/so3.hpp"
 
 namespace chasles::controller {
 namespace {
@@ -593,36 +594,55 @@ bool Controller::set_target(const Target& target, int64_t now_ns) {
   return true;
 }
 
-bool Controller::set_setpoint(const Setpoint& setpoint, int64_t now_ns) {
-  if (mode_ == Mode::kWaiting) return refuse("setpoint: no robot state has arrived yet");
-  if (mode_ == Mode::kFault) return refuse("setpoint: the controller is in FAULT");
+bool Controller::refuse_stream(const char* what) {
+  if (mode_ == Mode::kWaiting) return !refuse("%s: no robot state has arrived yet", what);
+  if (mode_ == Mode::kFault) return !refuse("%s: the controller is in FAULT", what);
   // A stream does not end a reflex by coming on: it would within a period. A target or law does.
-  if (mode_ == Mode::kReflex) return refuse("setpoint: the arm is in REFLEX (a target or control mode resumes)");
-  if (law_.law == Law::kFreeDrive) return refuse("setpoint: free drive follows no stream (send a control mode first)");
+  if (mode_ == Mode::kReflex) return !refuse("%s: the arm is in REFLEX (a target or control mode resumes)", what);
+  if (law_.law == Law::kFreeDrive) return !refuse("%s: free drive follows none (send a control mode first)", what);
+  return false;
+}
+
+bool Controller::set_setpoint(const Setpoint& setpoint, int64_t now_ns) {
+  if (refuse_stream("setpoint")) return false;
   const int n = model_->dof();
   if (setpoint.q.size() != n || setpoint.qd.size() != n || !setpoint.q.allFinite() || !setpoint.qd.allFinite()) {
     return refuse("setpoint: of the wrong size or with non-finite values");
   }
-  if (streaming() && setpoint.utime <= setpoint_utime_) {
+  if (driven_by(Drive::kStream) && setpoint.utime <= setpoint_utime_) {
     ++dropped_setpoints_;  // late or duplicated: the stream has moved past it
     return false;
   }
+  const bool first = !driven_by(Drive::kStream);
+  if (first) {
+    end_trajectory(TrajectoryProgress::kPreempted, "a stream");
+    pending_request_ = -1;
+    start_drive(Drive::kStream, now_ns);
+  }
+  const double age = take_setpoint(setpoint.utime, now_ns, first);
   for (int i = 0; i < n; ++i) {
-    otg_target_.p(i) = std::clamp(setpoint.q(i), limits_.lower(i), limits_.upper(i));
+    otg_target_.p(i) = std::clamp(setpoint.q(i) + setpoint.qd(i) * age, limits_.lower(i), limits_.upper(i));
     otg_target_.v(i) = velocity_that_stops_in_range(setpoint.qd(i), otg_target_.p(i), limits_.lower(i),
                                                     limits_.upper(i), otg_limits_.velocity(i),
                                                     otg_limits_.acceleration(i), otg_limits_.jerk(i));
     otg_target_.a(i) = 0.0;
   }
-  if (!streaming()) {
-    end_trajectory(TrajectoryProgress::kPreempted, "a stream");
-    pending_request_ = -1;
-    start_drive(Drive::kStream, now_ns);
+  return true;
+}
+
+double Controller::take_setpoint(int64_t utime, int64_t now_ns, bool first) {
+  const int64_t offset_us = now_ns / 1000 - utime;
+  if (first) {
+    stream_offset_us_ = offset_us;
+  } else {
+    // The least offset so far, let up by 100 ppm of the time since the last setpoint: two clocks
+    // drift apart by less, so the estimate never falls behind.
+    stream_offset_us_ = std::min(stream_offset_us_ + (now_ns - setpoint_ns_) / 10'000'000, offset_us);
   }
-  setpoint_utime_ = setpoint.utime;
+  setpoint_utime_ = utime;
   setpoint_ns_ = now_ns;
   ++setpoints_;
-  return true;
+  return std::clamp(1e-6 * static_cast<double>(offset_us - stream_offset_us_), 0.0, config_.stream_timeout);
 }
 
 void Controller::aim_at_stop() {
@@ -669,11 +689,34 @@ void Controller::update_stream(int64_t now_ns) {
   if (drive_ == Drive::kStop && otg_.duration() <= dt) hold_at(otg_target_.p);
 }
 
+bool Controller::set_tip_setpoint(const TipSetpoint& setpoint, int64_t now_ns) {
+  if (refuse_stream("tip setpoint")) return false;
+  if (!setpoint.position.allFinite() || !setpoint.quaternion.allFinite() || !setpoint.twist.allFinite()) {
+    return refuse("tip setpoint: with non-finite values");
+  }
+  const double norm = setpoint.quaternion.norm();
+  if (std::abs(norm - 1.0) > 1e-3) return refuse("tip setpoint: a quaternion of norm %g, not a unit one", norm);
+  if (driven_by(Drive::kTipStream) && setpoint.utime <= setpoint_utime_) {
+    ++dropped_setpoints_;  // late or duplicated: the stream has moved past it
+    return false;
+  }
+  const bool first = !driven_by(Drive::kTipStream);
+  if (first) {
+    end_trajectory(TrajectoryProgress::kPreempted, "a Cartesian stream");
+    pending_request_ = -1;
+    start_drive(Drive::kTipStream, now_ns);
+  }
+  const double age = take_setpoint(setpoint.utime, now_ns, first);
+  const Eigen::Vector4d& w = setpoint.quaternion;
+  tip_twist_ = setpoint.twist;
+  tip_target_.linear() = exp3(tip_twist_.head<3>() * age) *
+                         Eigen::Quaterniond(w(0), w(1), w(2), w(3)).normalized().toRotationMatrix();
+  tip_target_.translation() = setpoint.position + tip_twist_.tail<3>() * age;
+  return true;
+}
+
 bool Controller::set_jog(const Jog& jog, int64_t now_ns) {
-  if (mode_ == Mode::kWaiting) return refuse("jog: no robot state has arrived yet");
-  if (mode_ == Mode::kFault) return refuse("jog: the controller is in FAULT");
-  if (mode_ == Mode::kReflex) return refuse("jog: the arm is in REFLEX (a target or control mode resumes)");
-  if (law_.law == Law::kFreeDrive) return refuse("jog: free drive follows no jog (send a control mode first)");
+  if (refuse_stream("jog")) return false;
   if (jog.kind != Jog::kJointVelocity && jog.kind != Jog::kTwist) return refuse("jog: unknown kind %d", jog.kind);
   if (jog.kind == Jog::kTwist && jog.frame != Jog::kBase && jog.frame != Jog::kTool) {
     return refuse("jog: unknown frame %d", jog.frame);
@@ -704,8 +747,22 @@ bool Controller::set_jog(const Jog& jog, int64_t now_ns) {
 void Controller::update_jog(int64_t now_ns) {
   const double dt = std::clamp(1e-9 * static_cast<double>(now_ns - stream_tick_ns_), 0.0, 0.1);
   stream_tick_ns_ = now_ns;
-  const bool halt = now_ns - jog_ns_ > static_cast<int64_t>(config_.stream_timeout * 1e9);
-  if (jogger_.step(*model_, jog_, halt, limits_, otg_limits_, dt, ref_, jog_progress_) && halt) hold_at(ref_.q);
+  const int64_t timeout = static_cast<int64_t>(config_.stream_timeout * 1e9);
+  bool at_rest = false;
+  if (drive_ == Drive::kJog) {
+    const bool halt = now_ns - jog_ns_ > timeout;
+    at_rest = jogger_.step(*model_, jog_, halt, limits_, otg_limits_, dt, ref_, jog_progress_) && halt;
+  } else {
+    const bool halt = now_ns - setpoint_ns_ > timeout;
+    if (!halt) {  // the pose moves on with its twist: the rotation in the base's axes, on the left
+      tip_target_.linear() = exp3(tip_twist_.head<3>() * dt) * tip_target_.linear();
+      tip_target_.translation() += tip_twist_.tail<3>() * dt;
+    }
+    at_rest = jogger_.follow_pose(*model_, tip_target_, tip_twist_, halt, limits_, otg_limits_, dt, ref_,
+                                  jog_progress_) &&
+              halt;
+  }
+  if (at_rest) hold_at(ref_.q);
 }
 
 bool Controller::request_cartesian(const Target& target) {
@@ -797,6 +854,7 @@ void Controller::update_reference(int64_t now_ns) {
     case Drive::kStop:
       update_stream(now_ns);
       break;
+    case Drive::kTipStream:
     case Drive::kJog:
       update_jog(now_ns);
       break;

@@ -90,6 +90,16 @@ struct Setpoint {
   explicit Setpoint(int n = 0) : q(Eigen::VectorXd::Zero(n)), qd(Eigen::VectorXd::Zero(n)) {}
 };
 
+/// One setpoint of a Cartesian stream (tip_setpoint_t's content, finite).
+struct TipSetpoint {
+  int64_t utime = 0;  ///< the sender's sample time, µs: orders the stream
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();        ///< p_sb, m
+  Eigen::Vector4d quaternion = Eigen::Vector4d(1, 0, 0, 0);  ///< R_sb as (w, x, y, z), unit norm within 1e-3
+  /// How the pose moves on: the tip's angular velocity and its origin's velocity, rad/s and m/s,
+  /// both in the base frame's axes.
+  Vector6d twist = Vector6d::Zero();
+};
+
 enum class Mode : int8_t { kWaiting = 0, kRunning = 1, kHolding = 2, kFault = 3, kReflex = 4 };
 const char* to_string(Mode mode);
 
@@ -155,9 +165,16 @@ class Controller {
   /// setpoint for Config::stream_timeout: the arm decelerates to rest and holds. A target, a
   /// trajectory or a law ends the stream. Allocates nothing.
   bool set_setpoint(const Setpoint& setpoint, int64_t now_ns);
-  bool streaming() const { return mode_ == Mode::kRunning && drive_ == Drive::kStream; }
+  bool streaming() const { return driven_by(Drive::kStream) || driven_by(Drive::kTipStream); }
   int64_t setpoints() const { return setpoints_; }
   int64_t dropped_setpoints() const { return dropped_setpoints_; }
+
+  /// Takes one setpoint of a Cartesian stream: a tip pose moving on with its twist until the next.
+  /// The reference follows it as a twist jog does (jog.hpp): the pose's twist plus the error to it
+  /// over JogConfig::pose_time_constant, resolved by J_b⁺ at the reference, within every limit and
+  /// short of a singularity (jog_progress() says how). Ordered, counted, refused and timed out as
+  /// joint setpoints are; a quaternion whose norm is over 1e-3 from 1 is refused. Allocates nothing.
+  bool set_tip_setpoint(const TipSetpoint& setpoint, int64_t now_ns);
 
   /// Takes one jog command: joint velocities or a tip twist, held until the next (jog.hpp says how
   /// they become the reference: within every limit, short of a singularity). Ordered by utime like
@@ -166,7 +183,7 @@ class Controller {
   /// arm decelerates to rest and holds. A target, a trajectory, a stream or a law ends the jog.
   /// Allocates nothing.
   bool set_jog(const Jog& jog, int64_t now_ns);
-  bool jogging() const { return mode_ == Mode::kRunning && drive_ == Drive::kJog; }
+  bool jogging() const { return driven_by(Drive::kJog); }
   /// How the latest jog tick went: the condition number, the speed's scale and what cut it.
   const JogProgress& jog_progress() const { return jog_progress_; }
   /// The condition numbers in force.
@@ -242,7 +259,11 @@ class Controller {
  private:
   /// What drives the reference while RUNNING: a quintic to a goal, a planned Cartesian path, a
   /// waypoint trajectory, a stream of setpoints, a jog, or the stop after one of them.
-  enum class Drive : int8_t { kGoal, kPath, kWaypoints, kStream, kJog, kStop };
+  enum class Drive : int8_t { kGoal, kPath, kWaypoints, kStream, kTipStream, kJog, kStop };
+  bool driven_by(Drive drive) const { return mode_ == Mode::kRunning && drive_ == drive; }
+  /// Refuses (counted, with why) a stream's setpoint or a jog (`what`) that the controller's state
+  /// does not take, and returns true; false when it may go on.
+  bool refuse_stream(const char* what);
 
   bool refuse(const char* format, ...) __attribute__((format(printf, 2, 3)));
   void fault(const char* format, ...) __attribute__((format(printf, 2, 3)));
@@ -260,7 +281,10 @@ class Controller {
   /// The stream's reference one tick on (and a stop's): the generator's plan from ref_ toward the
   /// setpoint (the stop's end).
   void update_stream(int64_t now_ns);
-  /// A jog's reference one tick on.
+  /// Counts a setpoint taken at now_ns and returns its age, s: how much later than the stream's
+  /// quickest it arrived (sender's utime against arrival), by which it is moved on.
+  double take_setpoint(int64_t utime, int64_t now_ns, bool first);
+  /// A jog's reference one tick on, or a Cartesian stream's.
   void update_jog(int64_t now_ns);
   /// The generator's target for a stop: where the fastest brake from the reference ends (at rest,
   /// within the position limits).
@@ -308,9 +332,12 @@ class Controller {
   motion::Limits otg_limits_;  // limits_, with ∞ replaced by large finite values (the generator needs them)
   motion::KinematicState otg_from_, otg_target_, otg_out_;
   int64_t setpoint_utime_ = 0, setpoint_ns_ = 0, stream_tick_ns_ = 0;
+  int64_t stream_offset_us_ = 0;  // the least (arrival − sender's utime) of the stream, µs
   int64_t setpoints_ = 0, dropped_setpoints_ = 0;
   Jogger jogger_;
   Jog jog_;  // the latest command taken
+  Transform tip_target_;   // a Cartesian stream's pose, moved on with tip_twist_ every tick
+  Vector6d tip_twist_ = Vector6d::Zero();
   JogProgress jog_progress_;
   int64_t jog_utime_ = 0, jog_ns_ = 0, jogs_ = 0, dropped_jogs_ = 0;
   ContactMonitor contact_;

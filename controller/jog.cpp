@@ -7,6 +7,7 @@
 
 #include "chasles/core/error.hpp"
 #include "chasles/core/kinematics/kinematics.hpp"
+#include "chasles/core/lie/se3.hpp"
 
 namespace chasles::controller {
 namespace {
@@ -37,6 +38,10 @@ void JogConfig::validate() const {
         stop_condition > slow_condition)) {
     throw ArgumentError("jog: the condition numbers must be finite with 1 <= slow (" + std::to_string(slow_condition) +
                         ") < stop (" + std::to_string(stop_condition) + ")");
+  }
+  if (!(std::isfinite(pose_time_constant) && pose_time_constant > 0.0)) {
+    throw ArgumentError("the Cartesian stream's time constant must be positive and finite, not " +
+                        std::to_string(pose_time_constant));
   }
 }
 
@@ -81,12 +86,8 @@ double Jogger::condition_at(const RobotModel& model, const Eigen::VectorXd& q) {
 
 bool Jogger::step(const RobotModel& model, const Jog& jog, bool halt, const MotionLimits& limits,
                   const motion::Limits& otg_limits, double dt, Reference& ref, JogProgress& progress) {
-  const int n = model.dof();
   const bool twist = jog.kind == Jog::kTwist;
-  const Matrix6Xd& J = body_jacobian(model, data_, ref.q);
-  spectrum_.compute(J);
-  progress = JogProgress{};
-  progress.condition = spectrum_.condition();
+  const Matrix6Xd& J = at_reference(model, ref, progress);
   qd_.setZero();
   if (!halt) {
     if (twist) {
@@ -100,6 +101,39 @@ bool Jogger::step(const RobotModel& model, const Jog& jog, bool halt, const Moti
     } else {
       qd_ = jog.joint_velocity;
     }
+  }
+  return advance(model, twist, halt, limits, otg_limits, dt, ref, progress);
+}
+
+bool Jogger::follow_pose(const RobotModel& model, const Transform& target, const Vector6d& twist, bool halt,
+                         const MotionLimits& limits, const motion::Limits& otg_limits, double dt, Reference& ref,
+                         JogProgress& progress) {
+  const Matrix6Xd& J = at_reference(model, ref, progress);
+  qd_.setZero();
+  if (!halt) {
+    // In the tip frame: the error's body twist (what moves the tip onto the target in a unit of
+    // time) over the time constant, and the target's own twist.
+    const Matrix3d& R = data_.T_sb.linear();
+    Vector6d V_b = log6(inverse(data_.T_sb) * target) / config_.pose_time_constant;
+    V_b.head<3>() += R.transpose() * twist.head<3>();
+    V_b.tail<3>() += R.transpose() * twist.tail<3>();
+    spectrum_.solve(J, V_b, qd_);
+  }
+  return advance(model, true, halt, limits, otg_limits, dt, ref, progress);
+}
+
+const Matrix6Xd& Jogger::at_reference(const RobotModel& model, const Reference& ref, JogProgress& progress) {
+  const Matrix6Xd& J = body_jacobian(model, data_, ref.q);
+  spectrum_.compute(J);
+  progress = JogProgress{};
+  progress.condition = spectrum_.condition();
+  return J;
+}
+
+bool Jogger::advance(const RobotModel& model, bool twist, bool halt, const MotionLimits& limits,
+                     const motion::Limits& otg_limits, double dt, Reference& ref, JogProgress& progress) {
+  const int n = model.dof();
+  if (!halt) {
     // One factor for every joint, so that the motion keeps the direction asked for.
     double scale = 1.0;
     const auto cut = [&](double allowed, double speed, JogProgress::Limit why, int joint) {

@@ -48,7 +48,11 @@ struct JogConfig {
   double slow_condition = 17.0;
   /// ...and the one it stops before (its hard_stop_singularity_threshold).
   double stop_condition = 30.0;
-  /// Throws ArgumentError unless 1 ≤ slow_condition < stop_condition, both finite.
+  /// A Cartesian stream closes the gap to its pose in about this time, s: the twist asked is the
+  /// pose's own plus the error over it (20 ms: a fraction of a 30 Hz period, ten ticks at 1 kHz).
+  double pose_time_constant = 0.02;
+  /// Throws ArgumentError unless 1 ≤ slow_condition < stop_condition, both finite, and the time
+  /// constant is positive and finite.
   void validate() const;
 };
 
@@ -92,9 +96,23 @@ class Jogger {
   bool step(const RobotModel& model, const Jog& jog, bool halt, const MotionLimits& limits,
             const motion::Limits& otg_limits, double dt, Reference& ref, JogProgress& progress);
 
+  /// The same toward a tip pose `target` moving with `twist` (the tip's angular velocity and its
+  /// origin's velocity in the base frame's axes): a Cartesian stream. The twist asked is the
+  /// target's plus the body twist from the reference's tip to the target over the time constant,
+  /// resolved and kept within limits as a twist jog.
+  bool follow_pose(const RobotModel& model, const Transform& target, const Vector6d& twist, bool halt,
+                   const MotionLimits& limits, const motion::Limits& otg_limits, double dt, Reference& ref,
+                   JogProgress& progress);
+
   const JogConfig& config() const { return config_; }
 
  private:
+  /// J_b and κ at the reference, progress started afresh.
+  const Matrix6Xd& at_reference(const RobotModel& model, const Reference& ref, JogProgress& progress);
+  /// From the joint velocity asked (qd_): cut to the limits, slowed toward a singularity (`twist`),
+  /// the reference moved on by dt, the step checked by the stop it leaves.
+  bool advance(const RobotModel& model, bool twist, bool halt, const MotionLimits& limits,
+               const motion::Limits& otg_limits, double dt, Reference& ref, JogProgress& progress);
   /// κ(J_b) at q.
   double condition_at(const RobotModel& model, const Eigen::VectorXd& q);
 

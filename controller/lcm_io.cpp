@@ -81,6 +81,19 @@ std::string SetpointReceiver::receive(const void* data, size_t size) {
   return {};
 }
 
+std::string TipSetpointReceiver::receive(const void* data, size_t size) {
+  if (std::string why = messages::decode_checked(data, size, message_, messages::kAnyArm, messages::Finite::Required);
+      !why.empty()) {
+    return why;
+  }
+  setpoint_.utime = message_.utime;
+  setpoint_.position = Eigen::Map<const Eigen::Vector3d>(message_.position);
+  setpoint_.quaternion = Eigen::Map<const Eigen::Vector4d>(message_.quaternion);
+  setpoint_.twist = Eigen::Map<const Vector6d>(message_.twist);
+  if (!queue_.push(setpoint_)) return "not taken: the controller has not caught up with the setpoints before it";
+  return {};
+}
+
 JogReceiver::JogReceiver(int num_joints, SpscRing<Jog>& queue) : num_joints_(num_joints), jog_(num_joints), queue_(queue) {
   message_.joint_velocity.reserve(size_t(num_joints));
 }

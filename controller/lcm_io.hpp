@@ -13,6 +13,7 @@
 #include <chasles/control_mode_t.hpp>
 #include <chasles/jog_command_t.hpp>
 #include <chasles/joint_setpoint_t.hpp>
+#include <chasles/tip_setpoint_t.hpp>
 #include <chasles/joint_torque_command_t.hpp>
 #include <chasles/joint_trajectory_t.hpp>
 #include <chasles/payload_t.hpp>
@@ -31,7 +32,7 @@ namespace chasles::controller {
 
 /// Channel names: a configurable prefix, so several arms can share one network.
 struct Channels {
-  std::string state, command, target, status, mode, payload, trajectory, setpoint, jog;
+  std::string state, command, target, status, mode, payload, trajectory, setpoint, tip_setpoint, jog;
   explicit Channels(const std::string& prefix = "CHASLES_")
       : state(prefix + "STATE"),
         command(prefix + "COMMAND"),
@@ -41,6 +42,7 @@ struct Channels {
         payload(prefix + "PAYLOAD"),
         trajectory(prefix + "TRAJECTORY"),
         setpoint(prefix + "SETPOINT"),
+        tip_setpoint(prefix + "TIP_SETPOINT"),
         jog(prefix + "JOG") {}
 };
 
@@ -114,6 +116,23 @@ class SetpointReceiver {
   joint_setpoint_t message_;
   Setpoint setpoint_;
   SpscRing<Setpoint>& queue_;
+};
+
+/// tip_setpoint_t → TipSetpoint in `queue` (finite; the quaternion's norm, order and meaning
+/// judged by Controller::set_tip_setpoint).
+class TipSetpointReceiver {
+ public:
+  explicit TipSetpointReceiver(SpscRing<TipSetpoint>& queue) : queue_(queue) {}
+  TipSetpointReceiver(const TipSetpointReceiver&) = delete;
+  TipSetpointReceiver& operator=(const TipSetpointReceiver&) = delete;
+
+  /// Checks, decodes and queues one message; returns an empty string or why it was refused.
+  std::string receive(const void* data, size_t size);
+
+ private:
+  tip_setpoint_t message_;
+  TipSetpoint setpoint_;
+  SpscRing<TipSetpoint>& queue_;
 };
 
 /// jog_command_t → Jog in `queue` (sized, finite; kind, frame and order judged by

@@ -87,6 +87,7 @@ struct Flags {
   double stream_timeout_ms = 100.0;
   chasles::controller::LimitConfig limits;
   chasles::controller::JogConfig jog;
+  double pose_time_constant_ms = 20.0;
 };
 
 // The config file's keys are the flags' names with '_' for '-'.
@@ -262,6 +263,9 @@ int main(int argc, char** argv) {
                  "a stream of setpoints or jog commands silent this long is over: the arm decelerates to rest "
                  "(default 100)")
       ->check(CLI::PositiveNumber);
+  app.add_option("--pose-time-constant-ms", flags.pose_time_constant_ms,
+                 "a Cartesian stream (tip_setpoint_t) closes the gap to its pose in about this time (default 20)")
+      ->check(CLI::Range(1.0, 10000.0));
   app.add_option("--jog-slow-condition", flags.jog.slow_condition,
                  "a twist jog heading toward a singularity slows from this condition number of J_b (default 17)")
       ->check(CLI::Range(1.0, 1e12));
@@ -340,6 +344,7 @@ int main(int argc, char** argv) {
     options.control.limits = flags.limits;
     options.control.stream_timeout = flags.stream_timeout_ms * 1e-3;
     options.control.jog = flags.jog;
+    options.control.jog.pose_time_constant = flags.pose_time_constant_ms * 1e-3;
     if (!flags.acceleration_limit.empty()) {
       options.control.limits.acceleration = gains(flags.acceleration_limit, n, "--acceleration-limit");
     }

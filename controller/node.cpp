@@ -83,6 +83,7 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
       trajectories_(2, Waypoints(n_)),
       setpoints_(16, Setpoint(n_)),
       jogs_(16, Jog(n_)),
+      tip_setpoints_(16, TipSetpoint{}),
       snapshots_(Snapshot(n_)),
       requests_(CartesianRequest(n_)),
       paths_(2, JointPath(n_)),
@@ -91,6 +92,7 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
       trajectory_receiver_(model, trajectories_),
       setpoint_receiver_(n_, setpoints_),
       jog_receiver_(n_, jogs_),
+      tip_setpoint_receiver_(tip_setpoints_),
       mode_receiver_(n_, modes_),
       payload_receiver_(payloads_, planner_bell_),
       command_watch_(sent_commands_),
@@ -112,6 +114,11 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
   }));
   subscriptions_.push_back(buses.receive.subscribe(channels_.setpoint, [this](const uint8_t* data, size_t size) {
     if (const std::string why = setpoint_receiver_.receive(data, size); !why.empty()) rejections_.add("setpoint " + why);
+  }));
+  subscriptions_.push_back(buses.receive.subscribe(channels_.tip_setpoint, [this](const uint8_t* data, size_t size) {
+    if (const std::string why = tip_setpoint_receiver_.receive(data, size); !why.empty()) {
+      rejections_.add("tip setpoint " + why);
+    }
   }));
   subscriptions_.push_back(buses.receive.subscribe(channels_.jog, [this](const uint8_t* data, size_t size) {
     if (const std::string why = jog_receiver_.receive(data, size); !why.empty()) rejections_.add("jog " + why);
@@ -167,6 +174,7 @@ int64_t Node::tick(int64_t scheduled) {
   while (trajectories_.pop(loop_.waypoints)) loop_.controller.set_trajectory(loop_.waypoints, wake);
   while (setpoints_.pop(loop_.setpoint)) loop_.controller.set_setpoint(loop_.setpoint, wake);
   while (jogs_.pop(loop_.jog)) loop_.controller.set_jog(loop_.jog, wake);
+  while (tip_setpoints_.pop(loop_.tip_setpoint)) loop_.controller.set_tip_setpoint(loop_.tip_setpoint, wake);
   if (loop_.controller.take_request(loop_.request)) {
     requests_.write(loop_.request);
     planner_bell_.ring();

@@ -172,6 +172,7 @@ class Node {
   SpscRing<Waypoints> trajectories_;
   SpscRing<Setpoint> setpoints_;
   SpscRing<Jog> jogs_;
+  SpscRing<TipSetpoint> tip_setpoints_;
   Mailbox<Snapshot> snapshots_;
   SpscRing<TickRecord> records_{8192};
   Mailbox<CartesianRequest> requests_;  // loop → IK: only the newest request matters
@@ -181,6 +182,7 @@ class Node {
   TrajectoryReceiver trajectory_receiver_;
   SetpointReceiver setpoint_receiver_;
   JogReceiver jog_receiver_;
+  TipSetpointReceiver tip_setpoint_receiver_;
   ModeReceiver mode_receiver_;
   PayloadReceiver payload_receiver_;
   SentCommands sent_commands_;
@@ -201,6 +203,7 @@ class Node {
     Waypoints waypoints;
     Setpoint setpoint;
     Jog jog;
+    TipSetpoint tip_setpoint;
     LawSettings mode;
     double payload_mass;
     int64_t modes_seen = 0, targets_seen = 0;  // refused, to tell which refusal came last

@@ -21,6 +21,7 @@
 #include <chasles/payload_t.hpp>
 #include <chasles/robot_state_t.hpp>
 #include <chasles/sim_truth_t.hpp>
+#include <chasles/tip_setpoint_t.hpp>
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
@@ -192,7 +193,11 @@ inline std::string prepare(const void* data, size_t size, control_mode_t& m) {
   return {};
 }
 
-inline std::string prepare(const void*, size_t, payload_t&) { return {}; }  // no counts: fixed size
+// Types with no joint count: fixed size.
+template <typename Message>
+inline constexpr bool kCountless = std::is_same_v<Message, payload_t> || std::is_same_v<Message, tip_setpoint_t>;
+inline std::string prepare(const void*, size_t, payload_t&) { return {}; }
+inline std::string prepare(const void*, size_t, tip_setpoint_t&) { return {}; }
 
 inline bool finite(const std::vector<double>& values) {
   for (double x : values) {
@@ -254,6 +259,9 @@ inline const char* non_finite(const joint_setpoint_t& m) {
 inline const char* non_finite(const jog_command_t& m) {
   return !finite(m.joint_velocity) ? "joint_velocity" : !finite(m.twist, 6) ? "twist" : nullptr;
 }
+inline const char* non_finite(const tip_setpoint_t& m) {
+  return !finite(m.position, 3) ? "position" : !finite(m.quaternion, 4) ? "quaternion" : !finite(m.twist, 6) ? "twist" : nullptr;
+}
 inline const char* non_finite(const arm_target_t& m) {
   return !finite(m.joint_position)      ? "joint_position"
          : !finite(m.tip_position, 3)   ? "tip_position"
@@ -277,7 +285,7 @@ inline bool fits_arm(const control_mode_t& m, int arm_joints) {
 }
 template <typename Message>
 bool fits_arm(const Message& m, int arm_joints) {
-  if constexpr (std::is_same_v<Message, payload_t>) return true;
+  if constexpr (kCountless<Message>) return true;
   else return fits_arm<Message>(m.num_joints, arm_joints);
 }
 
@@ -308,13 +316,13 @@ std::string decode_checked(const void* data, size_t size, Message& message, int 
       return "for " + std::to_string(message.num_joints) + " joints and a posture of " +
              std::to_string(message.num_posture) + "; the arm has " + std::to_string(arm_joints) + " (give 0 or " +
              std::to_string(arm_joints) + " in each)";
-    } else if constexpr (!std::is_same_v<Message, payload_t>) {
+    } else if constexpr (!detail::kCountless<Message>) {
       return "for " + std::to_string(message.num_joints) + " joints; the arm has " + std::to_string(arm_joints);
     }
   }
   const int expected = message.getEncodedSize();
   if (size_t(expected) != size) {
-    if constexpr (std::is_same_v<Message, payload_t>) {
+    if constexpr (detail::kCountless<Message>) {
       return "of " + std::to_string(size) + " bytes; expected " + std::to_string(expected);
     } else {
       return "of " + std::to_string(size) + " bytes; expected " + std::to_string(expected) + " for " +

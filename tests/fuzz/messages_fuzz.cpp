@@ -7,8 +7,9 @@
 // daemon's worker does) and Controller::set_model, 7 the direct Bus's reading of a UDP datagram as an
 // LCM small message (parse_lcm_datagram) and, when it is one, the state receiver on its payload; 8
 // its joint_trajectory_t receiver and Controller::set_trajectory; 9 its joint_setpoint_t receiver
-// and Controller::set_setpoint; 10 its jog_command_t receiver and Controller::set_jog; 11–15 as 3.
-// (Byte 0 modulo 16, so the seeds' ASCII selectors '0'…'9' and ':' pick 0…10.)
+// and Controller::set_setpoint; 10 its jog_command_t receiver and Controller::set_jog; 11 its
+// tip_setpoint_t receiver and Controller::set_tip_setpoint; 12–15 as 3. (Byte 0 modulo 16, so the
+// seeds' ASCII selectors '0'…'9', ':' and ';' pick 0…11.)
 // What a reader accepts must be what the contract
 // promises (the arm's joint count, finite values; for the watch, a command of its own, once; for a
 // payload, a body the model can carry), and after every input the controller ticks (1 ms later,
@@ -51,6 +52,8 @@ struct Readers {
   SetpointReceiver setpoint_receiver{n, setpoints};
   SpscRing<Jog> jogs{1, Jog(n)};
   JogReceiver jog_receiver{n, jogs};
+  SpscRing<TipSetpoint> tip_setpoints{1, TipSetpoint{}};
+  TipSetpointReceiver tip_setpoint_receiver{tip_setpoints};
   StateReceiver state_receiver{n, states};
   TargetReceiver target_receiver{n, targets};
   plant::CommandInbox commands{clock, "COMMAND", n};
@@ -124,10 +127,10 @@ void decode_as(const uint8_t* data, size_t size) {
   if (!cli::decode_checked(data, size, message).empty()) return;
   if constexpr (std::is_same_v<Message, control_mode_t>) {
     FUZZ_CHECK(sized_for_its_counts(message));
-  } else if constexpr (!std::is_same_v<Message, payload_t>) {
+  } else if constexpr (!messages::detail::kCountless<Message>) {
     FUZZ_CHECK(message.num_joints >= 0);
   }
-  if constexpr (std::is_same_v<Message, control_mode_t> || std::is_same_v<Message, payload_t>) {
+  if constexpr (std::is_same_v<Message, control_mode_t> || messages::detail::kCountless<Message>) {
     // No string or boolean to normalise: what was taken encodes back to the very bytes.
     FUZZ_CHECK(message.getEncodedSize() == static_cast<int>(size));
     std::vector<uint8_t> again(size);
@@ -287,6 +290,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         r.controller.set_jog(jog, r.now_ns);  // judges kind, frame and order; jogs within the limits
       }
       break;
+    case 11:
+      if (r.tip_setpoint_receiver.receive(message, size_t(bytes)).empty()) {
+        TipSetpoint setpoint;
+        FUZZ_CHECK(r.tip_setpoints.pop(setpoint));
+        FUZZ_CHECK(setpoint.position.allFinite() && setpoint.quaternion.allFinite() && setpoint.twist.allFinite());
+        r.controller.set_tip_setpoint(setpoint, r.now_ns);  // judges the quaternion and the order
+      }
+      break;
     default: {
       decode_as<robot_state_t>(message, size - 1);
       decode_as<joint_torque_command_t>(message, size - 1);
@@ -297,6 +308,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       decode_as<joint_trajectory_t>(message, size - 1);
       decode_as<joint_setpoint_t>(message, size - 1);
       decode_as<jog_command_t>(message, size - 1);
+      decode_as<tip_setpoint_t>(message, size - 1);
       cli::Cells cells;
       cli::message_cells(cli::message_type(message, size - 1), message, size - 1, {}, cells);
       FUZZ_CHECK(cells.names.size() == cells.values.size());

@@ -8,6 +8,7 @@
 #include <chasles/control_mode_t.hpp>
 #include <chasles/controller_status_t.hpp>
 #include <chasles/jog_command_t.hpp>
+#include <chasles/tip_setpoint_t.hpp>
 #include <chasles/joint_torque_command_t.hpp>
 #include <chasles/joint_setpoint_t.hpp>
 #include <chasles/joint_trajectory_t.hpp>
@@ -452,6 +453,27 @@ TEST(lcmtypes, JogCommandRoundTripsAndIsChecked) {
   EXPECT_EQ(decode_checked<jog_command_t>(encode(jog)), "with non-finite twist");
 }
 
+TEST(lcmtypes, TipSetpointRoundTripsAndIsChecked) {
+  tip_setpoint_t setpoint;
+  setpoint.utime = 1'790'000'000'000'555;
+  for (int k = 0; k < 3; ++k) setpoint.position[k] = 0.1 * (k + 1);
+  for (int k = 0; k < 4; ++k) setpoint.quaternion[k] = k == 0 ? 1.0 : 0.0;
+  for (int k = 0; k < 6; ++k) setpoint.twist[k] = -0.01 * (k + 1);
+  const std::vector<uint8_t> buffer = encode(setpoint);
+  // fingerprint, utime, position[3], quaternion[4], twist[6]: no count, one size
+  EXPECT_EQ(buffer.size(), static_cast<size_t>(kHash + 8 + 13 * 8));
+  tip_setpoint_t checked;
+  ASSERT_EQ(messages::decode_checked(buffer.data(), buffer.size(), checked, kJoints, messages::Finite::Required), "");
+  EXPECT_EQ(checked.utime, setpoint.utime);
+  for (int k = 0; k < 6; ++k) EXPECT_EQ(checked.twist[k], setpoint.twist[k]);
+  expect_damage_refused<tip_setpoint_t>(buffer);
+  std::vector<uint8_t> longer = buffer;
+  longer.push_back(0);
+  EXPECT_EQ(decode_checked<tip_setpoint_t>(longer), "of 121 bytes; expected 120");
+  setpoint.quaternion[1] = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(decode_checked<tip_setpoint_t>(encode(setpoint)), "with non-finite quaternion");
+}
+
 TEST(lcmtypes, JointTrajectoryRoundTripsAndItsCheckedDecoderReadsEveryCount) {
   for (const auto& [points, velocities, accelerations] :
        {std::tuple{1, false, false}, std::tuple{3, true, false}, std::tuple{4, true, true}}) {
@@ -666,8 +688,8 @@ TEST(lcmtypes, TypesAreNotInterchangeable) {
                                     arm_target_t::getHash(),   controller_status_t::getHash(),
                                     control_mode_t::getHash(), payload_t::getHash(),
                                     joint_trajectory_t::getHash(), joint_setpoint_t::getHash(),
-                                    jog_command_t::getHash()};
-  EXPECT_EQ(hashes.size(), 9u);
+                                    jog_command_t::getHash(), tip_setpoint_t::getHash()};
+  EXPECT_EQ(hashes.size(), 10u);
 
   const std::vector<uint8_t> state = encode(make_state(kJoints));
   joint_torque_command_t command;
@@ -694,6 +716,7 @@ TEST(lcmtypes, FingerprintsArePinned) {
   EXPECT_EQ(static_cast<uint64_t>(joint_trajectory_t::getHash()), 0xd964c2fb834f2258u);
   EXPECT_EQ(static_cast<uint64_t>(joint_setpoint_t::getHash()), 0x5c7e81c8a461c11au);
   EXPECT_EQ(static_cast<uint64_t>(jog_command_t::getHash()), 0xbcbed304703b833cu);
+  EXPECT_EQ(static_cast<uint64_t>(tip_setpoint_t::getHash()), 0x75e241a73d4f516du);
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include <chasles/jog_command_t.hpp>
 #include <chasles/joint_setpoint_t.hpp>
 #include <chasles/joint_trajectory_t.hpp>
+#include <chasles/tip_setpoint_t.hpp>
 #include <cmath>
 #include <random>
 #include <string>
@@ -284,6 +285,54 @@ TEST(jog, ATwistOverTheBusMovesTheSimulatedTipAndStopsWhenTold) {
   const int64_t settled = world.now() + 200 * kMs;  // the arm settles onto the held reference
   world.run_until([&] { return world.now() >= settled; }, 1.0);
   for (double v : world.recorder().state()->velocity) EXPECT_LT(std::abs(v), 1e-2);
+}
+
+// A Cartesian stream over the bus: the tip's pose sampled along a 6 cm line at 6 cm/s, 30
+// setpoints a second, the orientation held. The simulated tip ends on the line's end, the status
+// counts the setpoints, and when they stop the arm comes to rest and holds.
+TEST(stream, ACartesianStreamOverTheBusLeadsTheSimulatedTip) {
+  World world;
+  world.start_plant(bent_pose());
+  world.add_controller(options());
+  ASSERT_TRUE(world.run_until([&] { return world.recorder().status_is(controller_status_t::HOLDING); }, 1.0));
+  const RobotModel& model = world.model();
+  Data data(model);
+  const auto measured_tip = [&] {
+    const std::vector<double>& q = world.recorder().state()->position;
+    return forward_kinematics(model, data, Eigen::Map<const VectorXd>(q.data(), 7));
+  };
+  const Transform before = measured_tip();
+  const Eigen::Quaterniond orientation(before.linear());
+  tip_setpoint_t setpoint{};
+  setpoint.quaternion[0] = orientation.w(), setpoint.quaternion[1] = orientation.x();
+  setpoint.quaternion[2] = orientation.y(), setpoint.quaternion[3] = orientation.z();
+  const Vector3d velocity(0.0, 0.06, 0.0);  // m/s
+  for (int k = 0; k < 3; ++k) setpoint.twist[3 + k] = velocity(k);
+  const int64_t start = world.now();
+  for (int k = 0; k <= 30; ++k) {
+    const double t = k / 30.0;
+    if (k == 30) std::fill(setpoint.twist, setpoint.twist + 6, 0.0);  // the end, at rest
+    const Vector3d p = before.translation() + velocity * t;
+    for (int i = 0; i < 3; ++i) setpoint.position[i] = p(i);
+    setpoint.utime = 1'790'000'000'000'000 + static_cast<int64_t>(t * 1e6);
+    world.recorder().publish("TIP_SETPOINT", setpoint);
+    const int64_t next = start + static_cast<int64_t>((k + 1) / 30.0 * 1e9);
+    world.run_until([&] { return world.now() >= next; }, 1.0);
+  }
+  const controller_status_t during = *world.recorder().status();
+  EXPECT_TRUE(during.streaming);
+  ASSERT_TRUE(world.run_until([&] { return world.recorder().status_is(controller_status_t::HOLDING); }, 1.0));
+  const controller_status_t& after = *world.recorder().status();
+  EXPECT_FALSE(after.streaming);
+  EXPECT_EQ(after.setpoints, 31);
+  EXPECT_EQ(after.faults, 0);
+  EXPECT_EQ(after.reflexes, 0);
+  const Transform tip = measured_tip();
+  const Vector3d off = tip.translation() - (before.translation() + velocity);
+  std::printf("[ tip stream ] 6 cm along y over the bus: the tip ended %.2f mm from the line's end, turned %.3f mrad\n",
+              1e3 * off.norm(), 1e3 * Eigen::AngleAxisd(before.linear().transpose() * tip.linear()).angle());
+  EXPECT_LT(off.norm(), 1e-3);
+  EXPECT_LT(Eigen::AngleAxisd(before.linear().transpose() * tip.linear()).angle(), 2e-3);
 }
 
 }  // namespace

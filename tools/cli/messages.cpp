@@ -142,6 +142,13 @@ void lay_out(const joint_setpoint_t& m, Row& row) {
   row.joints("velocity", m.velocity);
 }
 
+void lay_out(const tip_setpoint_t& m, Row& row) {
+  row.add("utime", m.utime);
+  row.components("position", m.position, "xyz");
+  row.components("quaternion", m.quaternion, "wxyz");
+  row.twist("twist", m.twist);
+}
+
 void lay_out(const jog_command_t& m, Row& row) {
   row.add("utime", m.utime);
   row.add("kind", int64_t{m.kind});
@@ -192,7 +199,7 @@ void lay_out(const sim_truth_t& m, Row& row) {
 // a payload has none).
 template <typename Message>
 int joints_of(const Message& m) {
-  if constexpr (std::is_same_v<Message, payload_t>) {
+  if constexpr (messages::detail::kCountless<Message>) {
     return 0;
   } else if constexpr (std::is_same_v<Message, control_mode_t>) {
     return std::max(m.num_joints, m.num_posture);
@@ -232,6 +239,7 @@ MessageType message_type(const void* data, size_t size) {
   if (messages::starts_as<sim_truth_t>(data, size)) return MessageType::Truth;
   if (messages::starts_as<joint_setpoint_t>(data, size)) return MessageType::Setpoint;
   if (messages::starts_as<jog_command_t>(data, size)) return MessageType::Jog;
+  if (messages::starts_as<tip_setpoint_t>(data, size)) return MessageType::TipSetpoint;
   return MessageType::Unknown;
 }
 
@@ -246,6 +254,7 @@ std::string type_name(MessageType type) {
     case MessageType::Truth: return std::string("chasles.") + sim_truth_t::getTypeName();
     case MessageType::Setpoint: return std::string("chasles.") + joint_setpoint_t::getTypeName();
     case MessageType::Jog: return std::string("chasles.") + jog_command_t::getTypeName();
+    case MessageType::TipSetpoint: return std::string("chasles.") + tip_setpoint_t::getTypeName();
     case MessageType::Unknown: break;
   }
   return "unknown";
@@ -269,6 +278,7 @@ int joint_count(MessageType type, const void* data, size_t size) {
     case MessageType::Truth: return count_of<sim_truth_t>(data, size);
     case MessageType::Setpoint: return count_of<joint_setpoint_t>(data, size);
     case MessageType::Jog: return count_of<jog_command_t>(data, size);
+    case MessageType::TipSetpoint: return count_of<tip_setpoint_t>(data, size);
     case MessageType::Unknown: break;
   }
   return -1;
@@ -286,6 +296,7 @@ std::string message_cells(MessageType type, const void* data, size_t size, const
     case MessageType::Truth: return cells_of<sim_truth_t>(data, size, joints, cells);
     case MessageType::Setpoint: return cells_of<joint_setpoint_t>(data, size, joints, cells);
     case MessageType::Jog: return cells_of<jog_command_t>(data, size, joints, cells);
+    case MessageType::TipSetpoint: return cells_of<tip_setpoint_t>(data, size, joints, cells);
     case MessageType::Unknown: break;
   }
   return "not a chasles message (unknown fingerprint)";

@@ -15,7 +15,7 @@ namespace chasles::cli {
 
 using messages::decode_checked;
 
-enum class MessageType { Unknown, State, Command, Target, Status, Mode, Payload, Truth, Setpoint, Jog };
+enum class MessageType { Unknown, State, Command, Target, Status, Mode, Payload, Truth, Setpoint, Jog, TipSetpoint };
 
 /// The chasles type whose fingerprint the bytes start with, or Unknown.
 MessageType message_type(const void* data, size_t size);
