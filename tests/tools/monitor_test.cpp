@@ -217,6 +217,34 @@ TEST(monitor, ATrajectorySentWithTheCliIsFollowedToItsEnd) {
   EXPECT_NEAR(done.trajectory_duration, 0.9 * done.trajectory_time_scale, 1e-9);
 }
 
+// End to end: `chasles jog` sends joint 1 at 0.2 rad/s for half a second, then a stop, to the live
+// controller; the arm turns about 0.1 rad and holds, the status counts every command it sent, and
+// the monitor's stream line says so.
+TEST(monitor, AJogSentWithTheCliMovesTheArmAndIsCounted) {
+  StatusListener bus(kLcmUrl);
+  ChildProcess plant(concat({CHASLES_PLANT, "--q0", kBentPose, "--damping", "0.5"}, model()));
+  ChildProcess controller(concat({CHASLES_CONTROLLER, "--damping", "0.5", "--stale-ms", "100"}, model()));
+  ASSERT_TRUE(bus.wait_for(controller_status_t::HOLDING, 5.0)) << controller.stderr_text();
+  const double q1_before = bus.latest->q[0];
+  const RunResult sent = run_to_completion({CHASLES_CLI, "jog", "--joint-velocity", "0.2,0,0,0,0,0,0", "--seconds",
+                                            "0.5", "--rate", "50", "--lcm-url", kLcmUrl});
+  ASSERT_EQ(sent.exit_code, 0) << sent.err;
+  EXPECT_NE(sent.out.find("\"sent\":26}"), std::string::npos) << sent.out;  // 25 at 50 Hz, then the stop
+  ASSERT_TRUE(bus.wait_until([](const controller_status_t& s) { return s.jogs == 26 && !s.jogging; }, 10.0))
+      << controller.stderr_text();
+  ASSERT_TRUE(bus.wait_for(controller_status_t::HOLDING, 5.0));
+  const controller_status_t done = *bus.latest;
+  EXPECT_EQ(done.jogs_dropped, 0);
+  EXPECT_EQ(done.jog_limited_by, controller_status_t::JOG_NONE);
+  // 0.5 s at 0.2 rad/s, less the ramps' lag (its stop as long as its start).
+  EXPECT_NEAR(done.q[0] - q1_before, 0.1, 5e-3);
+  const RunResult r = monitor({"--once", "--seconds", "1"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("stream      none; 0 setpoints (0 dropped), 26 jog commands (0 dropped)\n"), std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("speed 100 % of the asked, cut by nothing"), std::string::npos) << r.out;
+}
+
 // Live, to a pipe: a frame a second. The controller stops after the first frames: the later ones
 // say for how long there has been no status and what it last was, with no joint table.
 TEST(monitor, AControllerThatStopsIsReportedGone) {

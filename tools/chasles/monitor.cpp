@@ -208,6 +208,29 @@ std::string trajectory_lines(const controller_status_t& s) {
   return text;
 }
 
+// Streams and jogs, once the controller has taken one: whether one drives the arm, the counts,
+// and (a jog's, a Cartesian stream's) the condition number and what cut the speed.
+std::string stream_lines(const controller_status_t& s) {
+  if (s.setpoints == 0 && s.jogs == 0 && s.setpoints_dropped == 0 && s.jogs_dropped == 0) return {};
+  std::string text = printf_text("stream      %s; %lld setpoints (%lld dropped), %lld jog commands (%lld dropped)\n",
+                                 s.streaming ? "STREAMING" : s.jogging ? "JOGGING" : "none",
+                                 static_cast<long long>(s.setpoints), static_cast<long long>(s.setpoints_dropped),
+                                 static_cast<long long>(s.jogs), static_cast<long long>(s.jogs_dropped));
+  if (s.jogs > 0 || s.jog_condition > 0) {
+    std::string cut;
+    switch (s.jog_limited_by) {
+      case controller_status_t::JOG_NONE: cut = "nothing"; break;
+      case controller_status_t::JOG_VELOCITY_LIMIT: cut = "joint " + std::to_string(s.jog_joint) + "'s velocity limit"; break;
+      case controller_status_t::JOG_POSITION_LIMIT: cut = "joint " + std::to_string(s.jog_joint) + "'s position limit"; break;
+      case controller_status_t::JOG_SINGULARITY: cut = "a singularity ahead"; break;
+      default: cut = "limit " + std::to_string(int{s.jog_limited_by}); break;
+    }
+    text += printf_text("            J_b condition %.1f; speed %.0f %% of the asked, cut by %s\n", s.jog_condition,
+                        100.0 * s.jog_scale, cut.c_str());
+  }
+  return text;
+}
+
 std::string wall_clock() {
   const std::time_t now = std::time(nullptr);
   std::tm local{};
@@ -280,6 +303,7 @@ std::string Monitor::frame(int64_t now_ns) {
                        s.tip_quaternion[1], s.tip_quaternion[2], s.tip_quaternion[3]);
     out << printf_text("tracking    max |e| %.3f %s\n", 1000.0 * worst, milli_unit());
     out << trajectory_lines(s);
+    out << stream_lines(s);
     const double* w = s.tip_wrench_ext;
     out << printf_text("contact     %s; external wrench at the tip (base-aligned) m (%.2f, %.2f, %.2f) N·m, "
                        "f (%.2f, %.2f, %.2f) N; %lld contacts, %lld reflexes\n",
@@ -471,7 +495,9 @@ Command register_monitor(CLI::App& app) {
       "limit); the tip pose; wake-up jitter, compute time and latency; IK figures; the overrun, stale-state,\n"
       "rejected-message and fault counters; the last target. Once a waypoint trajectory has been sent:\n"
       "its id and outcome, the time into it of its duration and as a %, the waypoint approached, the time\n"
-      "scale, and the controller's message about it. Without a status for 0.5 s it says\n"
+      "scale, and the controller's message about it. Once a stream or a jog has come: whether one drives\n"
+      "the arm, the setpoints and jog commands taken and dropped, J_b's condition number and what cut the\n"
+      "speed (a joint's velocity or position limit, a singularity ahead). Without a status for 0.5 s it says\n"
       "\"no controller on PREFIX STATUS for N s\" instead of numbers. On a pipe it prints a frame a second.\n"
       "--once exits 1 if no controller was heard.\n"
       "Examples:\n"
