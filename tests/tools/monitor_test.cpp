@@ -245,6 +245,38 @@ TEST(monitor, AJogSentWithTheCliMovesTheArmAndIsCounted) {
   EXPECT_NE(r.out.find("speed 100 % of the asked, cut by nothing"), std::string::npos) << r.out;
 }
 
+// End to end: `chasles stream` plays 31 joint setpoints at 30 Hz (joint 7 turning 0.1 rad) to the
+// live controller, which follows them and holds at the last; a file with a fault is refused whole.
+TEST(monitor, AStreamPlayedWithTheCliIsFollowedAndCounted) {
+  StatusListener bus(kLcmUrl);
+  ChildProcess plant(concat({CHASLES_PLANT, "--q0", kBentPose, "--damping", "0.5"}, model()));
+  ChildProcess controller(concat({CHASLES_CONTROLLER, "--damping", "0.5", "--stale-ms", "100"}, model()));
+  ASSERT_TRUE(bus.wait_for(controller_status_t::HOLDING, 5.0)) << controller.stderr_text();
+  std::string points;
+  for (int k = 0; k <= 30; ++k) {
+    const double t = k / 30.0, s = std::min(t, 1.0);
+    char point[200];
+    std::snprintf(point, sizeof(point), "%s{\"t\": %.6f, \"position\": [0.1, 0.5, -0.2, -1.2, 0.3, 1.0, %.6f], "
+                  "\"velocity\": [0, 0, 0, 0, 0, 0, %.6f]}", k == 0 ? "" : ",", t, 0.7 + 0.1 * s, k < 30 ? 0.1 : 0.0);
+    points += point;
+  }
+  const TempFile file("monitor_test_stream.json", "{\"kind\": \"joint\", \"points\": [" + points + "]}");
+  const RunResult sent = run_to_completion({CHASLES_CLI, "stream", file.path, "--lcm-url", kLcmUrl});
+  ASSERT_EQ(sent.exit_code, 0) << sent.err;
+  EXPECT_NE(sent.out.find("\"sent\":31"), std::string::npos) << sent.out;
+  ASSERT_TRUE(bus.wait_until([](const controller_status_t& s) { return s.setpoints == 31 && !s.streaming; }, 10.0))
+      << controller.stderr_text();
+  ASSERT_TRUE(bus.wait_for(controller_status_t::HOLDING, 5.0));
+  EXPECT_NEAR(bus.latest->q_desired[6], 0.8, 1e-9) << "held at the last setpoint";
+  EXPECT_EQ(bus.latest->setpoints_dropped, 0);
+
+  const TempFile bad("monitor_test_stream_bad.json",
+                     R"({"kind": "tip", "points": [{"t": 0, "position": [0.4, 0, 0.5], "quaternion": [0.9, 0, 0, 0]}]})");
+  const RunResult refused = run_to_completion({CHASLES_CLI, "stream", bad.path, "--lcm-url", kLcmUrl});
+  EXPECT_EQ(refused.exit_code, 1);
+  EXPECT_NE(refused.err.find("points[0]: the quaternion is not of unit norm"), std::string::npos) << refused.err;
+}
+
 // Live, to a pipe: a frame a second. The controller stops after the first frames: the later ones
 // say for how long there has been no status and what it last was, with no joint table.
 TEST(monitor, AControllerThatStopsIsReportedGone) {

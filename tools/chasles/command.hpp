@@ -55,6 +55,7 @@ Command register_target(CLI::App& app);  ///< sends an arm_target_t over LCM
 Command register_mode(CLI::App& app);    ///< sends a control_mode_t (the control law) over LCM
 Command register_payload(CLI::App& app); ///< sends a payload_t (the load at the tip) over LCM
 Command register_jog(CLI::App& app);     ///< jogs the arm: jog_command_t at a steady rate, then a stop
+Command register_stream(CLI::App& app);  ///< plays joint or tip setpoints (a stream) at their times
 Command register_monitor(CLI::App& app); ///< a live view of the controller's status, in the terminal
 Command register_log(CLI::App& app);     ///< LCM logs of a run: export a channel as CSV, plot
 

@@ -43,7 +43,7 @@ int main(int argc, char** argv) {
 
   const std::vector<Command> commands = {register_inspect(app), register_eval(app), register_rnea(app),
                                          register_fd(app), register_ik(app), register_target(app),
-                                         register_mode(app), register_payload(app), register_jog(app), register_monitor(app),
+                                         register_mode(app), register_payload(app), register_jog(app), register_stream(app), register_monitor(app),
                                          register_log(app)};
 
   try {
