@@ -68,6 +68,10 @@ double least_fitting(double infeasible, double largest, Fits fits) {
   return feasible;
 }
 
+// The share of each joint's torque-rate limit a generated reference's jerk may take (through M):
+// the rest is the feedback's, which must correct what the arm did not follow.
+constexpr double kTorqueRateShare = 0.5;
+
 // The generator needs finite limits; a joint without one (a URDF without a velocity limit, and so
 // no default acceleration or jerk) is given these, far beyond what an arm does.
 constexpr double kUnlimitedVelocity = 1e3, kUnlimitedAcceleration = 1e5, kUnlimitedJerk = 1e7;
@@ -160,6 +164,7 @@ Controller::Controller(const RobotModel& model, const Config& config)
       allowance_(Eigen::VectorXd::Zero(model.dof())),
       effort_limit_(model.dof()),
       rate_limit_per_tick_(model.dof()),
+      torque_rate_(model.dof()),
       q_(Eigen::VectorXd::Zero(model.dof())),
       qd_(Eigen::VectorXd::Zero(model.dof())),
       qdd_ref_(Eigen::VectorXd::Zero(model.dof())),
@@ -187,13 +192,15 @@ Controller::Controller(const RobotModel& model, const Config& config)
   otg_limits_.acceleration =
       limits_.acceleration.unaryExpr([](double x) { return finite_or(x, kUnlimitedAcceleration); });
   otg_limits_.jerk = limits_.jerk.unaryExpr([](double x) { return finite_or(x, kUnlimitedJerk); });
+  jerk_limit_ = otg_limits_.jerk;
   for (motion::KinematicState* state : {&otg_from_, &otg_target_, &otg_out_}) {
     state->p = state->v = state->a = Eigen::VectorXd::Zero(model.dof());
   }
   for (int i = 0; i < model.dof(); ++i) {
     const double effort = model.joint(i).limits.effort;
     effort_limit_(i) = effort > 0.0 ? effort : kInf;
-    rate_limit_per_tick_(i) = effort_limit_(i) / config_.torque_ramp * config_.period;
+    torque_rate_(i) = effort_limit_(i) / config_.torque_ramp;
+    rate_limit_per_tick_(i) = torque_rate_(i) * config_.period;
   }
 }
 
@@ -902,6 +909,7 @@ bool Controller::tick(int64_t now_ns, const JointState* state) {
     }
   }
   q_guarded_ = q_;
+  cap_jerk_to_torque_rate();
   update_reference(now_ns);
   error_ = ref_.q - q_;
   if (progress_.outcome == TrajectoryProgress::kActive) judge_trajectory(now_ns);
@@ -916,6 +924,19 @@ bool Controller::tick(int64_t now_ns, const JointState* state) {
   tau_ = tau_.cwiseMax(tau_prev_ - rate_limit_per_tick_).cwiseMin(tau_prev_ + rate_limit_per_tick_);
   tau_prev_ = tau_;
   return true;
+}
+
+void Controller::cap_jerk_to_torque_rate() {
+  if (!config_.limits.jerk_within_torque_rate) return;
+  // τ̇ ≈ M(q) q⃛ is what a reference's jerk asks of the torque; the rate limit allows
+  // effort/torque_ramp per joint. One factor for every joint keeps the jerks' proportions (and a
+  // twist's direction through a change).
+  double scale = 1.0;
+  for (int i = 0; i < torque_rate_.size(); ++i) {
+    const double asked = data_.M.row(i).cwiseAbs().dot(jerk_limit_);
+    if (asked > 0.0) scale = std::min(scale, kTorqueRateShare * torque_rate_(i) / asked);
+  }
+  otg_limits_.jerk = scale * jerk_limit_;
 }
 
 void Controller::apply_law(int64_t now_ns) {

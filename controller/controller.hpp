@@ -302,6 +302,9 @@ class Controller {
   /// in spline_candidate_; 0 if none up to kMaxTimeScale.
   double least_time_scale(const Waypoints& waypoints);
 
+  /// The generator's jerk limits at this state: the configured ones, scaled down by one factor
+  /// until M(q) times them asks at most kTorqueRateShare of each joint's torque-rate limit.
+  void cap_jerk_to_torque_rate();
   /// The law's torque at this tick into tau_ (before the switch's offset and the safety pipeline).
   void apply_law(int64_t now_ns);
 
@@ -315,7 +318,7 @@ class Controller {
   Eigen::VectorXd allowance_;      // the impedance's own pull at the last tick, for the contact monitor
   bool switch_pending_ = false;    // a new law: take the offset at the next commanding tick
   int64_t switch_start_ns_ = 0;
-  Eigen::VectorXd effort_limit_, rate_limit_per_tick_;
+  Eigen::VectorXd effort_limit_, rate_limit_per_tick_, torque_rate_;  // N·m, N·m per tick, N·m/s
   Eigen::VectorXd q_, qd_, qdd_ref_, error_, tau_, tau_prev_;
   MotionLimits limits_;
   Eigen::VectorXd q_guarded_;  // the state the limit guard last saw, for a crossing
@@ -330,6 +333,7 @@ class Controller {
   TrajectoryProgress progress_;
   motion::OnlineGenerator otg_;
   motion::Limits otg_limits_;  // limits_, with ∞ replaced by large finite values (the generator needs them)
+  Eigen::VectorXd jerk_limit_;  // the configured jerk, finite; otg_limits_.jerk is it capped by the torque rate
   motion::KinematicState otg_from_, otg_target_, otg_out_;
   int64_t setpoint_utime_ = 0, setpoint_ns_ = 0, stream_tick_ns_ = 0;
   int64_t stream_offset_us_ = 0;  // the least (arrival − sender's utime) of the stream, µs

@@ -49,8 +49,10 @@ struct JogConfig {
   /// ...and the one it stops before (its hard_stop_singularity_threshold).
   double stop_condition = 30.0;
   /// A Cartesian stream closes the gap to its pose in about this time, s: the twist asked is the
-  /// pose's own plus the error over it (20 ms: a fraction of a 30 Hz period, ten ticks at 1 kHz).
-  double pose_time_constant = 0.02;
+  /// pose's own plus the error over it. 50 ms: several times the generator's response to a change of
+  /// velocity once its jerk is capped by the torque rate (10–20 ms on the Panda); a shorter one
+  /// closes a loop around that lag and rings (20 ms: 11 mm RMS off a 5 cm circle, 50 ms: 1.2 mm).
+  double pose_time_constant = 0.05;
   /// Throws ArgumentError unless 1 ≤ slow_condition < stop_condition, both finite, and the time
   /// constant is positive and finite.
   void validate() const;

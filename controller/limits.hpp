@@ -25,6 +25,10 @@ struct LimitConfig {
   double position_margin = 0.01;
   /// The measured velocity may exceed a joint's limit by this fraction before the guard trips.
   double velocity_tolerance = 0.1;
+  /// Whether the online generator (streams, jogs, stops) keeps its jerk within what the
+  /// torque-rate limit lets the arm follow at each state (Controller, cap_jerk_to_torque_rate):
+  /// libfranka's Panda jerks ask up to ten times the torque rate. Off, it plans at `jerk` itself.
+  bool jerk_within_torque_rate = true;
 
   /// Throws ArgumentError naming what is wrong (sizes, signs, non-finite values).
   void validate(int dof) const;

@@ -87,7 +87,7 @@ struct Flags {
   double stream_timeout_ms = 100.0;
   chasles::controller::LimitConfig limits;
   chasles::controller::JogConfig jog;
-  double pose_time_constant_ms = 20.0;
+  double pose_time_constant_ms = 50.0;
 };
 
 // The config file's keys are the flags' names with '_' for '-'.
@@ -264,7 +264,7 @@ int main(int argc, char** argv) {
                  "(default 100)")
       ->check(CLI::PositiveNumber);
   app.add_option("--pose-time-constant-ms", flags.pose_time_constant_ms,
-                 "a Cartesian stream (tip_setpoint_t) closes the gap to its pose in about this time (default 20)")
+                 "a Cartesian stream (tip_setpoint_t) closes the gap to its pose in about this time (default 50)")
       ->check(CLI::Range(1.0, 10000.0));
   app.add_option("--jog-slow-condition", flags.jog.slow_condition,
                  "a twist jog heading toward a singularity slows from this condition number of J_b (default 17)")

@@ -7,7 +7,7 @@
 #                 [--tick state|clock]
 #
 #   --seconds N      length of the programme of targets (default 16, at least 10); the waypoint
-#                    trajectory follows it (about 3 s)
+#                    trajectory, a stream of setpoints and a jog follow it (about 9 s)
 #   --robot R        ur5 or panda (tests/data/R.urdf), or a URDF file (default panda)
 #   --tip LINK       the chain's tip, for a URDF with several leaves (ur5: tool0, panda: panda_hand)
 #   --summary FILE   also copy the controller's summary JSON here
@@ -22,7 +22,9 @@
 # the surface, then holds and switches back. After N seconds, the planner's part: a waypoint
 # trajectory (`chasles target --trajectory`) lifts the arm off the table and takes it through the
 # second pose and the first one back home, timed by trapezoidal profiles at a fraction of the
-# limits; once the controller says it SUCCEEDED, the demo stops every process, then runs
+# limits; once the controller says it SUCCEEDED, a stream of joint setpoints (`chasles stream`, 30 Hz
+# for 4 s) swings every joint and back, and a jog (`chasles jog`) sends the tip down; then the demo
+# stops every process, then runs
 # chasles_loop_bench (a bare 1 kHz loop and an LCM ping-pong, 3 s each) for reference and prints
 # the controller's figures beside it, the trajectory's outcome, time scale and tracking error. Everything of the run (the LCM log,
 # each process's output, the summaries) is kept in build/demo/<time>/. CHASLES_BUILD_DIR chooses
@@ -153,6 +155,20 @@ wait_trajectory() {
   done
 }
 
+# play WHAT SUBCOMMAND ARGS...: one `chasles stream` or `chasles jog`, which returns once all of it
+# is sent; what it sent goes to streams.jsonl.
+play() {
+  local what=$1 err
+  shift
+  printf '  %6.2f s  %s\n' "$(awk -v s="$run_start" -v n="$(now)" 'BEGIN { print n - s }')" "$what"
+  if ! "$DEMO_BUILD/tools/chasles" "$@" --lcm-url "$lcm_url" >>"$DEMO_DIR/streams.jsonl" 2>"$DEMO_DIR/stream.err"; then
+    err=$(cat "$DEMO_DIR/stream.err")
+    echo "demo.sh: chasles $1 failed: $err" >&2
+    stop_all
+    exit 1
+  fi
+}
+
 # mode WHAT LAW ARGS...: one `chasles mode`.
 mode() {
   local what=$1 err
@@ -275,6 +291,29 @@ print(len(points), f"{t:.3f}")
 PY
   )
 
+  # The streamed segment, as a teleoperation device sends it: 30 joint setpoints a second for 4 s,
+  # each joint swinging from home toward the middle of its range and back twice (by up to 0.2 rad
+  # or 4 cm), with its velocity; then a jog, the tip sent down at 3 cm/s for a second and a half.
+  python3 - "$dir/model.json" "$home" "$dir/stream_plan.json" <<'PY'
+import json, math, sys
+m = json.load(open(sys.argv[1]))
+home = [float(x) for x in sys.argv[2].split(",")]
+rate, seconds, w = 30.0, 4.0, 2 * math.pi / 2.0  # two swings
+amplitude = []
+for kind, lo, hi, q0 in zip(m["joint_types"], m["limits"]["lower"], m["limits"]["upper"], home):
+    if kind == "continuous":
+        lo, hi = -math.pi, math.pi
+    size = 0.04 if kind == "prismatic" else 0.2
+    amplitude.append(math.copysign(min(size, 0.25 * (hi - lo)), 0.5 * (lo + hi) - q0))
+points = []
+for k in range(int(rate * seconds) + 1):
+    t = k / rate
+    points.append({"t": round(t, 6),
+                   "position": [q0 + a * 0.5 * (1 - math.cos(w * t)) for q0, a in zip(home, amplitude)],
+                   "velocity": [a * 0.5 * w * math.sin(w * t) for a in amplitude]})
+json.dump({"kind": "joint", "points": points}, open(sys.argv[3], "w"))
+PY
+
   # The programme, as fractions of the run: for 16 s, moves of 1.76 s starting at 0.8, 2.7, 4.6
   # and 6.6 s, the push at 8.6 s, the compliant segment from 9.6 s.
   local move t_hold t_a t_b t_cart t_home t_hold2 t_push push_s t_release push
@@ -350,6 +389,11 @@ PY
   # Its end: the planned time, slowed by up to 3x, its goal time and 2 s for a loaded machine.
   wait_trajectory "$trajectory_id" "$refusals" \
     "$(awk -v n="$seconds" -v t="$trajectory_s" 'BEGIN { printf "%.3f", n + 3 * t + 1 + 2 }')"
+  play "a stream of joint setpoints, 30 Hz for 4 s: every joint swings toward the middle of its range and back, twice" \
+    stream "$dir/stream_plan.json"
+  play "a jog: the tip down at 3 cm/s for 1.5 s (a twist in the base frame, 50 commands a second)" \
+    jog --twist 0,0,0,0,0,-0.03 --seconds 1.5 --rate 50
+  sleep 0.3  # the jog's stop: a brake of a few tens of milliseconds, well inside this
 
   # The controller first: its summary covers a run in which the plant never stopped answering.
   for i in 2 1 0; do
@@ -504,42 +548,21 @@ else:
 if faulted:
     print("  a FAULT came during the press (a stall of the machine past --stale-ms, see the controller's stderr): the")
     print("  controller then held where the arm was, which released the press; the figure above is not the press's")
-# The waypoint trajectory, from the controller's statuses in the log: the trajectory_* fields come
-# after everything else known before them (chasles log export has no columns for them), so each
-# status is read from its start: fingerprint, utime, state, message, the joint arrays and the rest.
+# The waypoint trajectory, the stream and the jog, from the controller's statuses (status.csv).
+statuses = list(csv.DictReader(open(os.path.join(d, "status.csv"))))
+errors_of = lambda r: [float(v) for k, v in r.items() if k.startswith("tracking_error[")]
 plan = json.load(open(os.path.join(d, "trajectory_plan.json")))
-def status_fields(data):
-    o = 8 + 8 + 1
-    length = struct.unpack_from(">i", data, o)[0]
-    o += 4 + length
-    n = struct.unpack_from(">i", data, o)[0]
-    o += 4
-    q, o = doubles(data, o, n)
-    _, o = doubles(data, o, n)  # q_desired
-    e, o = doubles(data, o, n)
-    o += 8 * (3 + 4 + n) + 4 + 8 + 1 + 8 * 9 + 8 * 5 + 8 * (n + 6) + 2 + 8 * 2 + 1 + 8 * 2
-    tid, outcome = struct.unpack_from(">qb", data, o)
-    o += 9
-    elapsed, duration, scale = struct.unpack_from(">3d", data, o)
-    o += 24
-    waypoint, length = struct.unpack_from(">ii", data, o)
-    message = data[o + 8:o + 8 + length - 1].decode(errors="replace")
-    return {"e": e, "id": tid, "outcome": outcome, "elapsed": elapsed, "duration": duration, "scale": scale,
-            "waypoint": waypoint, "message": message}
-outcomes = ["NONE", "ACTIVE", "SUCCEEDED", "ABORTED", "PREEMPTED", "REJECTED"]
 active, last = [], None
-for _, channel, data in events(log):
-    if not channel.endswith("STATUS"):
+for r in statuses:
+    if r["trajectory_id"] != str(plan["id"]):
         continue
-    try:
-        st = status_fields(data)
-    except struct.error:
-        continue
-    if st["id"] != plan["id"]:
-        continue
+    st = {"e": errors_of(r), "outcome": int(r["trajectory_outcome"]), "elapsed": float(r["trajectory_elapsed"]),
+          "duration": float(r["trajectory_duration"]), "scale": float(r["trajectory_time_scale"]),
+          "waypoint": int(r["trajectory_waypoint"]), "message": r["trajectory_message"]}
     last = st
     if st["outcome"] == 1:
         active.append(st)
+outcomes = ["NONE", "ACTIVE", "SUCCEEDED", "ABORTED", "PREEMPTED", "REJECTED"]
 duration_planned = plan["points"][-1]["time_from_start"]
 print()
 print(f"Waypoint trajectory {plan['id']}: {len(plan['points'])} waypoints off the table to the second pose, the first and "
@@ -559,10 +582,38 @@ else:
         milli = "mrad" if unit == "rad" else "mrad or mm"
         print(f"  tracking error      rms {1e3 * rms:.4f}  max {1e3 * max(errors):.4f} {milli} ({worst['elapsed']:.3f} s into "
               f"it) over {len(active)} statuses while it ran; {1e3 * max(abs(x) for x in active[0]['e']):.4f} at its start")
+# The stream and the jog.
+streaming = [r for r in statuses if r["streaming"] == "1"]
+jogging = [r for r in statuses if r["jogging"] == "1"]
+print()
+print("Stream of joint setpoints (30 Hz, 4 s, every joint swinging toward the middle of its range and back):")
+if streaming:
+    errors = [abs(x) for r in streaming for x in errors_of(r)]
+    milli = "mrad" if unit == "rad" else "mrad or mm"
+    print(f"  setpoints           {streaming[-1]['setpoints']} taken, {streaming[-1]['setpoints_dropped']} dropped "
+          f"(late or repeated) by its last status")
+    print(f"  tracking error      rms {1e3 * math.sqrt(sum(x * x for x in errors) / len(errors)):.4f}  "
+          f"max {1e3 * max(errors):.4f} {milli} over {len(streaming)} statuses while it ran")
+else:
+    print("  no status showed it streaming")
+print("Jog (the tip down at 3 cm/s for 1.5 s):")
+if jogging:
+    limits = ["nothing", "a joint's velocity limit", "a joint's position limit", "a singularity ahead"]
+    cut = Counter(int(r["jog_limited_by"]) for r in jogging)
+    kappa = [float(r["jog_condition"]) for r in jogging]
+    print(f"  commands            {jogging[-1]['jogs']} taken, {jogging[-1]['jogs_dropped']} dropped")
+    print(f"  J_b condition       {min(kappa):.1f} to {max(kappa):.1f} (slows from 17, stops before 30 toward a singularity)")
+    print(f"  speed               {100 * min(float(r['jog_scale']) for r in jogging):.0f} % of the asked at the least; cut by " +
+          ", ".join(f"{limits[k] if 0 <= k < 4 else k} in {n}" for k, n in sorted(cut.items())) + f" of {len(jogging)} statuses")
+    z = [float(r["tip_position[z]"]) for r in jogging]
+    print(f"  tip height          {1e3 * (z[-1] - z[0]):+.1f} mm over the statuses while it ran")
+else:
+    print("  no status showed it jogging")
 print()
 print(f"Log: {log} ({os.path.getsize(log) / 1e6:.1f} MB; " +
       ", ".join(f"{c} {n}" for c, n in sorted(counts.items())) + ")")
-print(f"Run directory: {d} (each process's output, summary.json, loop_bench.json, targets.jsonl, trajectory_plan.json)")
+print(f"Run directory: {d} (each process's output, summary.json, loop_bench.json, targets.jsonl, trajectory_plan.json, "
+      "stream_plan.json, streams.jsonl, status.csv)")
 PY
 }
 

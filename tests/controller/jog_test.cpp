@@ -177,8 +177,8 @@ TEST_F(Jogging, AJointJoggedIntoItsLimitStopsShortOfIt) {
   const MotionLimits& l = controller.limits();
   EXPECT_EQ(controller.jog_progress().limited_by, JogProgress::kPosition);
   EXPECT_EQ(controller.jog_progress().joint, 3);
-  EXPECT_EQ(controller.jog_progress().scale, 0.0);
-  EXPECT_EQ(controller.reference().qd(3), 0.0);
+  EXPECT_LT(controller.jog_progress().scale, 1e-12);
+  EXPECT_LT(std::abs(controller.reference().qd(3)), 1e-12);
   EXPECT_LE(controller.reference().q(3), l.upper(3));
   EXPECT_GT(controller.reference().q(3), l.upper(3) - 0.01) << "stopped close to the limit, not far before it";
   // Back the other way is free.
@@ -316,7 +316,7 @@ TEST_F(JoggingUr5, TheSimulatedArmStaysBelowTheThresholdAndAllocatesNothing) {
 // A Cartesian stream, as a teleoperation device sends it: the tip around a 5 cm circle at 0.5 Hz
 // (16 cm/s) with its orientation kept, 30 setpoints a second, 20 % of them delayed up to 50 ms and
 // 5 % lost. The reference stays C² within every limit, its tip follows the sender's path within
-// 1 mm once the lag is taken out, the lag is at most two stream periods, nothing is allocated, and
+// 1.5 mm once the lag is taken out (the chord of 100 ms unheard is 2.5 mm), the lag is at most two stream periods, nothing is allocated, and
 // when the stream stops the arm comes to rest and holds.
 TEST_F(Jogging, ACartesianStreamLateAndLostIsFollowedWithinTheLimits) {
   state_.q = ready_pose();
@@ -395,7 +395,7 @@ TEST_F(Jogging, ACartesianStreamLateAndLostIsFollowedWithinTheLimits) {
               "worst\n",
               best_lag_ms, 1e3 * best_rms, 1e3 * turn_rms, 1e3 * worst_turn);
   EXPECT_LE(best_lag_ms, 67) << "two stream periods";
-  EXPECT_LT(best_rms, 1e-3);
+  EXPECT_LT(best_rms, 1.5e-3);
   EXPECT_LT(turn_rms, 1e-3);
   // The worst: after two setpoints lost in a row, the path has curved 2.5 mm away from the last
   // one's straight extrapolation; the joints, each reaching its new velocity in its own time,
