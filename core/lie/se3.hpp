@@ -2,6 +2,7 @@
 // (Modern Robotics §3.3). Twists V = (ω, v), wrenches F = (m, f).
 #pragma once
 
+#include "chasles/core/lie/sincos.hpp"
 #include "chasles/core/lie/so3.hpp"
 
 namespace chasles {
@@ -96,9 +97,16 @@ CHASLES_ALWAYS_INLINE Vector6d adjoint_inverse_times(const Transform& T, const E
   const Matrix3d& R = T.linear();
   const Vector3d w = V.template head<3>();
   const Vector3d v = V.template tail<3>() - T.translation().cross(w);
+  // Rᵀ ω and Rᵀ v side by side, entry k of each in one SSE2 register (sincos.hpp's vector
+  // extensions): one pass of 2-wide products and sums turns both halves, where Eigen's 3-vector
+  // products run one lane at a time (RNEA's forward pass has two of these per joint).
+  const detail::Double2 x[3] = {{w(0), v(0)}, {w(1), v(1)}, {w(2), v(2)}};
   Vector6d out;
-  out.head<3>().noalias() = R.transpose() * w;
-  out.tail<3>().noalias() = R.transpose() * v;
+  for (int k = 0; k < 3; ++k) {
+    const detail::Double2 y = R(0, k) * x[0] + R(1, k) * x[1] + R(2, k) * x[2];
+    out(k) = y[0];
+    out(3 + k) = y[1];
+  }
   return out;
 }
 
