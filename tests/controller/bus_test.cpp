@@ -5,6 +5,7 @@
 #include <arpa/inet.h>
 #include <gtest/gtest.h>
 #include <netinet/in.h>
+#include <poll.h>
 #include <sys/socket.h>
 #include <sys/time.h>
 #include <unistd.h>
@@ -69,9 +70,12 @@ TEST(DirectBus, HearsWhatLcmPublishesStampedByTheKernel) {
   ASSERT_TRUE(sender.publish("ARM_STATE", a));
   ASSERT_TRUE(sender.publish("ARM_STATE", b));
   ASSERT_TRUE(sender.publish("ARM_STATE", c));  // large, still one datagram
-  // Read 20 ms after the sends, so the kernel's stamps and the handling times lie clearly apart.
-  const int64_t after = wall_us();
-  while (wall_us() < after + 20'000) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  // Read 20 ms after the socket is readable, so the kernel's stamps and the handling times lie
+  // clearly apart however late a loaded machine queues the datagrams after the sends.
+  pollfd readable{receiver.fileno(), POLLIN, 0};
+  ASSERT_EQ(::poll(&readable, 1, 5000), 1);
+  const int64_t queued = wall_us();
+  while (wall_us() < queued + 20'000) std::this_thread::sleep_for(std::chrono::milliseconds(1));
   handle_until(receiver, heard, 3);
   ASSERT_EQ(heard.messages.size(), 3u);
   EXPECT_EQ(heard.messages[0], a);

@@ -5,6 +5,7 @@
 
 #include <Eigen/SVD>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <random>
 #include <string>
@@ -250,6 +251,9 @@ TEST_F(JoggingUr5, IntoTheWristSingularityItSlowsAndStopsBeforeTheThreshold) {
   const Vector6d twist = -0.4 * J.col(4);  // what wrist_2 at −0.4 rad/s gives the tool, at the start
   const double worst = hold_jog(controller, twist_jog(twist, Jog::kTool), 4.0);
   ASSERT_FALSE(HasFatalFailure());
+  std::printf("[ jog ] UR5 into its wrist singularity: the largest condition number %.2f, wrist 2 at %.3f rad, "
+              "speed %.2g of the asked\n",
+              worst, controller.reference().q(4), controller.jog_progress().scale);
   EXPECT_LT(worst, controller.jog_config().stop_condition);
   EXPECT_GT(worst, 25.0) << "it came close to the threshold, slowing, before it stopped";
   // The speed falls with 30 − κ: the arm creeps to a stop, κ approaching 30 from below.
@@ -276,6 +280,8 @@ TEST_F(Jogging, TheStretchedPandaStopsBeforeItsElbowSingularity) {
   twist.segment<2>(3) = 0.15 * tip.translation().head<2>().normalized();  // m/s, outward, level
   const double worst = hold_jog(controller, twist_jog(twist, Jog::kBase), 5.0);
   ASSERT_FALSE(HasFatalFailure());
+  std::printf("[ jog ] the Panda stretched: the largest condition number %.2f, joint 4 at %.3f rad\n", worst,
+              controller.reference().q(3));
   EXPECT_LT(worst, controller.jog_config().stop_condition);
   EXPECT_GT(worst, 25.0);
   EXPECT_EQ(controller.jog_progress().limited_by, JogProgress::kSingularity);
@@ -307,6 +313,8 @@ TEST_F(JoggingUr5, TheSimulatedArmStaysBelowTheThresholdAndAllocatesNothing) {
     integrate(controller, arm);
     worst = std::max(worst, condition_by_svd(body_jacobian(model_, data, state_.q)));
   }
+  std::printf("[ jog ] the simulated UR5 into its wrist singularity: the measured arm's largest condition number %.2f\n",
+              worst);
   EXPECT_EQ(allocations, 0);
   EXPECT_EQ(controller.mode(), Mode::kRunning) << to_string(controller.mode()) << " " << controller.reflex_reason();
   EXPECT_EQ(controller.jog_progress().limited_by, JogProgress::kSingularity);
