@@ -23,7 +23,8 @@
 # trajectory (`chasles target --trajectory`) lifts the arm off the table and takes it through the
 # second pose and the first one back home, timed by trapezoidal profiles at a fraction of the
 # limits; once the controller says it SUCCEEDED, a stream of joint setpoints (`chasles stream`, 30 Hz
-# for 4 s) swings every joint and back, and a jog (`chasles jog`) sends the tip down; then the demo
+# for 4 s) swings every joint and back, and two jogs (`chasles jog`) bend every joint and send the
+# tip down; then the demo
 # stops every process, then runs
 # chasles_loop_bench (a bare 1 kHz loop and an LCM ping-pong, 3 s each) for reference and prints
 # the controller's figures beside it, the trajectory's outcome, time scale and tracking error. Everything of the run (the LCM log,
@@ -293,7 +294,8 @@ PY
 
   # The streamed segment, as a teleoperation device sends it: 30 joint setpoints a second for 4 s,
   # each joint swinging from home toward the middle of its range and back twice (by up to 0.2 rad
-  # or 4 cm), with its velocity; then a jog, the tip sent down at 3 cm/s for a second and a half.
+  # or 4 cm), with its velocity; then a joint jog bending every joint toward the middle of its
+# range for a second, and a twist jog sending the tip down at 3 cm/s for a second and a half.
   python3 - "$dir/model.json" "$home" "$dir/stream_plan.json" <<'PY'
 import json, math, sys
 m = json.load(open(sys.argv[1]))
@@ -312,7 +314,11 @@ for k in range(int(rate * seconds) + 1):
                    "position": [q0 + a * 0.5 * (1 - math.cos(w * t)) for q0, a in zip(home, amplitude)],
                    "velocity": [a * 0.5 * w * math.sin(w * t) for a in amplitude]})
 json.dump({"kind": "joint", "points": points}, open(sys.argv[3], "w"))
+# The first jog's joint velocities: every joint toward the middle of its range at 0.25 rad/s (m/s).
+print(",".join(repr(math.copysign(0.25, a)) for a in amplitude), file=open(sys.argv[3] + ".jog", "w"))
 PY
+  local jog_velocity
+  jog_velocity=$(cat "$dir/stream_plan.json.jog")
 
   # The programme, as fractions of the run: for 16 s, moves of 1.76 s starting at 0.8, 2.7, 4.6
   # and 6.6 s, the push at 8.6 s, the compliant segment from 9.6 s.
@@ -391,7 +397,9 @@ PY
     "$(awk -v n="$seconds" -v t="$trajectory_s" 'BEGIN { printf "%.3f", n + 3 * t + 1 + 2 }')"
   play "a stream of joint setpoints, 30 Hz for 4 s: every joint swings toward the middle of its range and back, twice" \
     stream "$dir/stream_plan.json"
-  play "a jog: the tip down at 3 cm/s for 1.5 s (a twist in the base frame, 50 commands a second)" \
+  play "a joint jog: every joint toward the middle of its range at 0.25 rad/s for 1 s (50 commands a second)" \
+    jog --joint-velocity "$jog_velocity" --seconds 1 --rate 50
+  play "a twist jog: the tip down at 3 cm/s for 1.5 s (in the base frame, 50 commands a second)" \
     jog --twist 0,0,0,0,0,-0.03 --seconds 1.5 --rate 50
   sleep 0.3  # the jog's stop: a brake of a few tens of milliseconds, well inside this
 
@@ -596,19 +604,28 @@ if streaming:
           f"max {1e3 * max(errors):.4f} {milli} over {len(streaming)} statuses while it ran")
 else:
     print("  no status showed it streaming")
-print("Jog (the tip down at 3 cm/s for 1.5 s):")
-if jogging:
-    limits = ["nothing", "a joint's velocity limit", "a joint's position limit", "a singularity ahead"]
-    cut = Counter(int(r["jog_limited_by"]) for r in jogging)
-    kappa = [float(r["jog_condition"]) for r in jogging]
-    print(f"  commands            {jogging[-1]['jogs']} taken, {jogging[-1]['jogs_dropped']} dropped")
-    print(f"  J_b condition       {min(kappa):.1f} to {max(kappa):.1f} (slows from 17, stops before 30 toward a singularity)")
-    print(f"  speed               {100 * min(float(r['jog_scale']) for r in jogging):.0f} % of the asked at the least; cut by " +
-          ", ".join(f"{limits[k] if 0 <= k < 4 else k} in {n}" for k, n in sorted(cut.items())) + f" of {len(jogging)} statuses")
-    z = [float(r["tip_position[z]"]) for r in jogging]
-    print(f"  tip height          {1e3 * (z[-1] - z[0]):+.1f} mm over the statuses while it ran")
-else:
-    print("  no status showed it jogging")
+sent = [json.loads(line) for line in open(os.path.join(d, "streams.jsonl"))]
+jog_counts = [x["sent"] for x in sent if x["channel"].endswith("JOG")]
+limits = ["nothing", "a joint's velocity limit", "a joint's position limit", "a singularity ahead"]
+first = jog_counts[0] if jog_counts else 0
+for title, rows in (("Joint jog (every joint toward the middle of its range at 0.25 rad/s for 1 s):",
+                     [r for r in jogging if int(r["jogs"]) <= first]),
+                    ("Twist jog (the tip down at 3 cm/s for 1.5 s, in the base frame):",
+                     [r for r in jogging if int(r["jogs"]) > first])):
+    print(title)
+    if not rows:
+        print("  no status showed it jogging")
+        continue
+    cut = Counter(int(r["jog_limited_by"]) for r in rows)
+    kappa = [float(r["jog_condition"]) for r in rows]
+    print(f"  commands            {rows[-1]['jogs']} taken in all, {rows[-1]['jogs_dropped']} dropped")
+    print(f"  J_b condition       {kappa[0]:.1f} -> {kappa[-1]:.1f} (a twist toward a singularity slows from 17, stops before 30)")
+    print(f"  speed               {100 * min(float(r['jog_scale']) for r in rows):.0f} % of the asked at the least; cut by " +
+          ", ".join(f"{limits[k] if 0 <= k < 4 else k} in {n}" for k, n in sorted(cut.items())) + f" of {len(rows)} statuses")
+    p0 = [float(rows[0][f"tip_position[{a}]"]) for a in "xyz"]
+    p1 = [float(rows[-1][f"tip_position[{a}]"]) for a in "xyz"]
+    print(f"  tip moved           ({1e3 * (p1[0] - p0[0]):+.1f}, {1e3 * (p1[1] - p0[1]):+.1f}, {1e3 * (p1[2] - p0[2]):+.1f}) mm "
+          "over the statuses while it ran")
 print()
 print(f"Log: {log} ({os.path.getsize(log) / 1e6:.1f} MB; " +
       ", ".join(f"{c} {n}" for c, n in sorted(counts.items())) + ")")
