@@ -121,6 +121,20 @@ class Jogging : public testing::Following {
     }
     return worst;
   }
+  /// Ticks while the controller is RUNNING (at most 1000), every reference within the limits;
+  /// returns how many.
+  int ticks_to_rest(Controller& controller) {
+    Reference before = controller.reference();
+    int ticks = 0;
+    while (controller.mode() == Mode::kRunning && ticks < 1000) {
+      EXPECT_TRUE(tick(controller));
+      expect_within_limits(controller, before);
+      if (HasFatalFailure()) break;
+      before = controller.reference();
+      ++ticks;
+    }
+    return ticks;
+  }
   int64_t utime_ = 0;
 };
 
@@ -137,15 +151,8 @@ TEST_F(Jogging, AJointVelocityIsReachedAndHeldThenTheArmStopsWhenTheCommandsStop
   EXPECT_EQ(controller.jog_progress().limited_by, JogProgress::kNone);
   EXPECT_EQ(controller.jogs(), 30);
   // No command for the timeout: the reference brakes to rest within the limits and holds.
-  Reference before = controller.reference();
-  int ticks = 0;
-  while (controller.mode() == Mode::kRunning && ticks < 1000) {
-    ASSERT_TRUE(tick(controller));
-    expect_within_limits(controller, before);
-    ASSERT_FALSE(HasFatalFailure());
-    before = controller.reference();
-    ++ticks;
-  }
+  const int ticks = ticks_to_rest(controller);
+  ASSERT_FALSE(HasFatalFailure());
   EXPECT_EQ(controller.mode(), Mode::kHolding);
   EXPECT_FALSE(controller.jogging());
   EXPECT_EQ(controller.reference().qd.norm(), 0.0);
@@ -411,14 +418,8 @@ TEST_F(Jogging, ACartesianStreamLateAndLostIsFollowedWithinTheLimits) {
   // turn the tip while they close that gap.
   EXPECT_LT(worst_turn, 1e-2);
   // Silence: to rest within the limits, then HOLDING.
-  int ticks = 0;
-  while (controller.mode() == Mode::kRunning && ticks < 1000) {
-    ASSERT_TRUE(tick(controller));
-    expect_within_limits(controller, before);
-    ASSERT_FALSE(HasFatalFailure());
-    before = controller.reference();
-    ++ticks;
-  }
+  ticks_to_rest(controller);
+  ASSERT_FALSE(HasFatalFailure());
   EXPECT_EQ(controller.mode(), Mode::kHolding);
   EXPECT_FALSE(controller.streaming());
   // A quaternion that is not a unit one is refused.

@@ -70,6 +70,12 @@ joint_trajectory_t random_trajectory(const RobotModel& model, const controller::
   return t;
 }
 
+// The simulated arm's tip pose, from its latest state.
+Transform tip_of(World& world, Data& data) {
+  const std::vector<double>& q = world.recorder().state()->position;
+  return forward_kinematics(world.model(), data, Eigen::Map<const VectorXd>(q.data(), 7));
+}
+
 // The case over the bus: 50 random waypoints timed by trapezoids, slowed to fit, followed
 // by the simulated arm (which has joint damping, a 1 kHz step and the controller's latency) within
 // 1 mrad RMS, every tick's reference within every limit, SUCCEEDED in the status at the end.
@@ -234,12 +240,8 @@ TEST(jog, ATwistOverTheBusMovesTheSimulatedTipAndStopsWhenTold) {
   world.start_plant(bent_pose());
   world.add_controller(options());
   ASSERT_TRUE(world.run_until([&] { return world.recorder().status_is(controller_status_t::HOLDING); }, 1.0));
-  const RobotModel& model = world.model();
-  Data data(model);
-  const auto measured_tip = [&] {
-    const std::vector<double>& q = world.recorder().state()->position;
-    return forward_kinematics(model, data, Eigen::Map<const VectorXd>(q.data(), 7));
-  };
+  Data data(world.model());
+  const auto measured_tip = [&] { return tip_of(world, data); };
   const Transform before = measured_tip();
   jog_command_t jog{};
   jog.kind = jog_command_t::TWIST;
@@ -295,12 +297,8 @@ TEST(stream, ACartesianStreamOverTheBusLeadsTheSimulatedTip) {
   world.start_plant(bent_pose());
   world.add_controller(options());
   ASSERT_TRUE(world.run_until([&] { return world.recorder().status_is(controller_status_t::HOLDING); }, 1.0));
-  const RobotModel& model = world.model();
-  Data data(model);
-  const auto measured_tip = [&] {
-    const std::vector<double>& q = world.recorder().state()->position;
-    return forward_kinematics(model, data, Eigen::Map<const VectorXd>(q.data(), 7));
-  };
+  Data data(world.model());
+  const auto measured_tip = [&] { return tip_of(world, data); };
   const Transform before = measured_tip();
   const Eigen::Quaterniond orientation(before.linear());
   tip_setpoint_t setpoint{};

@@ -35,14 +35,6 @@ std::vector<double> parse_numbers(const std::string& text, const std::string& op
   return values;
 }
 
-void publish(lcm_t* lcm, const std::string& channel, const jog_command_t& jog) {
-  std::vector<uint8_t> bytes(size_t(jog.getEncodedSize()));
-  jog.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
-  if (lcm_publish(lcm, channel.c_str(), bytes.data(), static_cast<unsigned int>(bytes.size())) != 0) {
-    throw InputError("cannot publish on " + channel);
-  }
-}
-
 Json run_jog(const JogOptions& options) {
   const std::string channel = options.wire.prefix + "JOG";
   jog_command_t jog{};
@@ -78,14 +70,14 @@ Json run_jog(const JogOptions& options) {
     const timespec wake{static_cast<time_t>(next / 1'000'000'000), static_cast<long>(next % 1'000'000'000)};
     clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &wake, nullptr);
     jog.utime = controller::realtime_us();
-    publish(lcm, channel, jog);
+    publish_message(lcm, channel, jog);
     ++sent;
   }
   // The stop: the same command at zero speed, newer than the last.
   std::fill(jog.joint_velocity.begin(), jog.joint_velocity.end(), 0.0);
   std::fill(jog.twist, jog.twist + 6, 0.0);
   jog.utime = std::max(controller::realtime_us(), jog.utime + 1);
-  publish(lcm, channel, jog);
+  publish_message(lcm, channel, jog);
   out["sent"] = sent + 1;
   return out;
 }

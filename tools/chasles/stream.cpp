@@ -76,15 +76,6 @@ std::vector<Timed> read_stream(const std::string& path, bool& tip) {
   return out;
 }
 
-template <typename Message>
-void publish(lcm_t* lcm, const std::string& channel, const Message& message) {
-  std::vector<uint8_t> bytes(size_t(message.getEncodedSize()));
-  message.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
-  if (lcm_publish(lcm, channel.c_str(), bytes.data(), static_cast<unsigned int>(bytes.size())) != 0) {
-    throw InputError("cannot publish on " + channel);
-  }
-}
-
 Json run_stream(const StreamOptions& options) {
   bool tip = false;
   std::vector<Timed> points = read_stream(options.file, tip);
@@ -101,10 +92,10 @@ Json run_stream(const StreamOptions& options) {
     late_us = std::max(late_us, (controller::monotonic_ns() - at) / 1000);
     if (tip) {
       p.tip.utime = controller::realtime_us();
-      publish(lcm, channel, p.tip);
+      publish_message(lcm, channel, p.tip);
     } else {
       p.joint.utime = controller::realtime_us();
-      publish(lcm, channel, p.joint);
+      publish_message(lcm, channel, p.joint);
     }
   }
   Json out;
