@@ -250,11 +250,11 @@ bool Controller::set_law(const LawSettings& settings, int64_t now_ns) {
   switch_pending_ = true;
   switch_start_ns_ = now_ns;
   // A new law ends a reflex where the arm is; free drive follows no reference, so a motion ends.
-  // It ends a trajectory, a stream or a jog too: the reference brakes to rest from its motion.
+  // It ends a trajectory, a stream (of joint or tip setpoints) or a jog too: the reference brakes
+  // to rest from its motion. A JOINT goal's quintic and a Cartesian path go on under the new law.
   if (mode_ == Mode::kReflex || law_.law == Law::kFreeDrive) {
     hold_at(q_);
-  } else if (mode_ == Mode::kRunning &&
-             (drive_ == Drive::kWaypoints || drive_ == Drive::kStream || drive_ == Drive::kJog)) {
+  } else if (mode_ == Mode::kRunning && drive_ != Drive::kGoal && drive_ != Drive::kPath && drive_ != Drive::kStop) {
     stop_motion(now_ns);
   }
   return true;

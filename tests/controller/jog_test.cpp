@@ -422,6 +422,22 @@ TEST_F(Jogging, ACartesianStreamLateAndLostIsFollowedWithinTheLimits) {
   ASSERT_FALSE(HasFatalFailure());
   EXPECT_EQ(controller.mode(), Mode::kHolding);
   EXPECT_FALSE(controller.streaming());
+  // A control law ends a Cartesian stream as it ends a jog: the reference brakes to rest.
+  TipSetpoint again;
+  again.utime = 10'000'000'000;
+  again.position = start.translation() + Vector3d(0.0, 0.0, 0.01);
+  again.quaternion << orientation.w(), orientation.x(), orientation.y(), orientation.z();
+  ASSERT_TRUE(controller.set_tip_setpoint(again, now_));
+  for (int k = 0; k < 50; ++k) ASSERT_TRUE(tick(controller));
+  ASSERT_TRUE(controller.streaming());
+  LawSettings settings(7);
+  settings.law = Law::kJointImpedance;
+  settings.joint_stiffness = VectorXd::Constant(7, 200.0);
+  ASSERT_TRUE(controller.set_law(settings, now_)) << controller.mode_rejection();
+  EXPECT_FALSE(controller.streaming());
+  ticks_to_rest(controller);
+  ASSERT_FALSE(HasFatalFailure());
+  EXPECT_EQ(controller.mode(), Mode::kHolding);
   // A quaternion that is not a unit one is refused.
   TipSetpoint bad;
   bad.utime = 1;
