@@ -218,7 +218,7 @@ TEST(monitor, ATrajectorySentWithTheCliIsFollowedToItsEnd) {
 }
 
 // End to end: `chasles jog` sends joint 1 at 0.2 rad/s for half a second, then a stop, to the live
-// controller; the arm turns about 0.1 rad and holds, the status counts every command it sent, and
+// controller; the arm turns forward and holds, the status counts every command it sent, and
 // the monitor's stream line says so.
 TEST(monitor, AJogSentWithTheCliMovesTheArmAndIsCounted) {
   StatusListener bus(kLcmUrl);
@@ -236,8 +236,10 @@ TEST(monitor, AJogSentWithTheCliMovesTheArmAndIsCounted) {
   const controller_status_t done = *bus.latest;
   EXPECT_EQ(done.jogs_dropped, 0);
   EXPECT_EQ(done.jog_limited_by, controller_status_t::JOG_NONE);
-  // 0.5 s at 0.2 rad/s, less the ramps' lag (its stop as long as its start).
-  EXPECT_NEAR(done.q[0] - q1_before, 0.1, 5e-3);
+  // Forward, by no more than 0.2 rad/s for the 0.5 s of commands and, if a loaded machine held the
+  // stop back, the 100 ms timeout; how far exactly is judged in simulated time (trajectory_test).
+  EXPECT_GT(done.q[0] - q1_before, 0.0);
+  EXPECT_LT(done.q[0] - q1_before, 0.2 * (0.5 + 0.1));
   const RunResult r = monitor({"--once", "--seconds", "1"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("stream      none; 0 setpoints (0 dropped), 26 jog commands (0 dropped)\n"), std::string::npos)
