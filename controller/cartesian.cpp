@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include <Eigen/QR>
+
 #include "chasles/core/kinematics/kinematics.hpp"
 #include "chasles/core/lie/se3.hpp"
 #include "chasles/core/lie/so3.hpp"
@@ -11,17 +13,130 @@
 namespace chasles::controller {
 namespace {
 
-// s(τ) = 10τ³ − 15τ⁴ + 6τ⁵ (MR eq. 9.11).
+// s(τ) = 10τ³ − 15τ⁴ + 6τ⁵ (MR eq. 9.11), and ds/dτ.
 double quintic(double tau) { return tau * tau * tau * (10.0 + tau * (-15.0 + 6.0 * tau)); }
+double quintic_rate(double tau) { return 30.0 * tau * tau * (1.0 - tau) * (1.0 - tau); }
+
+// The joint velocity that moves the tip along the screw line at time t: the body twist there is
+// V ṡ(t), so q̇ = J_b⁺ V ṡ, weighted as the IK weighs its errors (position-only: the tip point's
+// velocity in the base's axes, R J_v q̇ = R v_b), least-norm on a redundant arm and least-squares
+// on one with fewer than six joints.
+class ScrewLineRate {
+ public:
+  ScrewLineRate(const RobotModel& model, const IkOptions& options, const Vector6d& V, double duration)
+      : model_(model), data_(model), options_(options), V_(V), duration_(duration), A_(6, model.dof()) {}
+
+  const Eigen::VectorXd& operator()(const Eigen::VectorXd& q, double t) {
+    const double s_dot = quintic_rate(std::clamp(t / duration_, 0.0, 1.0)) / duration_;
+    const Matrix6Xd& J = body_jacobian(model_, data_, q);
+    Vector6d b;
+    if (options_.position_only) {
+      const Matrix3d W_R = options_.weights.tail<3>().asDiagonal() * data_.T_sb.linear();
+      A_.topRows<3>().setZero();
+      A_.bottomRows<3>().noalias() = W_R * J.bottomRows<3>();
+      b << Vector3d::Zero(), W_R * V_.tail<3>() * s_dot;
+    } else {
+      A_.noalias() = options_.weights.asDiagonal() * J;
+      b = options_.weights.cwiseProduct(V_) * s_dot;
+    }
+    qd_ = A_.completeOrthogonalDecomposition().solve(b);
+    return qd_;
+  }
+
+ private:
+  const RobotModel& model_;
+  Data data_;
+  const IkOptions& options_;
+  const Vector6d V_;
+  const double duration_;
+  Matrix6Xd A_;
+  Eigen::VectorXd qd_;
+};
+
+// rad (m): how far the IK may move a joint from where the joint rate carried it (the rate's own
+// error is below 1e-8 rad a waypoint, the IK's corrections within its tolerance).
+constexpr double kLeftThePath = 1e-3;
 
 void fail(JointPath& path, const char* format, double a, double b, double c = 0.0) {
   path.ok = false;
   std::snprintf(path.reason, sizeof(path.reason), format, a, b, c);
 }
 
+// The joint path's velocities and accelerations at the waypoints: the rate there, and its
+// derivative along the motion, d/dt q̇(q(t), t), by a central difference over a step short enough
+// to be exact to rounding; at rest at both ends, where the quintic timing has ṡ = s̈ = 0.
+void path_derivatives(ScrewLineRate& rate, JointPath& path) {
+  const int last = path.count - 1;
+  constexpr double kStep = 1e-6;  // s
+  path.qd.col(0).setZero();
+  path.qdd.col(0).setZero();
+  path.qd.col(last).setZero();
+  path.qdd.col(last).setZero();
+  for (int k = 1; k < last; ++k) {
+    const double t = k * path.dt;
+    path.qd.col(k) = rate(path.q.col(k), t);
+    const Eigen::VectorXd ahead = rate(path.q.col(k) + kStep * path.qd.col(k), t + kStep);
+    path.qdd.col(k) = (ahead - rate(path.q.col(k) - kStep * path.qd.col(k), t - kStep)) / (2.0 * kStep);
+  }
+}
+
+// Whether the quintics the sampler will follow keep every limit; if not, fails the path naming
+// the first joint and quantity over, and the duration that would do. Stretching the times by c
+// leaves the positions and divides the velocities, accelerations and jerks by c, c², c³, so the
+// least c is the largest of the velocity ratio and the square and cube roots of the others.
+bool within_limits(const RobotModel& model, const MotionLimits& limits, double duration, JointPath& path) {
+  const int n = model.dof();
+  const double h = path.dt;
+  double stretch = 1.0;
+  LimitExcess first;
+  int first_waypoint = 0;
+  double c[6];
+  for (int k = 0; k + 1 < path.count; ++k) {
+    for (int i = 0; i < n; ++i) {
+      quintic_hermite(path.q(i, k), path.qd(i, k), path.qdd(i, k), path.q(i, k + 1), path.qd(i, k + 1),
+                      path.qdd(i, k + 1), h, c);
+      const LimitExcess e = quintic_excess(c, h, limits, i);
+      if (!e) continue;
+      if (e.quantity == LimitExcess::kPosition) {
+        std::snprintf(path.reason, sizeof(path.reason),
+                      "joint %s would reach %.4g on the way, outside [%.4g, %.4g] (its limits less the margin), "
+                      "%.0f%% of the way",
+                      model.joint(i).name.c_str(), e.value, limits.lower(i), limits.upper(i),
+                      100.0 * k / (path.count - 1));
+        return false;
+      }
+      const double v[5] = {c[1], 2 * c[2], 3 * c[3], 4 * c[4], 5 * c[5]};
+      const double a[4] = {2 * c[2], 6 * c[3], 12 * c[4], 20 * c[5]};
+      const double j[3] = {6 * c[3], 24 * c[4], 60 * c[5]};
+      stretch = std::max({stretch, max_abs_polynomial(v, 4, h) / limits.velocity(i),
+                          std::sqrt(max_abs_polynomial(a, 3, h) / limits.acceleration(i)),
+                          std::cbrt(max_abs_polynomial(j, 2, h) / limits.jerk(i))});
+      if (!first) {
+        first = e;
+        first_waypoint = k;
+      }
+    }
+  }
+  if (!first) return true;
+  if (!std::isfinite(stretch)) {  // the rate is unbounded: J_b lost rank on the way
+    std::snprintf(path.reason, sizeof(path.reason),
+                  "joint %s: unbounded %s %.0f%% of the way: the line passes a singularity",
+                  model.joint(first.joint).name.c_str(), to_string(first.quantity),
+                  100.0 * first_waypoint / (path.count - 1));
+    return false;
+  }
+  std::snprintf(path.reason, sizeof(path.reason),
+                "joint %s: its %s would reach %.4g %s (limit %.4g) %.0f%% of the way; %.4g s would do",
+                model.joint(first.joint).name.c_str(), to_string(first.quantity), first.value,
+                unit_of(first.quantity), first.limit, 100.0 * first_waypoint / (path.count - 1),
+                duration * stretch * (1.0 + 1e-6));
+  return false;
+}
+
 }  // namespace
 
-void plan_cartesian_path(IkSolver& solver, const CartesianRequest& request, JointPath& path) {
+void plan_cartesian_path(IkSolver& solver, const MotionLimits& limits, const CartesianRequest& request,
+                         JointPath& path) {
   const RobotModel& model = solver.model();
   const int n = model.dof();
   path.request_id = request.id;
@@ -44,10 +159,26 @@ void plan_cartesian_path(IkSolver& solver, const CartesianRequest& request, Join
   solver.set_options(options);
   path.q.col(0) = request.q_start;
   Eigen::VectorXd previous = request.q_start;
+  ScrewLineRate rate(model, saved, V, std::max(request.duration, 1e-9));
+  const double h = path.dt;
   for (int k = 1; k < path.count; ++k) {
     const double s = quintic(static_cast<double>(k) / (path.count - 1));
     const Transform T = k + 1 == path.count ? request.T_goal : T_start * exp6(V * s);
-    IkResult result = solver.solve(T, previous);
+    // The seed is the last waypoint carried along the joint rate (classic Runge-Kutta), which
+    // lands within the IK's tolerance already: the IK then confirms it (or corrects a drift)
+    // instead of choosing, so the waypoints lie on one smooth curve whose velocity is the rate
+    // — what the sampler's quintics need. IK's own answers scatter within its tolerance, and a
+    // redundant arm's in its null space, which differences of positions turn into jerk.
+    Eigen::VectorXd seed = previous;
+    if (!step) {
+      const double t = (k - 1) * h;
+      const Eigen::VectorXd k1 = rate(previous, t);
+      const Eigen::VectorXd k2 = rate(previous + 0.5 * h * k1, t + 0.5 * h);
+      const Eigen::VectorXd k3 = rate(previous + 0.5 * h * k2, t + 0.5 * h);
+      const Eigen::VectorXd k4 = rate(previous + h * k3, t + h);
+      seed += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+    }
+    IkResult result = solver.solve(T, seed);
     path.ik_iterations += result.iterations;
     path.ik_residual = std::max(path.ik_residual, result.pos_err);
     path.ik_rot_residual = std::max(path.ik_rot_residual, result.rot_err);
@@ -62,20 +193,21 @@ void plan_cartesian_path(IkSolver& solver, const CartesianRequest& request, Join
       if (model.joint(i).type == JointType::Continuous) {
         result.q(i) = previous(i) + wrap_angle(result.q(i) - previous(i));
       }
-      if (step) continue;
-      const double speed = std::abs(result.q(i) - previous(i)) / path.dt;
-      // The path's own speed peaks at 1.875× its average; a jump well past the joint's limit is
-      // an IK branch flip or a singularity, not motion the arm can make.
-      if (speed > model.joint(i).limits.velocity) {
+      // The IK answers where the path leads to within its tolerance; a joint that lands far
+      // from there has left the path: another IK branch, or a singularity the rate could not
+      // carry it through.
+      if (!step && std::abs(result.q(i) - seed(i)) > kLeftThePath) {
         solver.set_options(saved);
-        return fail(path, "joint %.0f would need %.3g rad/s (limit %.3g) on the way: a singularity, or allow more time",
-                    i + 1.0, speed, model.joint(i).limits.velocity);
+        return fail(path, "the tip cannot follow the straight line %.0f%% of the way: joint %.0f jumps %.3g rad off the "
+                    "path (a singularity or another IK branch)", 100.0 * s, i + 1.0, result.q(i) - seed(i));
       }
     }
     path.q.col(k) = result.q;
     previous = result.q;
   }
   solver.set_options(saved);
+  if (!step) path_derivatives(rate, path);
+  if (!step && !within_limits(model, limits, request.duration, path)) return;
   path.ok = true;
 }
 
@@ -88,20 +220,12 @@ void JointPathSampler::sample(double t, Reference& out) const {
   const double h = path_.dt;
   const double x = std::clamp(t / h, 0.0, static_cast<double>(last));
   const int k = std::min(static_cast<int>(x), last - 1);
-  const double u = x - k;
-  // Waypoint velocities by central differences; zero at both ends, where the path is at rest.
-  const auto velocity = [&](int j, Eigen::Index i) {
-    if (j == 0 || j == last) return 0.0;
-    return (path_.q(i, j + 1) - path_.q(i, j - 1)) / (2.0 * h);
-  };
-  const double u2 = u * u, u3 = u2 * u;
+  const double local = std::max(t, 0.0) - k * h;
+  double c[6];
   for (Eigen::Index i = 0; i < path_.q.rows(); ++i) {
-    const double p0 = path_.q(i, k), p1 = path_.q(i, k + 1);
-    const double m0 = velocity(k, i) * h, m1 = velocity(k + 1, i) * h;
-    // Cubic Hermite basis and its derivatives in u; d/dt = (1/h) d/du.
-    out.q(i) = (2 * u3 - 3 * u2 + 1) * p0 + (u3 - 2 * u2 + u) * m0 + (-2 * u3 + 3 * u2) * p1 + (u3 - u2) * m1;
-    out.qd(i) = ((6 * u2 - 6 * u) * p0 + (3 * u2 - 4 * u + 1) * m0 + (-6 * u2 + 6 * u) * p1 + (3 * u2 - 2 * u) * m1) / h;
-    out.qdd(i) = ((12 * u - 6) * p0 + (6 * u - 4) * m0 + (-12 * u + 6) * p1 + (6 * u - 2) * m1) / (h * h);
+    quintic_hermite(path_.q(i, k), path_.qd(i, k), path_.qdd(i, k), path_.q(i, k + 1), path_.qd(i, k + 1),
+                    path_.qdd(i, k + 1), h, c);
+    sample_quintic(c, local, out.q(i), out.qd(i), out.qdd(i));
   }
 }
 

@@ -57,8 +57,8 @@ Node::Loop::Loop(const RobotModel& model, const Config& control, double payload_
       request(model.dof()),
       path(model.dof()) {}
 
-Node::Planner::Planner(const RobotModel& model)
-    : solver(model), request(model.dof()), path(model.dof()) {}
+Node::Planner::Planner(const RobotModel& model, const LimitConfig& config)
+    : solver(model), limits(model, config), request(model.dof()), path(model.dof()) {}
 
 Node::Reporter::Reporter(const RobotModel& model) : data(model), last(model.dof()) {}
 
@@ -97,7 +97,7 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
       payload_receiver_(payloads_, planner_bell_),
       command_watch_(sent_commands_),
       loop_(models_.front().model, options.control, models_.front().payload_mass),
-      planner_(model),
+      planner_(model, options.control.limits),
       reporter_(model) {
   subscriptions_.push_back(buses.receive.subscribe(channels_.state, [this](const uint8_t* data, size_t size) {
     if (const std::string why = state_receiver_.receive(data, size, arrival_ns(buses_.receive)); !why.empty()) {
@@ -318,7 +318,7 @@ bool Node::plan() {
   }
   if (!planner_.path_waiting) {
     if (!requests_.read(planner_.request)) return false;
-    plan_cartesian_path(planner_.solver, planner_.request, planner_.path);
+    plan_cartesian_path(planner_.solver, planner_.limits, planner_.request, planner_.path);
     planner_.path_waiting = true;
   }
   planner_.path_waiting = !paths_.push(planner_.path);

@@ -219,9 +219,10 @@ class Node {
 
   // The IK worker's: plan().
   struct Planner {
-    explicit Planner(const RobotModel& model);
+    Planner(const RobotModel& model, const LimitConfig& config);
     Payload payload;
     IkSolver solver;
+    MotionLimits limits;  // a payload changes no limit
     CartesianRequest request;
     JointPath path;
     bool path_waiting = false;  // planned, not yet taken by the loop

@@ -362,7 +362,7 @@ TEST_F(ControllerTest, CartesianTargetsArePlannedOffTheTickThenFollowed) {
   EXPECT_EQ(controller.mode(), Mode::kHolding) << "holding while the worker plans";
   IkSolver solver(model_);
   JointPath path(7);
-  plan_cartesian_path(solver, request, path);
+  plan_cartesian_path(solver, controller.limits(), request, path);
   ASSERT_TRUE(path.ok) << path.reason;
   ASSERT_TRUE(controller.follow(path, 10 * kMs));
   EXPECT_EQ(controller.mode(), Mode::kRunning);
@@ -376,7 +376,7 @@ TEST_F(ControllerTest, CartesianTargetsArePlannedOffTheTickThenFollowed) {
   // A path planned for a request that a newer target superseded is dropped.
   ASSERT_TRUE(controller.set_target(target, 0));
   ASSERT_TRUE(controller.take_request(request));
-  plan_cartesian_path(solver, request, path);
+  plan_cartesian_path(solver, controller.limits(), request, path);
   ASSERT_TRUE(controller.set_target(joint_target(bent_pose(), 2.0), 1200 * kMs));
   EXPECT_FALSE(controller.follow(path, 1300 * kMs));
 }
@@ -393,7 +393,7 @@ TEST(CartesianPath, FollowsTheScrewLineAndReachesTheGoal) {
   request.T_goal = forward_kinematics(model, data, q_goal);
   request.duration = 2.0;
   JointPath path(7);
-  plan_cartesian_path(solver, request, path);
+  plan_cartesian_path(solver, MotionLimits(model, {}), request, path);
   ASSERT_TRUE(path.ok) << path.reason;
   EXPECT_EQ(path.request_id, 1);
   EXPECT_EQ(path.count, 201);
@@ -428,10 +428,105 @@ TEST(CartesianPath, FollowsTheScrewLineAndReachesTheGoal) {
 
   // Far out of reach: the line leaves the workspace, through a stretched-out singularity first.
   request.T_goal.translation() << 10.0, 0.0, 0.5;
-  plan_cartesian_path(solver, request, path);
+  plan_cartesian_path(solver, MotionLimits(model, {}), request, path);
   EXPECT_FALSE(path.ok);
   const std::string why = path.reason;
   EXPECT_TRUE(why.find("cannot follow") != std::string::npos || why.find("singularity") != std::string::npos) << why;
+}
+
+// The tip's body twist on the screw line T_0 exp([V] s(t)) is V ṡ, and its rate V s̈: what the
+// joint path's velocity and acceleration must give through J_b, whatever the arm's redundancy.
+TEST(CartesianPath, TheSampledJointMotionMovesTheTipAtTheScrewLinesTwist) {
+  const RobotModel& model = panda();
+  Data data(model);
+  IkSolver solver(model);
+  const MotionLimits limits(model, {});
+  CartesianRequest request(7);
+  request.id = 3;
+  request.q_start = bent_pose();
+  VectorXd q_goal(7);
+  q_goal << -0.3, 0.2, 0.3, -1.9, -0.2, 1.6, 0.5;
+  request.T_goal = forward_kinematics(model, data, q_goal);
+  request.duration = 1.5;
+  JointPath path(7);
+  plan_cartesian_path(solver, limits, request, path);
+  ASSERT_TRUE(path.ok) << path.reason;
+  const Transform T0 = forward_kinematics(model, data, request.q_start);
+  const Vector6d V = log6(inverse(T0) * request.T_goal);
+  const double T = request.duration;
+  JointPathSampler sampler(7);
+  sampler.start(path);
+  Reference r(7), before(7), after(7);
+  const auto body_twist = [&](const Reference& at) -> Vector6d { return body_jacobian(model, data, at.q) * at.qd; };
+  const double peak_twist = 1.875 / T * V.norm(), peak_rate = 5.7735 / (T * T) * V.norm();
+  const double h = 1e-5;
+  for (double t = 0.013; t < T; t += 0.0517) {
+    const double tau = t / T;
+    const double s = tau * tau * tau * (10 - 15 * tau + 6 * tau * tau);
+    const double s_dot = 30 * tau * tau * (1 - tau) * (1 - tau) / T;
+    const double s_ddot = 60 * tau * (1 - tau) * (1 - 2 * tau) / (T * T);
+    sampler.sample(t, r);
+    const Transform expected = T0 * exp6(V * s);
+    const Transform at = forward_kinematics(model, data, r.q);
+    EXPECT_LT((at.translation() - expected.translation()).norm(), 2e-6) << t;
+    EXPECT_LT(log3(at.linear().transpose() * expected.linear()).norm(), 2e-6) << t;
+    EXPECT_LT((body_twist(r) - V * s_dot).norm(), 1e-4 * peak_twist) << t;
+    sampler.sample(t - h, before);
+    sampler.sample(t + h, after);
+    const Vector6d rate = (body_twist(after) - body_twist(before)) / (2 * h);
+    EXPECT_LT((rate - V * s_ddot).norm(), 1e-3 * peak_rate) << t;
+  }
+}
+
+TEST(CartesianPath, EveryLimitHoldsAlongThePathTickByTick) {
+  const RobotModel& model = panda();
+  Data data(model);
+  IkSolver solver(model);
+  const MotionLimits limits(model, {});
+  CartesianRequest request(7);
+  request.id = 4;
+  request.q_start = bent_pose();
+  VectorXd q_goal(7);
+  q_goal << 0.6, 0.1, -0.5, -2.0, 0.4, 1.4, -0.2;
+  request.T_goal = forward_kinematics(model, data, q_goal);
+  request.duration = 1.2;
+  JointPath path(7);
+  plan_cartesian_path(solver, limits, request, path);
+  ASSERT_TRUE(path.ok) << path.reason;
+  JointPathSampler sampler(7);
+  sampler.start(path);
+  Reference r(7);
+  const double dt = 1e-4;
+  VectorXd qdd_before = VectorXd::Zero(7);
+  double worst_jerk = 0.0;  // of its limit
+  for (int k = 0; k * dt <= request.duration + 0.01; ++k) {
+    sampler.sample(k * dt, r);
+    for (int i = 0; i < 7; ++i) {
+      ASSERT_GE(r.q(i), limits.lower(i)) << i;
+      ASSERT_LE(r.q(i), limits.upper(i)) << i;
+      ASSERT_LE(std::abs(r.qd(i)), limits.velocity(i)) << i << " at " << k * dt;
+      ASSERT_LE(std::abs(r.qdd(i)), limits.acceleration(i)) << i << " at " << k * dt;
+      if (k > 0) worst_jerk = std::max(worst_jerk, std::abs(r.qdd(i) - qdd_before(i)) / dt / limits.jerk(i));
+      qdd_before(i) = r.qdd(i);
+    }
+  }
+  EXPECT_LE(worst_jerk, 1.0 + 1e-3);
+  // The same move in 0.4 s is 27× the jerk: refused, naming the least duration that does, which
+  // then plans (the waypoints move with the duration, so to their rounding: 0.98 of it does not).
+  request.duration = 0.4;
+  plan_cartesian_path(solver, limits, request, path);
+  ASSERT_FALSE(path.ok);
+  const std::string why = path.reason;
+  const size_t at = why.find("; ");
+  ASSERT_NE(why.find(" s would do"), std::string::npos) << why;
+  const double enough = std::stod(why.substr(at + 2));
+  EXPECT_GT(enough, 0.4) << why;
+  request.duration = enough;
+  plan_cartesian_path(solver, limits, request, path);
+  EXPECT_TRUE(path.ok) << path.reason;
+  request.duration = 0.98 * enough;
+  plan_cartesian_path(solver, limits, request, path);
+  EXPECT_FALSE(path.ok) << "at 0.98 of " << enough << " s";
 }
 
 TEST(CartesianPath, AContinuousJointCrossingPiMovesOnInsteadOfJumpingBack) {
@@ -450,7 +545,7 @@ TEST(CartesianPath, AContinuousJointCrossingPiMovesOnInsteadOfJumpingBack) {
   request.T_goal = forward_kinematics(model, data, Eigen::Vector3d(0.3, 0.2, 3.5));
   request.duration = 1.0;
   JointPath path(3);
-  plan_cartesian_path(solver, request, path);
+  plan_cartesian_path(solver, MotionLimits(model, {}), request, path);
   ASSERT_TRUE(path.ok) << path.reason;
   for (int k = 1; k < path.count; ++k) {
     EXPECT_LT(std::abs(path.q(2, k) - path.q(2, k - 1)), 0.02) << "waypoint " << k;
