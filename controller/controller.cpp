@@ -616,15 +616,9 @@ bool Controller::set_setpoint(const Setpoint& setpoint, int64_t now_ns) {
   if (setpoint.q.size() != n || setpoint.qd.size() != n || !setpoint.q.allFinite() || !setpoint.qd.allFinite()) {
     return refuse("setpoint: of the wrong size or with non-finite values");
   }
-  if (driven_by(Drive::kStream) && setpoint.utime <= setpoint_utime_) {
-    ++dropped_setpoints_;  // late or duplicated: the stream has moved past it
-    return false;
-  }
   const bool first = !driven_by(Drive::kStream);
-  if (first) {
-    end_trajectory(TrajectoryProgress::kPreempted, "a stream");
-    pending_request_ = -1;
-    start_drive(Drive::kStream, now_ns);
+  if (!enter_stream(Drive::kStream, setpoint.utime, setpoint_utime_, dropped_setpoints_, "a stream", now_ns)) {
+    return false;
   }
   const double age = take_setpoint(setpoint.utime, now_ns, first);
   for (int i = 0; i < n; ++i) {
@@ -633,6 +627,19 @@ bool Controller::set_setpoint(const Setpoint& setpoint, int64_t now_ns) {
                                                     limits_.upper(i), otg_limits_.velocity(i),
                                                     otg_limits_.acceleration(i), otg_limits_.jerk(i));
     otg_target_.a(i) = 0.0;
+  }
+  return true;
+}
+
+bool Controller::enter_stream(Drive drive, int64_t utime, int64_t last_utime, int64_t& dropped, const char* what,
+                              int64_t now_ns) {
+  if (!driven_by(drive)) {
+    end_trajectory(TrajectoryProgress::kPreempted, what);
+    pending_request_ = -1;  // a Cartesian plan in the works is dropped
+    start_drive(drive, now_ns);
+  } else if (utime <= last_utime) {
+    ++dropped;  // late or duplicated: the stream has moved past it
+    return false;
   }
   return true;
 }
@@ -703,15 +710,10 @@ bool Controller::set_tip_setpoint(const TipSetpoint& setpoint, int64_t now_ns) {
   }
   const double norm = setpoint.quaternion.norm();
   if (std::abs(norm - 1.0) > 1e-3) return refuse("tip setpoint: a quaternion of norm %g, not a unit one", norm);
-  if (driven_by(Drive::kTipStream) && setpoint.utime <= setpoint_utime_) {
-    ++dropped_setpoints_;  // late or duplicated: the stream has moved past it
-    return false;
-  }
   const bool first = !driven_by(Drive::kTipStream);
-  if (first) {
-    end_trajectory(TrajectoryProgress::kPreempted, "a Cartesian stream");
-    pending_request_ = -1;
-    start_drive(Drive::kTipStream, now_ns);
+  if (!enter_stream(Drive::kTipStream, setpoint.utime, setpoint_utime_, dropped_setpoints_, "a Cartesian stream",
+                    now_ns)) {
+    return false;
   }
   const double age = take_setpoint(setpoint.utime, now_ns, first);
   const Eigen::Vector4d& w = setpoint.quaternion;
@@ -731,15 +733,7 @@ bool Controller::set_jog(const Jog& jog, int64_t now_ns) {
   if (jog.joint_velocity.size() != model_->dof() || !jog.joint_velocity.allFinite() || !jog.twist.allFinite()) {
     return refuse("jog: of the wrong size or with non-finite values");
   }
-  if (jogging() && jog.utime <= jog_utime_) {
-    ++dropped_jogs_;  // late or duplicated: a newer command is in force
-    return false;
-  }
-  if (!jogging()) {
-    end_trajectory(TrajectoryProgress::kPreempted, "a jog");
-    pending_request_ = -1;
-    start_drive(Drive::kJog, now_ns);
-  }
+  if (!enter_stream(Drive::kJog, jog.utime, jog_utime_, dropped_jogs_, "a jog", now_ns)) return false;
   jog_.utime = jog.utime;
   jog_.kind = jog.kind;
   jog_.frame = jog.frame;
@@ -909,7 +903,7 @@ bool Controller::tick(int64_t now_ns, const JointState* state) {
     }
   }
   q_guarded_ = q_;
-  cap_jerk_to_torque_rate();
+  if (mode_ == Mode::kRunning && follows_generator(drive_)) cap_jerk_to_torque_rate();
   update_reference(now_ns);
   error_ = ref_.q - q_;
   if (progress_.outcome == TrajectoryProgress::kActive) judge_trajectory(now_ns);

@@ -258,9 +258,17 @@ class Controller {
 
  private:
   /// What drives the reference while RUNNING: a quintic to a goal, a planned Cartesian path, a
-  /// waypoint trajectory, a stream of setpoints, a jog, or the stop after one of them.
+  /// waypoint trajectory, a stream of setpoints, a jog, or the stop after one of them. From kStream
+  /// on, the online generator makes the reference (follows_generator).
   enum class Drive : int8_t { kGoal, kPath, kWaypoints, kStream, kTipStream, kJog, kStop };
   bool driven_by(Drive drive) const { return mode_ == Mode::kRunning && drive_ == drive; }
+  /// The drives whose reference the online generator makes, tick by tick (its jerk capped first).
+  static bool follows_generator(Drive drive) { return drive >= Drive::kStream; }
+  /// Takes a stream's message (setpoint, tip setpoint, jog: `what`) stamped `utime`: the first of
+  /// a stream ends what drove the reference and starts `drive`; a later one older than the one in
+  /// force (`last_utime`) is dropped and counted in `dropped`, and false returned.
+  bool enter_stream(Drive drive, int64_t utime, int64_t last_utime, int64_t& dropped, const char* what,
+                    int64_t now_ns);
   /// Refuses (counted, with why) a stream's setpoint or a jog (`what`) that the controller's state
   /// does not take, and returns true; false when it may go on.
   bool refuse_stream(const char* what);
