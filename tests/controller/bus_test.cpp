@@ -67,16 +67,17 @@ TEST(DirectBus, HearsWhatLcmPublishesStampedByTheKernel) {
   auto subscription = receiver.subscribe("ARM_STATE", recorder(heard, receiver));
   const std::vector<uint8_t> a = bytes(196, 1), b = bytes(1, 9), c = bytes(60000, 3);
   const int64_t before = wall_us();
-  ASSERT_TRUE(sender.publish("ARM_STATE", a));
-  ASSERT_TRUE(sender.publish("ARM_STATE", b));
-  ASSERT_TRUE(sender.publish("ARM_STATE", c));  // large, still one datagram
-  // Read 20 ms after the socket is readable, so the kernel's stamps and the handling times lie
-  // clearly apart however late a loaded machine queues the datagrams after the sends.
-  pollfd readable{receiver.fileno(), POLLIN, 0};
-  ASSERT_EQ(::poll(&readable, 1, 5000), 1);
-  const int64_t queued = wall_us();
-  while (wall_us() < queued + 20'000) std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  handle_until(receiver, heard, 3);
+  // One datagram at a time, read 20 ms after the socket is readable, so its kernel stamp and its
+  // handling time lie clearly apart however late a loaded machine queues it after the send (all
+  // three sent at once, the last could be queued well after the first made the socket readable).
+  for (const std::vector<uint8_t>* message : {&a, &b, &c}) {  // c large, still one datagram
+    ASSERT_TRUE(sender.publish("ARM_STATE", *message));
+    pollfd readable{receiver.fileno(), POLLIN, 0};
+    ASSERT_EQ(::poll(&readable, 1, 5000), 1);
+    const int64_t queued = wall_us();
+    while (wall_us() < queued + 20'000) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    handle_until(receiver, heard, heard.messages.size() + 1);
+  }
   ASSERT_EQ(heard.messages.size(), 3u);
   EXPECT_EQ(heard.messages[0], a);
   EXPECT_EQ(heard.messages[1], b);
