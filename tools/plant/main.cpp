@@ -251,7 +251,8 @@ void add_options(CLI::App& app, Options& o) {
       ->type_name("KG[,CX,CY,CZ]");
   app.add_option("--armature", o.armature,
                  "Each joint's reflected rotor inertia, kg*m^2 (kg for a prismatic joint), one per joint: replaces "
-                 "the URDF's (drake:rotor_inertia * drake:gear_ratio^2, 0 where it gives none) in the simulated arm")
+                 "the URDF's (drake:rotor_inertia * drake:gear_ratio^2, 0 where it gives none). Part of the nominal "
+                 "model, like --damping: the truth does not count it as external; give the controller the same")
       ->type_name("A,A,...");
   app.add_option("--friction", o.friction,
                  "Hidden joint friction on top of --damping: tau_f = -b*qd - fc*tanh(qd/v_s), one pair for every "
