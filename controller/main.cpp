@@ -82,6 +82,7 @@ struct Flags {
   chasles::controller::ContactConfig contact;
   double retract_mm = 10.0;
   std::string payload;
+  std::string armature;
   // Motion limits beyond the URDF's: per-joint lists as text until the joint count is known.
   std::string acceleration_limit, jerk_limit;
   double stream_timeout_ms = 100.0;
@@ -246,6 +247,9 @@ int main(int argc, char** argv) {
                  "a known load at the tip, KG[,CX,CY,CZ] (kg; its centre in the tip frame, m): the model carries it, "
                  "so gravity, dynamics and the contact estimate account for it; a payload_t on PREFIX PAYLOAD "
                  "(chasles payload) replaces it at run time");
+  app.add_option("--armature", flags.armature,
+                 "each joint's reflected rotor inertia, A1,A2,... one per joint (kg·m², kg for a prismatic joint): "
+                 "replaces the URDF's (Drake's drake:rotor_inertia × drake:gear_ratio²; 0 where it gives none)");
   app.add_option("--acceleration-limit", flags.acceleration_limit,
                  "joint acceleration limits, rad/s²: one number or one per joint (default: the URDF velocity limit / "
                  "0.4 s; the Panda's own: 15,7.5,10,12.5,15,20,20)");
@@ -309,7 +313,11 @@ int main(int argc, char** argv) {
     urdf.tip_link = flags.tip;
     // The daemon is given the model as loaded and the payload apart, so that a payload_t received
     // at run time replaces the payload rather than adds to it.
-    const chasles::RobotModel model = chasles::load_urdf_file(flags.robot, urdf);
+    const chasles::RobotModel loaded = chasles::load_urdf_file(flags.robot, urdf);
+    const chasles::RobotModel model =
+        flags.armature.empty()
+            ? loaded
+            : chasles::with_armature(loaded, chasles::parse_armature(flags.armature, loaded.dof(), "--armature"));
     if (!flags.payload.empty()) options.payload = chasles::parse_payload(flags.payload, "--payload");
     const chasles::RobotModel carried = options.payload ? chasles::with_payload(model, *options.payload) : model;
     for (const std::string& warning : model.warnings()) {

@@ -57,4 +57,21 @@ inline Payload parse_payload(const std::string& text, const std::string& what) {
   return payload;
 }
 
+/// "A1,A2,...": the armature of every joint of a `joints`-joint arm, in chain order, kg·m² (kg for a
+/// prismatic joint), each ≥ 0 (--armature of chasles_plant and chasles_controller, which hand it to
+/// with_armature). Throws ArgumentError naming `what`.
+inline Eigen::VectorXd parse_armature(const std::string& text, int joints, const std::string& what) {
+  const std::vector<double> v = parse_number_list(text, what);
+  if (static_cast<int>(v.size()) != joints) {
+    throw ArgumentError(what + " has " + std::to_string(v.size()) + " values; the arm has " + std::to_string(joints) +
+                        " joints: give one per joint, root to tip, kg*m^2 (kg for a prismatic joint)");
+  }
+  Eigen::VectorXd armature(joints);
+  for (int i = 0; i < joints; ++i) {
+    armature[i] = v[static_cast<size_t>(i)];
+    if (armature[i] < 0.0) throw ArgumentError(what + ": entry " + std::to_string(i) + " is negative; armature is >= 0");
+  }
+  return armature;
+}
+
 }  // namespace chasles

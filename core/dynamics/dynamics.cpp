@@ -91,6 +91,8 @@ CHASLES_FLATTEN void rnea(const RobotModel& model, Data& data, const double* qd,
     }
     data.F[body(i)] = F;
     tau(i) = axis_dot(model, i, F);
+    // The rotor's reflected inertia, on the joint alone (M's diagonal; see mass_matrix_from_composites).
+    if constexpr (kAcceleration) tau(i) += model.armature()[i] * qdd[i];
     if (i > 0) F = wrench_to_parent(data.T_local[body(i)], F);  // the base's is unused
   }
 }
@@ -156,13 +158,14 @@ void composite_inertias(const RobotModel& model, Data& data) {
 }
 
 // M from the composite inertias in data.composite: column i is the wrench that accelerates joint i
-// alone, carried down toward the base.
+// alone, carried down toward the base. The one place M is assembled, so the armature is added here
+// (to the diagonal: a rotor turns with its own joint only) and no caller can leave it out.
 CHASLES_FLATTEN void mass_matrix_from_composites(const RobotModel& model, Data& data) {
   for (int i = 0; i < model.dof(); ++i) {
     Vector6d F = visit_axis(model, i, [&](auto axis) {
       return inertia_times_axis(data.composite[body(i)], model.joint(i), axis);
     });
-    data.M(i, i) = axis_dot(model, i, F);
+    data.M(i, i) = axis_dot(model, i, F) + model.armature()[i];
     for (int j = i; j > 0; --j) {
       F = adjoint_inverse_transpose_times(data.T_local[body(j)], F);
       data.M(j - 1, i) = data.M(i, j - 1) = axis_dot(model, j - 1, F);
@@ -240,7 +243,7 @@ CHASLES_FLATTEN const Eigen::VectorXd& momentum_terms(const RobotModel& model, D
     inertia_times_both(model.body_inertia(i), V, data.Vd[body(i)], GV, GVd);
     H += GV;
     W += GVd;
-    data.p(i) = axis_dot(model, i, H);
+    data.p(i) = axis_dot(model, i, H) + model.armature()[i] * qd(i);  // (M + diag(armature)) q̇
     data.ct_qd(i) = axis_dot(model, i, ad_transpose_times(V, H));
     data.g(i) = axis_dot(model, i, W);
     H = wrench_to_parent(data.T_local[body(i)], H);
@@ -278,7 +281,7 @@ CHASLES_FLATTEN const Data& compute_tick_terms(const RobotModel& model, Data& da
     F += GVd - ad_transpose_times(V, GV);
     H += GV;
     data.bias(i) = axis_dot(model, i, F);
-    data.p(i) = axis_dot(model, i, H);
+    data.p(i) = axis_dot(model, i, H) + model.armature()[i] * qd(i);  // (M + diag(armature)) q̇
     data.ct_qd(i) = axis_dot(model, i, ad_transpose_times(V, H));
     Vector6d a_gravity;
     a_gravity << Vector3d::Zero(), -(data.T_body[body(i)].linear().transpose() * model.gravity());
@@ -357,7 +360,7 @@ CHASLES_FLATTEN double kinetic_energy(const RobotModel& model, Data& data, const
     Vector6d& V = data.V[body(i)];
     V = adjoint_inverse_times(data.T_local[body(i)], data.V[body(i) - 1]) +
         visit_axis(model, i, [&](auto axis) { return axis.times(qd(i)); });
-    energy += 0.5 * V.dot(model.body_inertia(i) * V);
+    energy += 0.5 * (V.dot(model.body_inertia(i) * V) + model.armature()[i] * qd(i) * qd(i));
   }
   return energy;
 }

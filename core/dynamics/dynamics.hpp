@@ -4,6 +4,10 @@
 //
 // The equations of motion are τ = M(q) q̈ + c(q, q̇) + g(q) + J_bᵀ(q) F_tip, where F_tip is the
 // wrench the tip applies to the environment, in the tip frame, (m, f) order (MR eq. 8.1, 8.54).
+//
+// M(q) = M_rigid(q) + diag(model.armature()): each joint's reflected rotor inertia (MR §8.9.2) is on
+// the diagonal of every M these functions compute, and τ = ID(q, q̇, q̈) includes armature ∘ q̈, as
+// Pinocchio's crba and rnea with model.armature. A constant diagonal leaves c, g and Cᵀq̇ alone.
 #pragma once
 
 #include <string>
@@ -58,7 +62,7 @@ std::string mass_matrix_defect(const RobotModel& model, Data& data, const JointV
 /// it starts (a chain whose last bodies are massless is singular everywhere).
 std::string mass_matrix_defect(const RobotModel& model);
 
-/// ½ q̇ᵀ M(q) q̇, summed body by body as ½ Σ V_iᵀ G_i V_i.
+/// ½ q̇ᵀ M(q) q̇, summed body by body as ½ Σ V_iᵀ G_i V_i, plus the rotors' ½ Σ armature_i q̇_i².
 double kinetic_energy(const RobotModel& model, Data& data, const JointVector& q, const JointVector& qd);
 
 /// −Σ m_i gᵀ c_i: the potential energy of gravity, zero when every centre of mass is at the base

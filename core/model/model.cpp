@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "chasles/core/lie/se3.hpp"
 #include "chasles/core/lie/so3.hpp"
@@ -37,6 +38,12 @@ bool is_rotation(const Matrix3d& R) {
          std::abs(R.determinant() - 1.0) < tolerance;
 }
 
+std::string number(double x) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%g", x);
+  return text;
+}
+
 void check(bool ok, const ChainDescription& d, const std::string& what) {
   if (!ok) throw ModelError(d.source + ": " + what);
 }
@@ -45,6 +52,9 @@ void validate(const ChainDescription& d) {
   check(!d.joints.empty(), d, "no movable joint between '" + d.base_link + "' and '" + d.tip_link + "'");
   check(d.inertia.size() == d.joints.size(), d, "one spatial inertia per body is required");
   check(d.gravity.allFinite(), d, "gravity is not finite");
+  check(d.armature.empty() || d.armature.size() == d.joints.size(), d,
+        "armature has " + std::to_string(d.armature.size()) + " values; the chain has " +
+            std::to_string(d.joints.size()) + " joints (one per joint, or none)");
   check(is_finite(d.T_last_tip) && is_rotation(d.T_last_tip.linear()), d, "tip offset is not a rigid transform");
   for (size_t i = 0; i < d.joints.size(); ++i) {
     const Joint& j = d.joints[i];
@@ -57,6 +67,12 @@ void validate(const ChainDescription& d) {
     check(l.lower <= l.upper, d, where + "lower limit is above the upper limit");
     check(l.velocity > 0.0, d, where + "velocity limit is not positive (+inf: none)");
     check(l.effort > 0.0, d, where + "effort limit is not positive (+inf: none)");
+    if (!d.armature.empty()) {
+      const double a = d.armature[i];
+      check(std::isfinite(a) && a >= 0.0, d,
+            where + "armature " + number(a) + " is not a finite value >= 0 (" +
+                (j.type == JointType::Prismatic ? "kg" : "kg*m^2") + ", the rotor's reflected inertia)");
+    }
     const Matrix6d& G = d.inertia[i];
     check(G.allFinite() && (G - G.transpose()).cwiseAbs().maxCoeff() <= 1e-9 * (1.0 + G.cwiseAbs().maxCoeff()), d,
           "body of joint '" + j.name + "': spatial inertia is not finite and symmetric");
@@ -100,6 +116,8 @@ PlacementRotation classify_placement(const Matrix3d& R) {
 RobotModel::RobotModel(ChainDescription description) : d_(std::move(description)) {
   validate(d_);
   const int n = dof();
+  if (d_.armature.empty()) d_.armature.assign(static_cast<size_t>(n), 0.0);
+  armature_ = Eigen::Map<const Eigen::VectorXd>(d_.armature.data(), n);
   M_body_.resize(static_cast<size_t>(n));
   A_.resize(static_cast<size_t>(n));
   axis_kind_.resize(static_cast<size_t>(n));
@@ -125,6 +143,16 @@ RobotModel::RobotModel(ChainDescription description) : d_(std::move(description)
   }
   M_ = M_i * d_.T_last_tip;
   for (int i = 0; i < n; ++i) B_.col(i) = adjoint_inverse_times(M_, S_.col(i));
+}
+
+RobotModel with_armature(const RobotModel& model, const Eigen::VectorXd& armature) {
+  ChainDescription description = model.description();
+  if (armature.size() != model.dof()) {
+    throw ModelError(description.source + ": armature has " + std::to_string(armature.size()) +
+                     " values; the chain has " + std::to_string(model.dof()) + " joints (one per joint)");
+  }
+  description.armature.assign(armature.data(), armature.data() + armature.size());
+  return RobotModel(std::move(description));
 }
 
 int RobotModel::joint_index(const std::string& name) const {

@@ -113,6 +113,12 @@ struct ChainDescription {
   std::vector<ChainLink> links;                  ///< every link from base to tip
   Transform T_last_tip = Transform::Identity();  ///< tip frame in the frame of body n
   Vector3d gravity = Vector3d(0.0, 0.0, -9.81);  ///< in the base frame, m/s²
+  /// Armature of joint i (index i−1): the reflected inertia of its motor's rotor, I_rotor ρ² for a
+  /// gear ratio ρ, kg·m² for a revolute joint, kg for a prismatic one. It adds to M's diagonal only:
+  /// the rotor spins about the joint axis at ρ q̇_i whatever the arm's pose (the gyroscopic coupling
+  /// with the links is neglected, as Drake, Pinocchio and MuJoCo do). Empty: none (all zero);
+  /// otherwise one finite value ≥ 0 per joint.
+  std::vector<double> armature;
   /// Questionable but loadable data met on the way (a point mass, a link whose own inertia is not
   /// physical though its body is), one sentence each, naming the link; tools print them once.
   std::vector<std::string> warnings;
@@ -152,6 +158,9 @@ class RobotModel {
   const SpatialInertia& body_inertia(int i) const { return G_[static_cast<size_t>(i)]; }
   const Transform& T_last_tip() const { return d_.T_last_tip; }
   const Vector3d& gravity() const { return d_.gravity; }
+  /// Each joint's armature (ChainDescription::armature), zero where none was given: M(q) is the
+  /// rigid bodies' mass matrix plus diag(armature()).
+  const Eigen::VectorXd& armature() const { return armature_; }
   const std::vector<std::string>& warnings() const { return d_.warnings; }
 
   /// M: the tip pose at q = 0.
@@ -185,9 +194,16 @@ class RobotModel {
   std::vector<JointAxis> axis_kind_;
   std::vector<PlacementRotation> placement_;
   std::vector<SpatialInertia> G_;
+  Eigen::VectorXd armature_;
   Matrix6Xd S_;
   Matrix6Xd B_;
 };
+
+/// The model with `armature` (one value per joint, kg·m² or kg, finite and ≥ 0) in place of its
+/// own, as Pinocchio's model.armature or MuJoCo's joint armature set by hand: for an arm whose URDF
+/// does not say, or says otherwise. Throws ModelError naming the joint at fault, or the count.
+/// Allocates: built once, off any real-time loop.
+RobotModel with_armature(const RobotModel& model, const Eigen::VectorXd& armature);
 
 /// Scratch and results of the algorithms for one model; one per thread. Sized on construction,
 /// never resized afterwards. Vectors indexed by body run 0..n with entry 0 the fixed base.

@@ -4,8 +4,10 @@
 #include <tinyxml2.h>
 #include <urdf_parser/urdf_parser.h>
 
+#include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <map>
@@ -102,6 +104,63 @@ void check_tree_structure(const std::string& xml, const std::string& source) {
       }
     }
   }
+}
+
+// One <drake:rotor_inertia value=.../> or <drake:gear_ratio value=.../> of an actuator: absent →
+// `absent`; present, a finite number (≥ 0 where `non_negative`), else the load fails naming the joint.
+double drake_value(const tinyxml2::XMLElement& actuator, const char* tag, double absent, bool non_negative,
+                   const std::string& joint, const std::string& transmission, const std::string& source) {
+  const tinyxml2::XMLElement* e = actuator.FirstChildElement(tag);
+  if (!e) return absent;
+  const std::string where = "joint '" + joint + "': <" + tag + "> of transmission '" + transmission + "' (line " +
+                            std::to_string(e->GetLineNum()) + ")";
+  const char* text = e->Attribute("value");
+  if (!text) fail(source, where + " has no value attribute");
+  // strtod and not tinyxml2's QueryDoubleAttribute, which takes "1.5kg" for 1.5.
+  char* end = nullptr;
+  const double value = std::strtod(text, &end);
+  while (end != text && std::isspace(static_cast<unsigned char>(*end))) ++end;
+  if (end == text || *end != '\0') fail(source, where + ": value '" + text + "' is not a number");
+  if (!std::isfinite(value)) fail(source, where + ": value '" + text + "' is not finite");
+  if (non_negative && value < 0.0) {
+    fail(source, where + ": value " + text + " is negative; a rotor inertia is kg*m^2 (kg for a prismatic joint), >= 0");
+  }
+  return value;
+}
+
+// Drake's URDF extension for reflected rotor inertia, which urdfdom drops: in a <transmission>
+// naming a joint of the chain, an <actuator> with <drake:rotor_inertia value=I/> and
+// <drake:gear_ratio value=ρ/> (absent: 0 and 1, Drake's defaults) gives that joint the armature
+// I ρ² (Drake's JointActuator::reflected_inertia). ρ may be negative (a gear pair that turns the
+// motor the other way); only ρ² enters. Transmissions of joints off the chain are ignored.
+std::vector<double> read_armature(const std::string& xml, const std::vector<Joint>& joints, const std::string& source) {
+  std::vector<double> armature(joints.size(), 0.0);
+  std::vector<std::string> given_by(joints.size());  // the transmission that set each joint's, for a duplicate
+  tinyxml2::XMLDocument doc;
+  doc.Parse(xml.c_str(), xml.size());  // check_tree_structure has parsed it already
+  const tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
+  for (auto* t = robot->FirstChildElement("transmission"); t; t = t->NextSiblingElement("transmission")) {
+    const char* name_attribute = t->Attribute("name");
+    const std::string name = name_attribute ? name_attribute : "(unnamed, line " + std::to_string(t->GetLineNum()) + ")";
+    const tinyxml2::XMLElement* joint = t->FirstChildElement("joint");
+    const char* joint_name = joint ? joint->Attribute("name") : nullptr;
+    if (!joint_name) continue;
+    size_t i = 0;
+    while (i < joints.size() && joints[i].name != joint_name) ++i;
+    if (i == joints.size()) continue;  // off the chain, or fixed: locked, so its rotor never turns
+    for (auto* a = t->FirstChildElement("actuator"); a; a = a->NextSiblingElement("actuator")) {
+      if (!a->FirstChildElement("drake:rotor_inertia") && !a->FirstChildElement("drake:gear_ratio")) continue;
+      const double inertia = drake_value(*a, "drake:rotor_inertia", 0.0, true, joint_name, name, source);
+      const double ratio = drake_value(*a, "drake:gear_ratio", 1.0, false, joint_name, name, source);
+      if (!given_by[i].empty()) {
+        fail(source, "joint '" + std::string(joint_name) + "': transmissions '" + given_by[i] + "' and '" + name +
+                         "' both give it a rotor (drake:rotor_inertia, drake:gear_ratio): one per joint");
+      }
+      given_by[i] = name;
+      armature[i] = inertia * (ratio * ratio);
+    }
+  }
+  return armature;
 }
 
 Transform to_transform(const urdf::Pose& pose) {
@@ -248,6 +307,7 @@ RobotModel load_urdf_string(const std::string& xml, const UrdfOptions& options, 
     chain_joint[j->name] = static_cast<int>(d.joints.size());
   }
   if (d.joints.empty()) fail(source, "no movable joint between '" + root->name + "' and '" + tip + "'");
+  d.armature = read_armature(xml, d.joints, source);
 
   // Place every link on a body: a chain joint starts a new body; every other joint is locked at
   // 0, so its child rides on its parent's body.

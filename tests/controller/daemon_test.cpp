@@ -339,6 +339,20 @@ TEST(daemon, RefusesAChainWithASingularMassMatrix) {
       << err;
 }
 
+// --armature takes one value per joint, ≥ 0; anything else is refused before the loop starts.
+TEST(daemon, RefusesAnArmatureListOfTheWrongLength) {
+  for (const auto& [list, needle] : std::vector<std::pair<std::string, std::string>>{
+           {"1,2,3", "chasles_controller: --armature has 3 values; the arm has 7 joints"},
+           {"1,1,1,1,1,1,-1", "chasles_controller: --armature: entry 6 is negative"},
+           {"1,1,1,x,1,1,1", "chasles_controller: --armature: entry 3 ('x') is not a number"}}) {
+    ChildProcess controller({CHASLES_CONTROLLER, "--robot", data_path("panda.urdf"), "--tip", "panda_hand",
+                             "--armature", list, "--lcm-url", kLcmUrl});
+    EXPECT_EQ(controller.wait(), 1) << list;
+    const std::string err = controller.stderr_text();
+    EXPECT_NE(err.find(needle), std::string::npos) << err;
+  }
+}
+
 // The whole send path of a tick — control law, encoding, the send on UDP multicast — allocates
 // nothing.
 TEST(daemon, TickAndPublishAllocateNothing) {

@@ -206,7 +206,8 @@ TEST_P(Contact, ObserverAndWrenchAllocateNothing) {
 
 INSTANTIATE_TEST_SUITE_P(Robots, Contact,
                          ::testing::Values(Robot{"ur5", "tool0"}, Robot{"panda", "panda_hand"},
-                                           Robot{"tiago", "hand_grasping_frame"}, Robot{"finger_edu", "finger_tip_link"}),
+                                           Robot{"tiago", "hand_grasping_frame"}, Robot{"finger_edu", "finger_tip_link"},
+                                           Robot{"iiwa14", "iiwa_link_ee"}),
                          [](const ::testing::TestParamInfo<Robot>& p) { return p.param.name; });
 
 // At a singularity the least-squares wrench would be unbounded; the damped one is not, and it

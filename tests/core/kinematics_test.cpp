@@ -144,7 +144,7 @@ TEST_P(Kinematics, WrongSizeIsRejected) {
   EXPECT_THROW(forward_kinematics_space(*model_, q), ArgumentError);
 }
 
-INSTANTIATE_TEST_SUITE_P(Robots, Kinematics, ::testing::Values("ur5", "panda", "tiago", "talos_left_arm", "finger_edu"));
+INSTANTIATE_TEST_SUITE_P(Robots, Kinematics, ::testing::Values("ur5", "panda", "tiago", "talos_left_arm", "finger_edu", "iiwa14"));
 
 }  // namespace
 }  // namespace chasles

@@ -72,7 +72,7 @@ TEST_P(ReferenceRobot, SpatialInertiasArePhysical) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Robots, ReferenceRobot, ::testing::Values("ur5", "panda", "tiago", "talos_left_arm", "finger_edu"));
+INSTANTIATE_TEST_SUITE_P(Robots, ReferenceRobot, ::testing::Values("ur5", "panda", "tiago", "talos_left_arm", "finger_edu", "iiwa14"));
 
 TEST(Model, PandaHandCarriesTheLockedFingers) {
   // Body 7 is panda_link7 + link8 + hand + tcp + both fingers (URDF masses, summed by hand).

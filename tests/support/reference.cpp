@@ -46,6 +46,7 @@ Reference load_reference(const std::string& robot) {
   ref.gravity = vector_from(j.at("gravity"));
   ref.home_T = matrix_from(j.at("home").at("T"));
   ref.home_S = matrix_from(j.at("home").at("S")).transpose();
+  if (j.contains("armature")) ref.armature = vector_from(j.at("armature").at("values"));
   for (const json& c : j.at("cases")) {
     ReferenceCase rc;
     rc.q = vector_from(c.at("q"));
@@ -59,6 +60,11 @@ Reference load_reference(const std::string& robot) {
     rc.g = vector_from(c.at("g"));
     rc.c = vector_from(c.at("c"));
     rc.M = matrix_from(c.at("M"));
+    if (c.contains("tau_with_armature")) {
+      rc.tau_with_armature = vector_from(c.at("tau_with_armature"));
+      rc.M_with_armature = matrix_from(c.at("M_with_armature"));
+      rc.qdd_of_tau_with_armature = vector_from(c.at("qdd_of_tau_with_armature"));
+    }
     ref.cases.push_back(std::move(rc));
   }
   return ref;

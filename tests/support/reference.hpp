@@ -22,6 +22,10 @@ struct ReferenceCase {
   std::map<std::string, Matrix4d> link_T;
   Eigen::VectorXd tau, g, c;
   Eigen::MatrixXd M;
+  /// With the reference's armature (iiwa14.json; empty in the files without one): RNEA with it, M +
+  /// diag(armature), and forward dynamics of the rigid `tau` with it.
+  Eigen::VectorXd tau_with_armature, qdd_of_tau_with_armature;
+  Eigen::MatrixXd M_with_armature;
 };
 
 struct Reference {
@@ -31,6 +35,7 @@ struct Reference {
   Vector3d gravity;
   Matrix4d home_T;
   Eigen::MatrixXd home_S;  ///< 6×n, one column per joint
+  Eigen::VectorXd armature;  ///< reflected rotor inertia per joint; empty when the file gives none
   std::vector<ReferenceCase> cases;
 };
 

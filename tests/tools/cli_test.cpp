@@ -247,6 +247,16 @@ TEST_P(cliReference, InspectMatchesReference) {
 INSTANTIATE_TEST_SUITE_P(Robots, cliReference, ::testing::Values("ur5", "panda", "tiago", "talos_left_arm", "finger_edu"),
                          [](const ::testing::TestParamInfo<std::string>& robot) { return robot.param; });
 
+// The URDF's Drake transmissions give the iiwa 14 its armature, which inspect lists (the reference's,
+// rotor inertia × gear ratio²); a URDF without them has zeros.
+TEST(cli, InspectListsTheArmature) {
+  const Reference ref = load_reference("iiwa14");
+  const json out = parse_output(run_cli(concat({"inspect"}, model_args(ref))));
+  EXPECT_TRUE(matrices_near(vector_of(out.at("armature")), ref.armature, 1e-12));
+  const json ur5 = parse_output(run_cli(concat({"inspect"}, model_args(load_reference("ur5")))));
+  EXPECT_TRUE(matrices_near(vector_of(ur5.at("armature")), Eigen::VectorXd::Zero(6), 0.0));
+}
+
 // The printed numbers parse back to exactly the doubles the library computes.
 TEST(cli, EvalPrintsExactDoubles) {
   const Reference ref = load_reference("ur5");

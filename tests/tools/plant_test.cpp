@@ -206,6 +206,29 @@ TEST(plant, LockstepFallMatchesAFineIntegrationAndConservesEnergy) {
   EXPECT_EQ(plant.stop(), 0) << plant.stderr_text();
 }
 
+// --armature replaces the URDF's (the Panda's has none): the arm falls as a fine integration of the
+// model with that armature does, and unlike the rigid one (the rotors slow the fall measurably).
+TEST(plant, ArmatureFlagGivesTheSimulatedArmItsRotors) {
+  Eigen::VectorXd armature(7);
+  armature << 0.6, 0.6, 0.5, 0.5, 0.2, 0.2, 0.1;
+  const RobotModel model = with_armature(panda(), armature), rigid = panda();
+  const Eigen::VectorXd q0 = bent_pose(), zero = Eigen::VectorXd::Zero(7);
+  Controller controller;
+  PlantProcess plant({"--robot", data_path("panda.urdf"), "--tip", "panda_hand", "--lockstep", "--q0", list(q0),
+                      "--armature", list(armature)});
+  constexpr int kSteps = 200;
+  const std::vector<robot_state_t> trajectory =
+      drive_lockstep(controller, kSteps, [&](const robot_state_t&) { return zero; });
+  ASSERT_EQ(trajectory.size(), static_cast<size_t>(kSteps + 1));
+  Eigen::VectorXd q = q0, qd = zero, q_rigid = q0, qd_rigid = zero;
+  rk4_reference(model, q, qd, zero, kDt / 10, kSteps * 10);
+  rk4_reference(rigid, q_rigid, qd_rigid, zero, kDt / 10, kSteps * 10);
+  const Eigen::VectorXd last = vector_of(trajectory.back().position);
+  EXPECT_TRUE(matrices_near(last, q, 1e-6));
+  EXPECT_GT(max_abs_diff(last, q_rigid), 1e-3) << "the armature made no difference";
+  EXPECT_EQ(plant.stop(), 0) << plant.stderr_text();
+}
+
 // Lockstep is deterministic, and so is the seeded sensor noise.
 TEST(plant, LockstepWithSeededNoiseRepeatsExactly) {
   const Eigen::VectorXd q0 = bent_pose(), zero = Eigen::VectorXd::Zero(7);
@@ -405,6 +428,10 @@ TEST(plant, StopsAfterSecondsAndFailsCleanly) {
   expect_failure({"--robot", data_path("panda.urdf"), "--tip", "panda_hand", "--q0", "0,0,0,0,0,0,0"}, 1,
                  "panda_joint4");
   expect_failure({"--robot", data_path("panda.urdf"), "--tip", "panda_hand", "--damping", "1,2"}, 1, "--damping");
+  expect_failure({"--robot", data_path("panda.urdf"), "--tip", "panda_hand", "--armature", "1,2"}, 1,
+                 "--armature has 2 values; the arm has 7 joints");
+  expect_failure({"--robot", data_path("panda.urdf"), "--tip", "panda_hand", "--armature", "1,1,1,1,1,1,-1"}, 1,
+                 "--armature: entry 6 is negative");
   expect_failure({"--robot", data_path("panda.urdf"), "--rate", "0"}, 2, "--rate");
   expect_failure({"--robot", data_path("panda.urdf"), "--drop", "1.5"}, 2, "--drop");
   expect_failure({"--robot", data_path("panda.urdf"), "--no-such-option"}, 2, "no-such-option");

@@ -29,6 +29,9 @@ Json inspect_json(const RobotModel& model) {
                    {"velocity", std::move(velocity)},
                    {"effort", std::move(effort)}};
   out["home"] = {{"T", transform_json(model.home_tip())}, {"S", columns_json(model.space_axes())}};
+  Json armature = Json::array();
+  for (int i = 0; i < model.dof(); ++i) armature.push_back(number(model.armature()[i]));
+  out["armature"] = std::move(armature);
   out["warnings"] = model.warnings();
   return out;
 }
@@ -45,6 +48,8 @@ Command register_inspect(CLI::App& app) {
       "Output: {\"robot\", \"base_link\", \"tip_link\", \"dof\", \"joint_names\", \"joint_types\",\n"
       "         \"limits\": {\"lower\", \"upper\", \"velocity\", \"effort\"}  (null: no limit),\n"
       "         \"home\": {\"T\": 4x4 rows, \"S\": n screw axes (w, v)},\n"
+      "         \"armature\": each joint's reflected rotor inertia, kg*m^2 or kg (Drake's\n"
+      "                     drake:rotor_inertia * drake:gear_ratio^2; 0 where the URDF gives none),\n"
       "         \"warnings\": [questionable but loadable data, one sentence each; also on stderr]}\n"
       "Example:\n"
       "  chasles inspect --urdf ur5.urdf --tip tool0");

@@ -51,6 +51,7 @@ struct Options {
   std::string q0;
   std::vector<std::string> pushes, walls;
   std::string payload, friction;
+  std::string armature;
   bool realtime = false;
   std::string lcm_url;
   Bus::Receive receive = Bus::Receive::kDirect;
@@ -83,6 +84,15 @@ const CLI::Validator kNonNegative = at_least(0.0, true, "a non-negative number")
 std::vector<double> parse_numbers(const std::string& text, const std::string& option) {
   try {
     return chasles::parse_number_list(text, option);
+  } catch (const chasles::ArgumentError& e) {
+    throw InputError(e.what());
+  }
+}
+
+// --armature, one per joint (number_list.hpp), as an InputError.
+Eigen::VectorXd armature_flag(const std::string& text, int joints) {
+  try {
+    return chasles::parse_armature(text, joints, "--armature");
   } catch (const chasles::ArgumentError& e) {
     throw InputError(e.what());
   }
@@ -239,6 +249,11 @@ void add_options(CLI::App& app, Options& o) {
                  "A point mass (kg) at (CX,CY,CZ) in the tip frame (m, default the origin), simulated but not in "
                  "the URDF the controller has")
       ->type_name("KG[,CX,CY,CZ]");
+  app.add_option("--armature", o.armature,
+                 "Each joint's reflected rotor inertia, kg*m^2 (kg for a prismatic joint), one per joint: replaces "
+                 "the URDF's (drake:rotor_inertia * drake:gear_ratio^2, 0 where it gives none). Part of the nominal "
+                 "model, like --damping: the truth does not count it as external; give the controller the same")
+      ->type_name("A,A,...");
   app.add_option("--friction", o.friction,
                  "Hidden joint friction on top of --damping: tau_f = -b*qd - fc*tanh(qd/v_s), one pair for every "
                  "joint or a pair per joint (N*m*s/rad, N*m); v_s is set for the RK4 step (see the docs)")
@@ -313,7 +328,11 @@ int main(int argc, char** argv) {
   return chasles::tools::run_main("chasles_plant", [&] {
     chasles::UrdfOptions urdf_options;
     urdf_options.tip_link = options.tip;
-    const chasles::RobotModel model = chasles::load_urdf_file(options.robot, urdf_options);
+    const chasles::RobotModel loaded = chasles::load_urdf_file(options.robot, urdf_options);
+    const chasles::RobotModel model =
+        options.armature.empty()
+            ? loaded
+            : chasles::with_armature(loaded, armature_flag(options.armature, loaded.dof()));
     chasles::tools::warn("chasles_plant", options.robot, model.warnings());
     if (const std::string defect = chasles::mass_matrix_defect(model); !defect.empty()) {
       throw chasles::ModelError(options.robot + ": cannot simulate this chain: " + defect);
