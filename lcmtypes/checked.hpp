@@ -405,7 +405,8 @@ inline std::string counts(const drake::lcmt_panda_command& m) {
 // The counts a size was computed for: num_joints, or every count of Drake's commands.
 template <typename Message>
 std::string size_counts(const Message& m) {
-  if constexpr (std::is_same_v<Message, drake::lcmt_iiwa_command> || std::is_same_v<Message, drake::lcmt_panda_command>) {
+  if constexpr (std::is_same_v<Message, drake::lcmt_iiwa_command> ||
+                std::is_same_v<Message, drake::lcmt_panda_command>) {
     return counts(m);
   } else {
     return std::to_string(m.num_joints) + " joints";

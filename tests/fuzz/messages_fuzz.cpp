@@ -9,7 +9,8 @@
 // its joint_trajectory_t receiver and Controller::set_trajectory; 9 its joint_setpoint_t receiver
 // and Controller::set_setpoint; 10 its jog_command_t receiver and Controller::set_jog; 11 its
 // tip_setpoint_t receiver and Controller::set_tip_setpoint; 12 the checked decoders of Drake's iiwa
-// and Panda messages, for the arm and for any arm; 13–15 as 3. (Byte 0 modulo 16, so the seeds'
+// and Panda messages, for the arm and for any arm, and the protocols' status readers, whose state the
+// controller then ticks on and whose command the driver's checked decoder must take; 13–15 as 3. (Byte 0 modulo 16, so the seeds'
 // ASCII selectors '0'…'9', ':', ';' and '<' pick 0…12.)
 // What a reader accepts must be what the contract
 // promises (the arm's joint count, finite values; for the watch, a command of its own, once; for a
@@ -29,8 +30,10 @@
 
 #include "chasles/controller/controller.hpp"
 #include "chasles/controller/lcm_io.hpp"
+#include "chasles/controller/protocol.hpp"
 #include "chasles/controller/realtime/bus.hpp"
 #include "chasles/controller/realtime/clock.hpp"
+#include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/model/urdf.hpp"
 #include "chasles/lcmtypes/checked.hpp"
 #include "chasles/tools/cli/messages.hpp"
@@ -71,6 +74,11 @@ struct Readers {
   std::unique_ptr<RobotModel> loaded;  // the model with the latest payload, which the controller holds
   int64_t sent_seq = 0;
   std::vector<bool> heard{false};  // by seq: our command has come back
+  StatusReader iiwa_reader{Protocol::kDrakeIiwa, n};
+  StatusReader panda_reader{Protocol::kDrakePanda, n};
+  CommandWriter iiwa_writer{Protocol::kDrakeIiwa, n, TorqueSemantics::kOverlay, IiwaPositions::kMeasured};
+  CommandWriter panda_writer{Protocol::kDrakePanda, n, TorqueSemantics::kOverlay};
+  Data data{model};
   JointState state{n};  // the latest state accepted
   bool have_state = false;
   int64_t now_ns = 0;
@@ -188,6 +196,30 @@ void judge_drake(const uint8_t* data, size_t size, int n) {
     FUZZ_CHECK(message.encode(again.data(), 0, static_cast<int>(size)) == static_cast<int>(size));
     FUZZ_CHECK(std::equal(again.begin(), again.end(), data));
   }
+}
+
+// A Drake status a protocol's reader takes becomes the state the controller ticks on: sized for the
+// arm, finite. The command written for it (the state's own effort as the torque, g(q) subtracted)
+// is one the driver's side takes: the arm's counts, finite, the state's utime.
+template <typename Command>
+void judge_a_drake_status(Readers& r, StatusReader& reader, CommandWriter& writer, const uint8_t* message,
+                          size_t size) {
+  JointState state(r.n);
+  if (!reader.read(message, size, r.now_ns, state).empty()) return;
+  FUZZ_CHECK(state.q.size() == r.n && state.q.allFinite() && state.qd.allFinite() && state.effort.allFinite());
+  FUZZ_CHECK(reader.tau_ext().size() == r.n && reader.tau_ext().allFinite());
+  FUZZ_CHECK(state.seq >= 0);
+  r.state = state;
+  r.have_state = true;
+  const Eigen::VectorXd& g = gravity_torques(r.model, r.data, state.q);
+  writer.write(0, 0, state, state.effort, g);
+  Command command;
+  const auto& bytes = writer.bytes();
+  const bool finite = state.effort.allFinite() && g.allFinite() && (state.effort - g).allFinite();
+  const std::string why =
+      messages::decode_checked(bytes.data(), bytes.size(), command, r.n, messages::Finite::Required);
+  FUZZ_CHECK(why.empty() || (!finite && why.rfind("with non-finite", 0) == 0));
+  FUZZ_CHECK(command.utime == state.utime);
 }
 
 template <typename Message>
@@ -372,6 +404,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       judge_drake<drake::lcmt_iiwa_command>(message, size - 1, r.n);
       judge_drake<drake::lcmt_panda_status>(message, size - 1, r.n);
       judge_drake<drake::lcmt_panda_command>(message, size - 1, r.n);
+      judge_a_drake_status<drake::lcmt_iiwa_command>(r, r.iiwa_reader, r.iiwa_writer, message, size - 1);
+      judge_a_drake_status<drake::lcmt_panda_command>(r, r.panda_reader, r.panda_writer, message, size - 1);
       break;
     default: {
       decode_as<robot_state_t>(message, size - 1);

@@ -205,7 +205,8 @@ TEST(DrakeLcmtypes, PandaStatusRoundTrips) {
 }
 
 TEST(DrakeLcmtypes, PandaCommandRoundTrips) {
-  for (const auto& [p, v, t] : {std::tuple{0, 0, kJoints}, std::tuple{kJoints, 0, 0}, std::tuple{kJoints, kJoints, kJoints}}) {
+  for (const auto& [p, v, t] :
+       {std::tuple{0, 0, kJoints}, std::tuple{kJoints, 0, 0}, std::tuple{kJoints, kJoints, kJoints}}) {
     SCOPED_TRACE(std::to_string(p) + " " + std::to_string(v) + " " + std::to_string(t));
     const drake::lcmt_panda_command m = make_panda_command(p, v, t);
     const std::vector<uint8_t> bytes = encode(m);
@@ -314,9 +315,10 @@ TEST(DrakeLcmtypes, IiwaStatusCheckedDecoderReadsWhatItShouldAndRefusesTheRest) 
     EXPECT_EQ(decode_checked<drake::lcmt_iiwa_status>(b), "with non-finite " + field);
     EXPECT_EQ(decode_checked<drake::lcmt_iiwa_status>(b, kJoints, messages::Finite::NotRequired), "") << field;
   };
-  refused([](drake::lcmt_iiwa_status& s, double x) { s.joint_position_measured[6] = x; }, nan, "joint_position_measured");
-  refused([](drake::lcmt_iiwa_status& s, double x) { s.joint_velocity_estimated[0] = x; }, inf, "joint_velocity_estimated");
-  refused([](drake::lcmt_iiwa_status& s, double x) { s.joint_position_commanded[3] = x; }, -inf, "joint_position_commanded");
+  using Iiwa = drake::lcmt_iiwa_status;
+  refused([](Iiwa& s, double x) { s.joint_position_measured[6] = x; }, nan, "joint_position_measured");
+  refused([](Iiwa& s, double x) { s.joint_velocity_estimated[0] = x; }, inf, "joint_velocity_estimated");
+  refused([](Iiwa& s, double x) { s.joint_position_commanded[3] = x; }, -inf, "joint_position_commanded");
   refused([](drake::lcmt_iiwa_status& s, double x) { s.joint_torque_measured[2] = x; }, nan, "joint_torque_measured");
   refused([](drake::lcmt_iiwa_status& s, double x) { s.joint_torque_commanded[5] = x; }, nan, "joint_torque_commanded");
   refused([](drake::lcmt_iiwa_status& s, double x) { s.joint_torque_external[1] = x; }, inf, "joint_torque_external");
@@ -406,9 +408,10 @@ TEST(DrakeLcmtypes, PandaStatusCheckedDecoderReadsWhatItShouldAndRefusesTheRest)
     EXPECT_EQ(decode_checked<drake::lcmt_panda_status>(b, kJoints, messages::Finite::NotRequired), "") << field;
   };
   refused([](drake::lcmt_panda_status& s, double x) { s.joint_position[0] = x; }, nan, "joint_position");
-  refused([](drake::lcmt_panda_status& s, double x) { s.joint_position_desired[1] = x; }, inf, "joint_position_desired");
-  refused([](drake::lcmt_panda_status& s, double x) { s.joint_velocity[2] = x; }, nan, "joint_velocity");
-  refused([](drake::lcmt_panda_status& s, double x) { s.joint_velocity_desired[3] = x; }, -inf, "joint_velocity_desired");
+  using Panda = drake::lcmt_panda_status;
+  refused([](Panda& s, double x) { s.joint_position_desired[1] = x; }, inf, "joint_position_desired");
+  refused([](Panda& s, double x) { s.joint_velocity[2] = x; }, nan, "joint_velocity");
+  refused([](Panda& s, double x) { s.joint_velocity_desired[3] = x; }, -inf, "joint_velocity_desired");
   refused([](drake::lcmt_panda_status& s, double x) { s.joint_acceleration_desired[4] = x; }, nan,
           "joint_acceleration_desired");
   refused([](drake::lcmt_panda_status& s, double x) { s.joint_torque[5] = x; }, inf, "joint_torque");
