@@ -129,7 +129,9 @@ void state_from_panda(const drake::lcmt_panda_status& status, int64_t seq, int64
                       Eigen::VectorXd& tau_ext);
 
 /// The torque the receiver is to get for the law's whole torque τ: τ under kFull, τ − g under
-/// kOverlay (g: gravity's joint torque g(q) at the state answered, chasles's model). Writes n values.
+/// kOverlay. g is the gravity torque the receiver compensates itself: the arm's own g(q) at the
+/// state answered, from chasles's model of the bare arm — without a load the driver does not know
+/// of (a payload_t's load is chasles's to hold, so it stays in τ − g). Writes n values.
 void torque_for_receiver(const Eigen::VectorXd& tau, const Eigen::VectorXd& g, TorqueSemantics semantics,
                          double* out);
 
