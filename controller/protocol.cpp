@@ -85,6 +85,7 @@ bool parse_iiwa_positions(std::string_view text, IiwaPositions& positions) {
 }
 
 StatusSequence::Verdict StatusSequence::judge(int64_t utime) {
+  if (utime < 0) return Verdict::kUntimed;
   if (!any_ || utime > last_utime_) {
     any_ = true;
     last_utime_ = utime;
@@ -226,6 +227,9 @@ std::string StatusReader::read(const void* data, size_t size, int64_t arrival_ns
       ++stale_;
       return "stale: utime " + std::to_string(utime) + " is " + std::to_string(last - utime) +
              " µs before the last status taken";
+    case StatusSequence::Verdict::kUntimed:
+      ++untimed_;
+      return "untimed: utime " + std::to_string(utime) + " (the driver's clock is not synchronised yet)";
     case StatusSequence::Verdict::kRestart:
       ++restarts_;
       break;

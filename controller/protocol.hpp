@@ -91,10 +91,13 @@ bool parse_iiwa_positions(std::string_view text, IiwaPositions& positions);
 /// Drake simulation started again from t = 0) is recognised by kRestartRun stale statuses in a row,
 /// each later than the one before, and no state taken between them: the last of them is taken and
 /// the numbering starts again from 0, so the controller's observer restarts as for a chasles plant
-/// that restarted its count. A replay interleaved with a live driver never makes such a run.
+/// that restarted its count. A replay interleaved with a live driver never makes such a run. A
+/// negative utime is no time at all: drake-iiwa-driver stamps −1 until its estimate of the robot's
+/// clock has settled (its first 200 statuses, 1 s), and such a status is refused without a verdict
+/// on the others.
 class StatusSequence {
  public:
-  enum class Verdict { kNext, kDuplicate, kStale, kRestart };
+  enum class Verdict { kNext, kDuplicate, kStale, kRestart, kUntimed };
   static constexpr int kRestartRun = 3;
 
   /// Judges a status stamped `utime`; for kNext and kRestart, seq() is the number it was given.
@@ -166,8 +169,10 @@ class StatusReader {
   /// The external joint torque of the last status read (chasles's sign); zero for chasles's own
   /// protocol, whose state carries none.
   const Eigen::VectorXd& tau_ext() const { return tau_ext_; }
-  /// Statuses refused as duplicates or stale, and sender restarts recognised (Drake's protocols).
+  /// Statuses refused as duplicates, stale or untimed, and sender restarts recognised (Drake's
+  /// protocols).
   int64_t duplicates() const { return duplicates_; }
+  int64_t untimed() const { return untimed_; }
   int64_t stale() const { return stale_; }
   int64_t restarts() const { return restarts_; }
 
@@ -179,7 +184,7 @@ class StatusReader {
   drake::lcmt_panda_status panda_;
   StatusSequence sequence_;
   Eigen::VectorXd tau_ext_;
-  int64_t duplicates_ = 0, stale_ = 0, restarts_ = 0;
+  int64_t duplicates_ = 0, stale_ = 0, restarts_ = 0, untimed_ = 0;
 };
 
 /// The controller's torque → one protocol's command bytes, into a buffer sized once: allocates

@@ -181,6 +181,29 @@ TEST(Protocol, SequenceNumbersStatusesByArrivalAndRefusesDuplicateAndStaleOnes) 
   EXPECT_EQ(s.seq(), 1);
 }
 
+// drake-iiwa-driver stamps utime −1 until its clock sync has 200 samples: no state before then, and
+// the first synchronised status is the first state.
+TEST(Protocol, SequenceWaitsForATime) {
+  using V = StatusSequence::Verdict;
+  StatusSequence s;
+  for (int k = 0; k < 5; ++k) EXPECT_EQ(s.judge(-1), V::kUntimed) << k;
+  EXPECT_EQ(s.seq(), -1);
+  EXPECT_EQ(s.judge(1'790'000'000'000'000), V::kNext);
+  EXPECT_EQ(s.seq(), 0);
+  EXPECT_EQ(s.judge(-1), V::kUntimed) << "not stale, and no step toward a restart";
+  EXPECT_EQ(s.judge(-1), V::kUntimed);
+  EXPECT_EQ(s.judge(-1), V::kUntimed);
+  EXPECT_EQ(s.judge(1'790'000'000'005'000), V::kNext);
+  EXPECT_EQ(s.seq(), 1);
+
+  StatusReader reader(Protocol::kDrakeIiwa, kJoints);
+  JointState state(kJoints);
+  EXPECT_EQ(read(reader, encode(iiwa_status(-1)), state),
+            "untimed: utime -1 (the driver's clock is not synchronised yet)");
+  EXPECT_EQ(reader.untimed(), 1);
+  EXPECT_EQ(state.seq, -1) << "untouched";
+}
+
 // iiwa: positions and velocities as they are; joint_torque_measured negated into the state's
 // effort, joint_torque_external as it is; joint_position_ipo may be NaN.
 TEST(Protocol, IiwaStatusBecomesTheControllersStateWithDrakesSigns) {
