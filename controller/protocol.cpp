@@ -290,4 +290,38 @@ void CommandWriter::write(int64_t utime, int64_t seq, const JointState& state, c
   }
 }
 
+SentDigests::SentDigests() {
+  for (auto& slot : slots_) slot.store(0, std::memory_order_relaxed);
+}
+
+uint64_t SentDigests::digest(const void* data, size_t size) {
+  const auto* bytes = static_cast<const uint8_t*>(data);
+  uint64_t h = 0xcbf29ce484222325u;
+  for (size_t i = 0; i < size; ++i) h = (h ^ bytes[i]) * 0x100000001b3u;
+  return h == 0 ? 1 : h;
+}
+
+void SentDigests::record(const std::vector<uint8_t>& bytes) {
+  const uint64_t slot = next_.fetch_add(1, std::memory_order_relaxed) % kWindow;
+  slots_[slot].store(digest(bytes.data(), bytes.size()), std::memory_order_release);
+}
+
+bool SentDigests::take(const void* data, size_t size) {
+  const uint64_t d = digest(data, size);
+  for (auto& slot : slots_) {
+    uint64_t expected = d;
+    if (slot.load(std::memory_order_acquire) == d &&
+        slot.compare_exchange_strong(expected, 0, std::memory_order_acq_rel)) {
+      return true;
+    }
+  }
+  return false;
+}
+
+bool DigestCommandWatch::receive(const void* data, size_t size) {
+  if (sent_.take(data, size)) return false;
+  foreign_.fetch_add(1, std::memory_order_release);
+  return true;
+}
+
 }  // namespace chasles::controller

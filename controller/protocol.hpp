@@ -23,6 +23,8 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <array>
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <drake/lcmt_iiwa_command.hpp>
@@ -210,6 +212,44 @@ class CommandWriter {
   drake::lcmt_iiwa_command iiwa_;
   drake::lcmt_panda_command panda_;
   std::vector<uint8_t> bytes_;
+};
+
+/// Drake's commands have no seq, so chasles's CommandWatch (lcm_io.hpp), which knows its own
+/// commands by seq and utime, cannot tell them from another sender's. This knows them by their
+/// bytes: the loop records a digest of each command before sending it; whoever hears the command
+/// channel asks whether a message is one of the last kWindow sent and not yet heard — our own
+/// multicast comes back once, so a second copy (a replay) and anything else is foreign. Two
+/// commands of identical bytes are two records, each heard once. Lock-free: the loop stores, the
+/// bus thread compares and exchanges.
+class SentDigests {
+ public:
+  SentDigests();
+  /// The loop: the command about to be sent. Allocates nothing.
+  void record(const std::vector<uint8_t>& bytes);
+  /// Any thread: whether these bytes are a command recorded and not yet taken; takes it.
+  bool take(const void* data, size_t size);
+
+  /// About 1 s of the iiwa's commands, 0.25 s of the Panda's: far longer than multicast takes.
+  static constexpr size_t kWindow = 256;
+  /// FNV-1a over the bytes, never 0 (0 marks an empty slot).
+  static uint64_t digest(const void* data, size_t size);
+
+ private:
+  std::array<std::atomic<uint64_t>, kWindow> slots_;
+  std::atomic<uint64_t> next_{0};
+};
+
+/// Listens on a Drake command channel for commands this process did not send, as CommandWatch
+/// does on chasles's: true for a foreign message, counted.
+class DigestCommandWatch {
+ public:
+  explicit DigestCommandWatch(SentDigests& sent) : sent_(sent) {}
+  bool receive(const void* data, size_t size);
+  int64_t foreign() const { return foreign_.load(std::memory_order_acquire); }
+
+ private:
+  SentDigests& sent_;
+  std::atomic<int64_t> foreign_{0};
 };
 
 }  // namespace chasles::controller

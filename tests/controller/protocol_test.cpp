@@ -459,5 +459,61 @@ TEST(Protocol, ReadingAndWritingAllocateNothing) {
   }
 }
 
+// Drake's commands have no seq: our own are known by their bytes, once each; a replayed copy,
+// another sender's command, junk, and ours once it has left the window are foreign.
+TEST(Protocol, DigestWatchTellsOurOwnDrakeCommandsFromAnotherSenders) {
+  SentDigests sent;
+  DigestCommandWatch watch(sent);
+  CommandWriter writer(Protocol::kDrakeIiwa, kJoints, TorqueSemantics::kOverlay);
+  JointState state = answered_state(5000);
+  writer.write(0, 0, state, tau(), gravity());
+  const std::vector<uint8_t> first = writer.bytes();
+  sent.record(first);
+  writer.write(0, 0, state, tau(), gravity());
+  sent.record(writer.bytes());  // the same bytes again: a second tick on the same state
+  EXPECT_FALSE(watch.receive(first.data(), first.size())) << "ours, coming back";
+  EXPECT_FALSE(watch.receive(first.data(), first.size())) << "the second of two identical commands";
+  EXPECT_TRUE(watch.receive(first.data(), first.size())) << "a third copy: a replay";
+  EXPECT_EQ(watch.foreign(), 1);
+
+  // Another controller's command: another torque, same utime.
+  drake::lcmt_iiwa_command other;
+  other.utime = state.utime;
+  other.num_joints = 0;
+  other.num_torques = kJoints;
+  other.joint_torque = values(kJoints, 3.0);
+  const std::vector<uint8_t> theirs = encode(other);
+  EXPECT_TRUE(watch.receive(theirs.data(), theirs.size()));
+  const uint8_t junk[3] = {1, 2, 3};
+  EXPECT_TRUE(watch.receive(junk, sizeof junk));
+  EXPECT_EQ(watch.foreign(), 3);
+
+  // kWindow commands later, the first one's record is gone.
+  state.utime = 10'000;
+  writer.write(0, 0, state, tau(), gravity());
+  const std::vector<uint8_t> old = writer.bytes();
+  sent.record(old);
+  for (size_t k = 0; k < SentDigests::kWindow; ++k) {
+    state.utime = 20'000 + int64_t(k);
+    writer.write(0, 0, state, tau(), gravity());
+    sent.record(writer.bytes());
+  }
+  EXPECT_TRUE(watch.receive(old.data(), old.size()));
+  EXPECT_FALSE(watch.receive(writer.bytes().data(), writer.bytes().size())) << "the latest is still known";
+  EXPECT_NE(SentDigests::digest(junk, 0), 0u);
+  EXPECT_EQ(SentDigests::digest(junk, 0), 0xcbf29ce484222325u) << "FNV-1a's offset basis";
+  EXPECT_EQ(SentDigests::digest("a", 1), 0xaf63dc4c8601ec8cu) << "FNV-1a of \"a\"";
+}
+
+// Recording a command allocates nothing: the loop does it every tick.
+TEST(Protocol, RecordingADigestAllocatesNothing) {
+  SentDigests sent;
+  const std::vector<uint8_t> bytes(136, 7);
+  AllocationCounter counter;
+  for (int k = 0; k < 1000; ++k) sent.record(bytes);
+  const long allocations = counter.count();
+  EXPECT_EQ(allocations, 0);
+}
+
 }  // namespace
 }  // namespace chasles::controller
