@@ -323,8 +323,8 @@ inline const char* non_finite(const jog_command_t& m) {
 inline const char* non_finite(const tip_setpoint_t& m) {
   return !finite(m.position, 3) ? "position" : !finite(m.quaternion, 4) ? "quaternion" : !finite(m.twist, 6) ? "twist" : nullptr;
 }
-// joint_position_ipo is left out: the real driver sends NaN there whenever FRI has no interpolator
-// positions (monitoring mode, older Sunrise versions), and nothing in chasles reads it.
+// joint_position_ipo is left out: the real driver sends NaN there whenever FRI gives no interpolator
+// positions (outside its commanding state), and nothing in chasles reads it.
 inline const char* non_finite(const drake::lcmt_iiwa_status& m) {
   return !finite(m.joint_position_measured)    ? "joint_position_measured"
          : !finite(m.joint_velocity_estimated) ? "joint_velocity_estimated"
