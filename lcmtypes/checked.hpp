@@ -1,5 +1,6 @@
-// One checked decoder for every chasles message type, beside the contracts it reads, used by every
-// reader (the controller, the plant, the CLI, the fuzzers).
+// One checked decoder for every chasles message type, and for the Drake iiwa and Panda messages
+// chasles speaks (lcmtypes/drake_*.lcm), beside the contracts it reads, used by every reader (the
+// controller, the plant, the CLI, the fuzzers).
 //
 // lcm-gen's decoders trust the counts they read: a negative or huge num_joints makes them resize to
 // gigabytes, a zero-length string makes them throw, and they check the buffer's size only field by
@@ -22,6 +23,10 @@
 #include <chasles/robot_state_t.hpp>
 #include <chasles/sim_truth_t.hpp>
 #include <chasles/tip_setpoint_t.hpp>
+#include <drake/lcmt_iiwa_command.hpp>
+#include <drake/lcmt_iiwa_status.hpp>
+#include <drake/lcmt_panda_command.hpp>
+#include <drake/lcmt_panda_status.hpp>
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
@@ -69,14 +74,17 @@ inline constexpr size_t kTrajectoryCounts = 8 + 8 + 8;       // utime, id: then 
 inline constexpr size_t kStatusTrajectoryStringAfterCount = 301;
 // control_mode_t's num_posture follows its two joint arrays and 8 + 36 + 3 + 4 doubles.
 inline constexpr size_t kModePostureAfterJoints = 8 * (1 + 36 + 3 + 4);
+// Drake's messages: the first count follows the fingerprint and utime; a command's next count
+// follows the array the one before it sizes.
+inline constexpr size_t kDrakeFirstCount = 8 + 8;  // utime
 
 inline std::string truncated(size_t size) { return "truncated: " + std::to_string(size) + " bytes"; }
 
 // A count that cannot be right for a message of `size` bytes, whatever its other fields: each
 // entry is at least one 8-byte double.
-inline std::string impossible_count(int32_t count, size_t size) {
+inline std::string impossible_count(int32_t count, size_t size, const char* name = "num_joints") {
   if (count < 0 || uint64_t(count) * 8 > size) {
-    return "num_joints " + std::to_string(count) + " in a message of " + std::to_string(size) + " bytes";
+    return std::string(name) + " " + std::to_string(count) + " in a message of " + std::to_string(size) + " bytes";
   }
   return {};
 }
@@ -193,6 +201,59 @@ inline std::string prepare(const void* data, size_t size, control_mode_t& m) {
   return {};
 }
 
+inline std::string prepare(const void* data, size_t size, drake::lcmt_iiwa_status& m) {
+  if (!read_int32(data, size, kDrakeFirstCount, m.num_joints)) return truncated(size);
+  if (std::string why = impossible_count(m.num_joints, size); !why.empty()) return why;
+  for (auto* v : {&m.joint_position_measured, &m.joint_velocity_estimated, &m.joint_position_commanded,
+                  &m.joint_position_ipo, &m.joint_torque_measured, &m.joint_torque_commanded,
+                  &m.joint_torque_external}) {
+    v->assign(size_t(m.num_joints), 0.0);
+  }
+  return {};
+}
+
+// num_joints (positions), then num_torques after the positions.
+inline std::string prepare(const void* data, size_t size, drake::lcmt_iiwa_command& m) {
+  if (!read_int32(data, size, kDrakeFirstCount, m.num_joints)) return truncated(size);
+  if (std::string why = impossible_count(m.num_joints, size); !why.empty()) return why;
+  if (!read_int32(data, size, kDrakeFirstCount + 4 + 8 * size_t(m.num_joints), m.num_torques)) return truncated(size);
+  if (std::string why = impossible_count(m.num_torques, size, "num_torques"); !why.empty()) return why;
+  m.joint_position.assign(size_t(m.num_joints), 0.0);
+  m.joint_torque.assign(size_t(m.num_torques), 0.0);
+  return {};
+}
+
+inline std::string prepare(const void* data, size_t size, drake::lcmt_panda_status& m) {
+  if (!read_int32(data, size, kDrakeFirstCount, m.num_joints)) return truncated(size);
+  if (std::string why = impossible_count(m.num_joints, size); !why.empty()) return why;
+  for (auto* v : {&m.joint_position, &m.joint_position_desired, &m.joint_velocity, &m.joint_velocity_desired,
+                  &m.joint_acceleration_desired, &m.joint_torque, &m.joint_torque_desired,
+                  &m.joint_torque_external}) {
+    v->assign(size_t(m.num_joints), 0.0);
+  }
+  return {};
+}
+
+// Three counts, each after the array the one before it sizes.
+inline std::string prepare(const void* data, size_t size, drake::lcmt_panda_command& m) {
+  struct Field {
+    int32_t* count;
+    std::vector<double>* values;
+    const char* name;
+  };
+  const Field fields[3] = {{&m.num_joint_position, &m.joint_position, "num_joint_position"},
+                           {&m.num_joint_velocity, &m.joint_velocity, "num_joint_velocity"},
+                           {&m.num_joint_torque, &m.joint_torque, "num_joint_torque"}};
+  size_t at = kDrakeFirstCount;
+  for (const Field& field : fields) {
+    if (!read_int32(data, size, at, *field.count)) return truncated(size);
+    if (std::string why = impossible_count(*field.count, size, field.name); !why.empty()) return why;
+    at += 4 + 8 * size_t(*field.count);
+  }
+  for (const Field& field : fields) field.values->assign(size_t(*field.count), 0.0);
+  return {};
+}
+
 // Types with no joint count: fixed size.
 template <typename Message>
 inline constexpr bool kCountless = std::is_same_v<Message, payload_t> || std::is_same_v<Message, tip_setpoint_t>;
@@ -262,6 +323,38 @@ inline const char* non_finite(const jog_command_t& m) {
 inline const char* non_finite(const tip_setpoint_t& m) {
   return !finite(m.position, 3) ? "position" : !finite(m.quaternion, 4) ? "quaternion" : !finite(m.twist, 6) ? "twist" : nullptr;
 }
+// joint_position_ipo is left out: the real driver sends NaN there whenever FRI gives no interpolator
+// positions (outside its commanding state), and nothing in chasles reads it.
+inline const char* non_finite(const drake::lcmt_iiwa_status& m) {
+  return !finite(m.joint_position_measured)    ? "joint_position_measured"
+         : !finite(m.joint_velocity_estimated) ? "joint_velocity_estimated"
+         : !finite(m.joint_position_commanded) ? "joint_position_commanded"
+         : !finite(m.joint_torque_measured)    ? "joint_torque_measured"
+         : !finite(m.joint_torque_commanded)   ? "joint_torque_commanded"
+         : !finite(m.joint_torque_external)    ? "joint_torque_external"
+                                               : nullptr;
+}
+inline const char* non_finite(const drake::lcmt_iiwa_command& m) {
+  return !finite(m.joint_position) ? "joint_position" : !finite(m.joint_torque) ? "joint_torque" : nullptr;
+}
+inline const char* non_finite(const drake::lcmt_panda_status& m) {
+  return !finite(m.joint_position)                          ? "joint_position"
+         : !finite(m.joint_position_desired)                ? "joint_position_desired"
+         : !finite(m.joint_velocity)                        ? "joint_velocity"
+         : !finite(m.joint_velocity_desired)                ? "joint_velocity_desired"
+         : !finite(m.joint_acceleration_desired)            ? "joint_acceleration_desired"
+         : !finite(m.joint_torque)                          ? "joint_torque"
+         : !finite(m.joint_torque_desired)                  ? "joint_torque_desired"
+         : !finite(m.joint_torque_external)                 ? "joint_torque_external"
+         : !std::isfinite(m.control_command_success_rate)   ? "control_command_success_rate"
+                                                            : nullptr;
+}
+inline const char* non_finite(const drake::lcmt_panda_command& m) {
+  return !finite(m.joint_position)   ? "joint_position"
+         : !finite(m.joint_velocity) ? "joint_velocity"
+         : !finite(m.joint_torque)   ? "joint_torque"
+                                     : nullptr;
+}
 inline const char* non_finite(const arm_target_t& m) {
   return !finite(m.joint_position)      ? "joint_position"
          : !finite(m.tip_position, 3)   ? "tip_position"
@@ -279,10 +372,51 @@ bool fits_arm(int32_t count, int arm_joints) {
   if constexpr (std::is_same_v<Message, jog_command_t>) return count == 0 || count == arm_joints;
   return count == arm_joints;
 }
-// A control mode carries all of the arm's joints or none, in each of its two counts.
+// A control mode carries all of the arm's joints or none, in each of its two counts; so do Drake's
+// commands, in each of theirs (which counts a driver needs depends on its mode, and is the
+// protocol's to judge: controller/protocol.hpp).
+inline bool all_or_none(int32_t count, int arm_joints) { return count == 0 || count == arm_joints; }
 inline bool fits_arm(const control_mode_t& m, int arm_joints) {
-  return (m.num_joints == 0 || m.num_joints == arm_joints) && (m.num_posture == 0 || m.num_posture == arm_joints);
+  return all_or_none(m.num_joints, arm_joints) && all_or_none(m.num_posture, arm_joints);
 }
+inline bool fits_arm(const drake::lcmt_iiwa_command& m, int arm_joints) {
+  return all_or_none(m.num_joints, arm_joints) && all_or_none(m.num_torques, arm_joints);
+}
+inline bool fits_arm(const drake::lcmt_panda_command& m, int arm_joints) {
+  return all_or_none(m.num_joint_position, arm_joints) && all_or_none(m.num_joint_velocity, arm_joints) &&
+         all_or_none(m.num_joint_torque, arm_joints);
+}
+
+// What a message's counts say, for a refusal: "7 joints", or each count of a type with several.
+template <typename Message>
+std::string counts(const Message& m) {
+  return std::to_string(m.num_joints) + " joints";
+}
+inline std::string counts(const control_mode_t& m) {
+  return std::to_string(m.num_joints) + " joints and a posture of " + std::to_string(m.num_posture);
+}
+inline std::string counts(const drake::lcmt_iiwa_command& m) {
+  return std::to_string(m.num_joints) + " positions and " + std::to_string(m.num_torques) + " torques";
+}
+inline std::string counts(const drake::lcmt_panda_command& m) {
+  return std::to_string(m.num_joint_position) + " positions, " + std::to_string(m.num_joint_velocity) +
+         " velocities and " + std::to_string(m.num_joint_torque) + " torques";
+}
+// The counts a size was computed for: num_joints, or every count of Drake's commands.
+template <typename Message>
+std::string size_counts(const Message& m) {
+  if constexpr (std::is_same_v<Message, drake::lcmt_iiwa_command> ||
+                std::is_same_v<Message, drake::lcmt_panda_command>) {
+    return counts(m);
+  } else {
+    return std::to_string(m.num_joints) + " joints";
+  }
+}
+// Types whose every count may be 0 or the arm's.
+template <typename Message>
+inline constexpr bool kAllOrNone = std::is_same_v<Message, control_mode_t> ||
+                                   std::is_same_v<Message, drake::lcmt_iiwa_command> ||
+                                   std::is_same_v<Message, drake::lcmt_panda_command>;
 template <typename Message>
 bool fits_arm(const Message& m, int arm_joints) {
   if constexpr (kCountless<Message>) return true;
@@ -312,9 +446,8 @@ std::string decode_checked(const void* data, size_t size, Message& message, int 
   if (size > size_t(INT32_MAX)) return "of " + std::to_string(size) + " bytes, too large";
   if (std::string why = detail::prepare(data, size, message); !why.empty()) return why;
   if (arm_joints != kAnyArm && !detail::fits_arm(message, arm_joints)) {
-    if constexpr (std::is_same_v<Message, control_mode_t>) {
-      return "for " + std::to_string(message.num_joints) + " joints and a posture of " +
-             std::to_string(message.num_posture) + "; the arm has " + std::to_string(arm_joints) + " (give 0 or " +
+    if constexpr (detail::kAllOrNone<Message>) {
+      return "for " + detail::counts(message) + "; the arm has " + std::to_string(arm_joints) + " (give 0 or " +
              std::to_string(arm_joints) + " in each)";
     } else if constexpr (!detail::kCountless<Message>) {
       return "for " + std::to_string(message.num_joints) + " joints; the arm has " + std::to_string(arm_joints);
@@ -326,7 +459,7 @@ std::string decode_checked(const void* data, size_t size, Message& message, int 
       return "of " + std::to_string(size) + " bytes; expected " + std::to_string(expected);
     } else {
       return "of " + std::to_string(size) + " bytes; expected " + std::to_string(expected) + " for " +
-             std::to_string(message.num_joints) + " joints";
+             detail::size_counts(message);
     }
   }
   if (message.decode(data, 0, static_cast<int>(size)) != expected) return "does not decode";

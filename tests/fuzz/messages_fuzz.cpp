@@ -8,8 +8,10 @@
 // LCM small message (parse_lcm_datagram) and, when it is one, the state receiver on its payload; 8
 // its joint_trajectory_t receiver and Controller::set_trajectory; 9 its joint_setpoint_t receiver
 // and Controller::set_setpoint; 10 its jog_command_t receiver and Controller::set_jog; 11 its
-// tip_setpoint_t receiver and Controller::set_tip_setpoint; 12–15 as 3. (Byte 0 modulo 16, so the
-// seeds' ASCII selectors '0'…'9', ':' and ';' pick 0…11.)
+// tip_setpoint_t receiver and Controller::set_tip_setpoint; 12 the checked decoders of Drake's iiwa
+// and Panda messages, for the arm and for any arm, and the protocols' status readers, whose state the
+// controller then ticks on and whose command the driver's checked decoder must take; 13–15 as 3. (Byte 0 modulo 16, so the seeds'
+// ASCII selectors '0'…'9', ':', ';' and '<' pick 0…12.)
 // What a reader accepts must be what the contract
 // promises (the arm's joint count, finite values; for the watch, a command of its own, once; for a
 // payload, a body the model can carry), and after every input the controller ticks (1 ms later,
@@ -28,9 +30,12 @@
 
 #include "chasles/controller/controller.hpp"
 #include "chasles/controller/lcm_io.hpp"
+#include "chasles/controller/protocol.hpp"
 #include "chasles/controller/realtime/bus.hpp"
 #include "chasles/controller/realtime/clock.hpp"
+#include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/model/urdf.hpp"
+#include "chasles/lcmtypes/checked.hpp"
 #include "chasles/tools/cli/messages.hpp"
 #include "chasles/tools/simulation/messaging.hpp"
 #include "fuzz/check.hpp"
@@ -69,6 +74,11 @@ struct Readers {
   std::unique_ptr<RobotModel> loaded;  // the model with the latest payload, which the controller holds
   int64_t sent_seq = 0;
   std::vector<bool> heard{false};  // by seq: our command has come back
+  StatusReader iiwa_reader{Protocol::kDrakeIiwa, n};
+  StatusReader panda_reader{Protocol::kDrakePanda, n};
+  CommandWriter iiwa_writer{Protocol::kDrakeIiwa, n, TorqueSemantics::kOverlay, IiwaPositions::kMeasured};
+  CommandWriter panda_writer{Protocol::kDrakePanda, n, TorqueSemantics::kOverlay};
+  Data data{model};
   JointState state{n};  // the latest state accepted
   bool have_state = false;
   int64_t now_ns = 0;
@@ -119,6 +129,97 @@ bool all_finite(const std::vector<double>& values) { return all_finite(values.da
 bool sized_for_its_counts(const control_mode_t& m) {
   return m.num_joints >= 0 && m.num_posture >= 0 && m.joint_stiffness.size() == size_t(m.num_joints) &&
          m.joint_damping.size() == size_t(m.num_joints) && m.nullspace_posture.size() == size_t(m.num_posture);
+}
+
+// A Drake message the checked decoder took: each array sized by its count. For the arm with finite
+// numbers required: statuses of exactly the arm's joints, commands of 0 or the arm's in each count,
+// every number finite (but an iiwa status's joint_position_ipo, which the driver sets NaN). For any
+// arm: what was taken encodes back to the very bytes (no strings, no booleans to normalise).
+bool sized_for_its_counts(const drake::lcmt_iiwa_status& m) {
+  for (const auto* v : {&m.joint_position_measured, &m.joint_velocity_estimated, &m.joint_position_commanded,
+                        &m.joint_position_ipo, &m.joint_torque_measured, &m.joint_torque_commanded,
+                        &m.joint_torque_external}) {
+    if (v->size() != size_t(m.num_joints)) return false;
+  }
+  return m.num_joints >= 0;
+}
+bool sized_for_its_counts(const drake::lcmt_panda_status& m) {
+  for (const auto* v : {&m.joint_position, &m.joint_position_desired, &m.joint_velocity, &m.joint_velocity_desired,
+                        &m.joint_acceleration_desired, &m.joint_torque, &m.joint_torque_desired,
+                        &m.joint_torque_external}) {
+    if (v->size() != size_t(m.num_joints)) return false;
+  }
+  return m.num_joints >= 0;
+}
+bool sized_for_its_counts(const drake::lcmt_iiwa_command& m) {
+  return m.num_joints >= 0 && m.num_torques >= 0 && m.joint_position.size() == size_t(m.num_joints) &&
+         m.joint_torque.size() == size_t(m.num_torques);
+}
+bool sized_for_its_counts(const drake::lcmt_panda_command& m) {
+  return m.num_joint_position >= 0 && m.num_joint_velocity >= 0 && m.num_joint_torque >= 0 &&
+         m.joint_position.size() == size_t(m.num_joint_position) &&
+         m.joint_velocity.size() == size_t(m.num_joint_velocity) && m.joint_torque.size() == size_t(m.num_joint_torque);
+}
+bool fits(const drake::lcmt_iiwa_status& m, int n) {
+  return m.num_joints == n && all_finite(m.joint_position_measured) && all_finite(m.joint_velocity_estimated) &&
+         all_finite(m.joint_position_commanded) && all_finite(m.joint_torque_measured) &&
+         all_finite(m.joint_torque_commanded) && all_finite(m.joint_torque_external);
+}
+bool fits(const drake::lcmt_panda_status& m, int n) {
+  return m.num_joints == n && all_finite(m.joint_position) && all_finite(m.joint_position_desired) &&
+         all_finite(m.joint_velocity) && all_finite(m.joint_velocity_desired) &&
+         all_finite(m.joint_acceleration_desired) && all_finite(m.joint_torque) && all_finite(m.joint_torque_desired) &&
+         all_finite(m.joint_torque_external) && std::isfinite(m.control_command_success_rate);
+}
+bool fits(const drake::lcmt_iiwa_command& m, int n) {
+  return (m.num_joints == 0 || m.num_joints == n) && (m.num_torques == 0 || m.num_torques == n) &&
+         all_finite(m.joint_position) && all_finite(m.joint_torque);
+}
+bool fits(const drake::lcmt_panda_command& m, int n) {
+  return (m.num_joint_position == 0 || m.num_joint_position == n) &&
+         (m.num_joint_velocity == 0 || m.num_joint_velocity == n) &&
+         (m.num_joint_torque == 0 || m.num_joint_torque == n) && all_finite(m.joint_position) &&
+         all_finite(m.joint_velocity) && all_finite(m.joint_torque);
+}
+
+template <typename Message>
+void judge_drake(const uint8_t* data, size_t size, int n) {
+  Message message;
+  if (messages::decode_checked(data, size, message, n, messages::Finite::Required).empty()) {
+    FUZZ_CHECK(sized_for_its_counts(message));
+    FUZZ_CHECK(fits(message, n));
+  }
+  if (messages::decode_checked(data, size, message, messages::kAnyArm).empty()) {
+    FUZZ_CHECK(sized_for_its_counts(message));
+    FUZZ_CHECK(message.getEncodedSize() == static_cast<int>(size));
+    std::vector<uint8_t> again(size);
+    FUZZ_CHECK(message.encode(again.data(), 0, static_cast<int>(size)) == static_cast<int>(size));
+    FUZZ_CHECK(std::equal(again.begin(), again.end(), data));
+  }
+}
+
+// A Drake status a protocol's reader takes becomes the state the controller ticks on: sized for the
+// arm, finite. The command written for it (the state's own effort as the torque, g(q) subtracted)
+// is one the driver's side takes: the arm's counts, finite, the state's utime.
+template <typename Command>
+void judge_a_drake_status(Readers& r, StatusReader& reader, CommandWriter& writer, const uint8_t* message,
+                          size_t size) {
+  JointState state(r.n);
+  if (!reader.read(message, size, r.now_ns, state).empty()) return;
+  FUZZ_CHECK(state.q.size() == r.n && state.q.allFinite() && state.qd.allFinite() && state.effort.allFinite());
+  FUZZ_CHECK(reader.tau_ext().size() == r.n && reader.tau_ext().allFinite());
+  FUZZ_CHECK(state.seq >= 0);
+  r.state = state;
+  r.have_state = true;
+  const Eigen::VectorXd& g = gravity_torques(r.model, r.data, state.q);
+  writer.write(0, 0, state, state.effort, g);
+  Command command;
+  const auto& bytes = writer.bytes();
+  const bool finite = state.effort.allFinite() && g.allFinite() && (state.effort - g).allFinite();
+  const std::string why =
+      messages::decode_checked(bytes.data(), bytes.size(), command, r.n, messages::Finite::Required);
+  FUZZ_CHECK(why.empty() || (!finite && why.rfind("with non-finite", 0) == 0));
+  FUZZ_CHECK(command.utime == state.utime);
 }
 
 template <typename Message>
@@ -297,6 +398,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         FUZZ_CHECK(setpoint.position.allFinite() && setpoint.quaternion.allFinite() && setpoint.twist.allFinite());
         r.controller.set_tip_setpoint(setpoint, r.now_ns);  // judges the quaternion and the order
       }
+      break;
+    case 12:
+      judge_drake<drake::lcmt_iiwa_status>(message, size - 1, r.n);
+      judge_drake<drake::lcmt_iiwa_command>(message, size - 1, r.n);
+      judge_drake<drake::lcmt_panda_status>(message, size - 1, r.n);
+      judge_drake<drake::lcmt_panda_command>(message, size - 1, r.n);
+      judge_a_drake_status<drake::lcmt_iiwa_command>(r, r.iiwa_reader, r.iiwa_writer, message, size - 1);
+      judge_a_drake_status<drake::lcmt_panda_command>(r, r.panda_reader, r.panda_writer, message, size - 1);
       break;
     default: {
       decode_as<robot_state_t>(message, size - 1);
