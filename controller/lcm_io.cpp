@@ -22,24 +22,11 @@ const char* Rejections::last() {
   return last_.data();
 }
 
-StateReceiver::StateReceiver(int num_joints, Mailbox<JointState>& mailbox)
-    : num_joints_(num_joints), mailbox_(mailbox) {
-  message_.num_joints = num_joints;
-  for (auto* v : {&message_.position, &message_.velocity, &message_.effort}) v->assign(size_t(num_joints), 0.0);
-}
+StateReceiver::StateReceiver(int num_joints, Mailbox<JointState>& mailbox, Protocol protocol)
+    : reader_(protocol, num_joints), mailbox_(mailbox) {}
 
 std::string StateReceiver::receive(const void* data, size_t size, int64_t arrival_ns) {
-  if (std::string why = messages::decode_checked(data, size, message_, num_joints_, messages::Finite::Required);
-      !why.empty()) {
-    return why;
-  }
-  JointState& state = mailbox_.back();
-  state.seq = message_.seq;
-  state.utime = message_.utime;
-  state.arrival_ns = arrival_ns;
-  state.q = Eigen::Map<const Eigen::VectorXd>(message_.position.data(), num_joints_);
-  state.qd = Eigen::Map<const Eigen::VectorXd>(message_.velocity.data(), num_joints_);
-  state.effort = Eigen::Map<const Eigen::VectorXd>(message_.effort.data(), num_joints_);
+  if (std::string why = reader_.read(data, size, arrival_ns, mailbox_.back()); !why.empty()) return why;
   mailbox_.publish();
   return {};
 }
@@ -301,22 +288,6 @@ bool CommandWatch::receive(const void* data, size_t size) {
   }
   foreign_.fetch_add(1, std::memory_order_release);
   return true;
-}
-
-CommandEncoder::CommandEncoder(int num_joints) {
-  message_.utime = message_.seq = 0;
-  message_.state_seq = -1;
-  message_.num_joints = num_joints;
-  message_.torque.assign(size_t(num_joints), 0.0);
-  bytes_.resize(size_t(message_.getEncodedSize()));
-}
-
-void CommandEncoder::encode(int64_t utime, int64_t seq, int64_t state_seq, const Eigen::VectorXd& torque) {
-  message_.utime = utime;
-  message_.seq = seq;
-  message_.state_seq = state_seq;
-  Eigen::Map<Eigen::VectorXd>(message_.torque.data(), message_.num_joints) = torque;
-  message_.encode(bytes_.data(), 0, static_cast<int>(bytes_.size()));  // the buffer fits by construction
 }
 
 }  // namespace chasles::controller

@@ -24,6 +24,7 @@
 
 #include "chasles/controller/controller.hpp"
 #include "chasles/controller/law.hpp"
+#include "chasles/controller/protocol.hpp"
 #include "chasles/controller/realtime/mailbox.hpp"
 #include "chasles/controller/realtime/realtime.hpp"
 #include "chasles/core/model/payload.hpp"
@@ -64,10 +65,11 @@ class Rejections {
   Reason last_{};
 };
 
-/// robot_state_t on `channel` → validated JointState in `mailbox`.
+/// The arm's status in its protocol (robot_state_t, or a Drake status: StatusReader) → validated
+/// JointState in `mailbox`.
 class StateReceiver {
  public:
-  StateReceiver(int num_joints, Mailbox<JointState>& mailbox);
+  StateReceiver(int num_joints, Mailbox<JointState>& mailbox, Protocol protocol = Protocol::kChasles);
   StateReceiver(const StateReceiver&) = delete;
   StateReceiver& operator=(const StateReceiver&) = delete;
 
@@ -76,8 +78,7 @@ class StateReceiver {
   std::string receive(const void* data, size_t size, int64_t arrival_ns);
 
  private:
-  int num_joints_;
-  robot_state_t message_;
+  StatusReader reader_;
   Mailbox<JointState>& mailbox_;
 };
 
@@ -262,21 +263,6 @@ class CommandWatch {
   joint_torque_command_t message_;  // any arm's: another controller may drive another arm
   std::atomic<int64_t> first_seq_{-1}, first_state_seq_{-1};
   std::atomic<int64_t> foreign_{0};
-};
-
-/// joint_torque_command_t, encoded into a buffer sized once (LCM's C++ publish(channel, msg*)
-/// allocates a buffer per call).
-class CommandEncoder {
- public:
-  explicit CommandEncoder(int num_joints);
-  /// Encodes a command into the buffer.
-  void encode(int64_t utime, int64_t seq, int64_t state_seq, const Eigen::VectorXd& torque);
-  /// The bytes of the last command encoded.
-  const std::vector<uint8_t>& bytes() const { return bytes_; }
-
- private:
-  joint_torque_command_t message_;
-  std::vector<uint8_t> bytes_;
 };
 
 }  // namespace chasles::controller

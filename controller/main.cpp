@@ -21,6 +21,7 @@
 #include <thread>
 
 #include "chasles/controller/daemon.hpp"
+#include "chasles/controller/node.hpp"
 #include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/model/payload.hpp"
 #include "chasles/core/model/urdf.hpp"
@@ -74,7 +75,8 @@ std::string gains_text(const Json& value, const std::string& name) {
 
 struct Flags {
   std::string robot, tip, config, summary;
-  double rate = 1000.0, stale_ms = 10.0, torque_ramp_ms = 50.0, omega = 20.0;
+  // rate and stale_ms 0: the protocol's status rate, and 10 ms or three of its periods.
+  double rate = 0.0, stale_ms = 0.0, torque_ramp_ms = 50.0, omega = 20.0;
   std::string kp, kd;
   std::string damping;
   // Contact: per-joint lists as text until the joint count is known; empty: the defaults.
@@ -200,7 +202,10 @@ int main(int argc, char** argv) {
   DaemonOptions options;
   app.add_option("--robot", flags.robot, "URDF of the arm")->required()->check(CLI::ExistingFile);
   app.add_option("--tip", flags.tip, "tip link (default: the URDF's single leaf)");
-  app.add_option("--rate", flags.rate, "control rate, Hz (default 1000)")->check(CLI::PositiveNumber);
+  app.add_option("--rate", flags.rate,
+                 "control rate, Hz: the rate the arm's status comes at (default: the protocol's, 200 for drake-iiwa, "
+                 "else 1000)")
+      ->check(CLI::PositiveNumber);
   app.add_option("--kp", flags.kp, "position gains K_p, 1/s²: one number or one per joint (default ω²)");
   app.add_option("--kd", flags.kd, "velocity gains K_d, 1/s: one number or one per joint (default 2ω)");
   app.add_option("--damping", flags.damping,
@@ -211,7 +216,8 @@ int main(int argc, char** argv) {
                  "JSON file with any of the settings below, named with '_' for '-' (kp, stale_ms, reflex, ...); "
                  "flags win")
       ->check(CLI::ExistingFile);
-  app.add_option("--stale-ms", flags.stale_ms, "a robot state older than this is a FAULT (default 10)")
+  app.add_option("--stale-ms", flags.stale_ms,
+                 "a robot state older than this is a FAULT (default 10, or three periods where that is longer)")
       ->check(CLI::PositiveNumber);
   app.add_option("--torque-ramp-ms", flags.torque_ramp_ms,
                  "torque-rate limit: time to ramp through a joint's effort range, ms (default 50)")
@@ -295,6 +301,32 @@ int main(int argc, char** argv) {
                  "(default), or 'lcm', LCM's receive thread, which hands each message over through a pipe")
       ->transform(CLI::CheckedTransformer(std::map<std::string, bool>{{"direct", true}, {"lcm", false}}));
   app.add_option("--channel-prefix", options.channel_prefix, "prefix of the LCM channels (default CHASLES_)");
+  app.add_option("--protocol", options.protocol,
+                 "the arm driver's messages (docs/protocols.md): 'chasles' (robot_state_t / joint_torque_command_t on "
+                 "PREFIX STATE / COMMAND, default), 'drake-iiwa' (lcmt_iiwa_status / lcmt_iiwa_command on IIWA_STATUS / "
+                 "IIWA_COMMAND) or 'drake-panda' (lcmt_panda_status / lcmt_panda_command on PANDA_STATUS / "
+                 "PANDA_COMMAND); every other channel stays chasles's")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, chasles::controller::Protocol>{
+          {"chasles", chasles::controller::Protocol::kChasles},
+          {"drake-iiwa", chasles::controller::Protocol::kDrakeIiwa},
+          {"drake-panda", chasles::controller::Protocol::kDrakePanda}}));
+  app.add_option("--status-channel", options.status_channel, "the arm's status channel (default: the protocol's)");
+  app.add_option("--command-channel", options.command_channel, "the arm's command channel (default: the protocol's)");
+  app.add_option("--torque-semantics", options.torque_semantics,
+                 "'full': the command carries the whole joint torque (chasles's plant; the default for chasles); "
+                 "'overlay': the torque less g(q) of the bare arm, for a driver that adds its own gravity "
+                 "compensation (the default for Drake's iiwa and Panda drivers)")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, chasles::controller::TorqueSemantics>{
+          {"full", chasles::controller::TorqueSemantics::kFull},
+          {"overlay", chasles::controller::TorqueSemantics::kOverlay}}));
+  app.add_option("--iiwa-positions", options.iiwa_positions,
+                 "drake-iiwa: what a torque command carries in joint_position: 'none' (num_joints 0: Drake's "
+                 "torque-only mode, drake-iiwa-driver --torque_only; default) or 'measured' (the measured position "
+                 "of the status answered: drake-iiwa-driver's default torque mode, overlaying KUKA's joint "
+                 "impedance)")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, chasles::controller::IiwaPositions>{
+          {"none", chasles::controller::IiwaPositions::kNone},
+          {"measured", chasles::controller::IiwaPositions::kMeasured}}));
   app.add_option("--lcm-url", options.lcm_url, "LCM URL (default: LCM's, or $LCM_DEFAULT_URL)");
   app.add_option("--seconds", options.seconds, "stop after this long (default: run until SIGINT/SIGTERM)")
       ->check(CLI::NonNegativeNumber);
@@ -344,8 +376,10 @@ int main(int argc, char** argv) {
     if (!flags.kp.empty()) options.control.kp = gains(flags.kp, n, "--kp");
     if (!flags.kd.empty()) options.control.kd = gains(flags.kd, n, "--kd");
     if (!flags.damping.empty()) options.control.damping = gains(flags.damping, n, "--damping");
-    options.control.period = 1.0 / flags.rate;
-    options.control.stale_ns = static_cast<int64_t>(flags.stale_ms * 1e6);
+    const double status_period = chasles::controller::nominal_status_period(options.protocol);
+    options.control.period = flags.rate > 0.0 ? 1.0 / flags.rate : status_period > 0.0 ? status_period : 1e-3;
+    const double stale_ms = flags.stale_ms > 0.0 ? flags.stale_ms : std::max(10.0, 3e3 * options.control.period);
+    options.control.stale_ns = static_cast<int64_t>(stale_ms * 1e6);
     options.control.torque_ramp = flags.torque_ramp_ms * 1e-3;
     options.control.contact = flags.contact;
     options.control.contact.retract_distance = flags.retract_mm * 1e-3;
@@ -371,8 +405,10 @@ int main(int argc, char** argv) {
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
     chasles::controller::Daemon daemon(model, options);
-    std::fprintf(stderr, "chasles_controller: %s, %d joints, %g Hz on %sSTATE -> %sCOMMAND\n", model.name().c_str(), n,
-                 flags.rate, options.channel_prefix.c_str(), options.channel_prefix.c_str());
+    const chasles::controller::Channels channels = chasles::controller::channels_of(options);
+    std::fprintf(stderr, "chasles_controller: %s, %d joints, %g Hz on %s -> %s (%s)\n", model.name().c_str(), n,
+                 1.0 / options.control.period, channels.state.c_str(), channels.command.c_str(),
+                 chasles::controller::to_string(options.protocol));
     const Summary summary = daemon.run(g_stop);
     std::fprintf(stderr,
                  "chasles_controller: %lld ticks at %.1f Hz, %lld overruns, jitter p99 %.0f us, compute p99 %.0f us, "

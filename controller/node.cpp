@@ -6,6 +6,8 @@
 #include <cstdio>
 #include <cstring>
 
+#include "chasles/core/dynamics/dynamics.hpp"
+
 namespace chasles::controller {
 
 static_assert(TrajectoryProgress::kNone == controller_status_t::TRAJECTORY_NONE &&
@@ -44,9 +46,13 @@ void Node::Timing::reset() {
   publish.reset();
 }
 
-Node::Loop::Loop(const RobotModel& model, const Config& control, double payload_mass_in)
-    : controller(model, control),
-      command_encoder(model.dof()),
+Node::Loop::Loop(const RobotModel& model, const DaemonOptions& options, double payload_mass_in)
+    : controller(model, options.control),
+      command_writer(options.protocol, model.dof(),
+                     options.torque_semantics.value_or(default_torque_semantics(options.protocol)),
+                     options.iiwa_positions),
+      gravity_data(model),
+      no_gravity(Eigen::VectorXd::Zero(model.dof())),
       state(model.dof()),
       target(model.dof()),
       waypoints(model.dof()),
@@ -62,6 +68,16 @@ Node::Planner::Planner(const RobotModel& model, const LimitConfig& config)
 
 Node::Reporter::Reporter(const RobotModel& model) : data(model), last(model.dof()) {}
 
+// chasles's channels with the prefix, the driver's status and command channels as the protocol
+// names them unless given.
+Channels channels_of(const DaemonOptions& options) {
+  Channels channels(options.channel_prefix);
+  const ProtocolChannels driver = default_channels(options.protocol, options.channel_prefix);
+  channels.state = options.status_channel.empty() ? driver.status : options.status_channel;
+  channels.command = options.command_channel.empty() ? driver.command : options.command_channel;
+  return channels;
+}
+
 Node::LoadedModel Node::loaded(const RobotModel& model, const std::optional<Payload>& payload) {
   if (!payload) return {model, 0.0};
   return {with_payload(model, *payload), payload->mass};
@@ -74,7 +90,7 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
       buses_(buses),
       n_(model.dof()),
       period_ns_(static_cast<int64_t>(std::llround(options.control.period * 1e9))),
-      channels_(options.channel_prefix),
+      channels_(channels_of(options)),
       models_(loaded(model, options.payload)),
       payloads_(Payload{}),
       modes_(8, LawSettings(n_)),
@@ -87,7 +103,7 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
       snapshots_(Snapshot(n_)),
       requests_(CartesianRequest(n_)),
       paths_(2, JointPath(n_)),
-      state_receiver_(n_, states_),
+      state_receiver_(n_, states_, options.protocol),
       target_receiver_(n_, targets_),
       trajectory_receiver_(model, trajectories_),
       setpoint_receiver_(n_, setpoints_),
@@ -96,7 +112,8 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
       mode_receiver_(n_, modes_),
       payload_receiver_(payloads_, planner_bell_),
       command_watch_(sent_commands_),
-      loop_(models_.front().model, options.control, models_.front().payload_mass),
+      digest_watch_(sent_digests_),
+      loop_(models_.front().model, options, models_.front().payload_mass),
       planner_(model, options.control.limits),
       reporter_(model) {
   subscriptions_.push_back(buses.receive.subscribe(channels_.state, [this](const uint8_t* data, size_t size) {
@@ -130,14 +147,20 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
     if (const std::string why = payload_receiver_.receive(data, size); !why.empty()) rejections_.add("payload " + why);
   }));
   subscriptions_.push_back(buses.receive.subscribe(
-      channels_.command, [this](const uint8_t* data, size_t size) { command_watch_.receive(data, size); }));
+      channels_.command, [this](const uint8_t* data, size_t size) {
+        if (options_.protocol == Protocol::kChasles) {
+          command_watch_.receive(data, size);
+        } else {
+          digest_watch_.receive(data, size);
+        }
+      }));
   reporter_.status.num_joints = n_;
 }
 
 std::string Node::refusal() const {
-  if (command_watch_.foreign() == 0) return {};
+  if (foreign_commands() == 0) return {};
   return "another controller is already commanding " + channels_.command + " (heard " +
-         std::to_string(command_watch_.foreign()) + " command(s) before this one sent any, first seq " +
+         std::to_string(foreign_commands()) + " command(s) before this one sent any, first seq " +
          std::to_string(command_watch_.first_seq()) + "); refusing to start";
 }
 
@@ -163,7 +186,7 @@ int64_t Node::tick(int64_t scheduled) {
   if (fresh) loop_.have_state = true;
   const int64_t trigger = state_driven && fresh ? loop_.state.arrival_ns : scheduled;
   record.jitter_us = 1e-3 * static_cast<double>(wake - trigger);
-  if (command_watch_.foreign() > 0 && !loop_.controller.stood_down()) stand_down();
+  if (foreign_commands() > 0 && !loop_.controller.stood_down()) stand_down();
   if (models_.take()) {  // a payload built by the worker, between two ticks
     loop_.controller.set_model(models_.front().model);
     loop_.payload_mass = models_.front().payload_mass;
@@ -186,14 +209,21 @@ int64_t Node::tick(int64_t scheduled) {
   const bool command = loop_.controller.tick(wake, loop_.have_state ? &loop_.state : nullptr);
   int64_t utime = 0;
   if (command) {
-    loop_.command_encoder.encode(utime = clock_.utime_us(), ++loop_.seq, loop_.state.seq, loop_.controller.torque());
+    const bool overlay = loop_.command_writer.semantics() == TorqueSemantics::kOverlay;
+    const Eigen::VectorXd& g = overlay ? gravity_torques(model_, loop_.gravity_data, loop_.state.q) : loop_.no_gravity;
+    loop_.command_writer.write(utime = clock_.utime_us(), ++loop_.seq, loop_.state, loop_.controller.torque(), g);
   }
   const int64_t computed = clock_.now_ns();
   record.compute_us = 1e-3 * static_cast<double>(computed - wake);
   int64_t sent = computed;
   if (command) {
-    sent_commands_.record(loop_.seq, utime);  // before the send: our own copy may come back at once
-    if (!buses_.command.publish(channels_.command, loop_.command_encoder.bytes())) ++loop_.counters.send_failures;
+    // Before the send: our own copy may come back at once.
+    if (options_.protocol == Protocol::kChasles) {
+      sent_commands_.record(loop_.seq, utime);
+    } else {
+      sent_digests_.record(loop_.command_writer.bytes());
+    }
+    if (!buses_.command.publish(channels_.command, loop_.command_writer.bytes())) ++loop_.counters.send_failures;
     sent = clock_.now_ns();
     record.publish_us = 1e-3 * static_cast<double>(sent - computed);
     if (loop_.state.seq != loop_.answered_seq) {
@@ -225,7 +255,7 @@ int64_t Node::tick(int64_t scheduled) {
   publish_snapshot();
   // The status goes out at once on what an operator must hear about now.
   const int64_t rejected = loop_.controller.rejected_targets() + loop_.controller.rejected_modes(),
-                foreign = command_watch_.foreign();
+                foreign = foreign_commands();
   const TrajectoryProgress::Outcome outcome = loop_.controller.trajectory().outcome;
   if (loop_.controller.mode() != mode_before || rejected != loop_.noticed_rejections ||
       foreign != loop_.noticed_foreign || outcome != loop_.noticed_outcome) {
@@ -271,7 +301,7 @@ void Node::publish_snapshot() {
   s.torque = loop_.controller.torque();
   s.stale = loop_.controller.stale_ticks();
   s.faults = loop_.controller.faults();
-  s.foreign_commands = command_watch_.foreign();
+  s.foreign_commands = foreign_commands();
   s.rejected_targets = loop_.controller.rejected_targets();
   s.law = loop_.controller.law().law;
   s.payload_mass = loop_.payload_mass;

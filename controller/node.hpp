@@ -43,6 +43,10 @@ struct Buses {
   Bus& status;
 };
 
+/// The channels a node listens and speaks on: chasles's with the prefix, and the arm driver's
+/// status and command channels as the protocol names them unless the options give them.
+Channels channels_of(const DaemonOptions& options);
+
 class Node {
  public:
   /// Keeps references to all four arguments. Throws ArgumentError for a bad config.
@@ -148,6 +152,10 @@ class Node {
   static LoadedModel loaded(const RobotModel& model, const std::optional<Payload>& payload);
 
   void stand_down();
+  /// Messages heard on the command channel that this process did not send.
+  int64_t foreign_commands() const {
+    return options_.protocol == Protocol::kChasles ? command_watch_.foreign() : digest_watch_.foreign();
+  }
   int64_t arrival_ns(const Bus& bus) const;
   void publish_snapshot();
   void drain();
@@ -185,8 +193,12 @@ class Node {
   TipSetpointReceiver tip_setpoint_receiver_;
   ModeReceiver mode_receiver_;
   PayloadReceiver payload_receiver_;
+  // Our own commands, to tell them from another sender's on the command channel: by seq on
+  // chasles's protocol, by their bytes on Drake's (which carry none).
   SentCommands sent_commands_;
   CommandWatch command_watch_;
+  SentDigests sent_digests_;
+  DigestCommandWatch digest_watch_;
   std::vector<Bus::Subscription> subscriptions_;  // after what they feed: ended first
   bool realtime_granted_ = false;
 
@@ -195,9 +207,13 @@ class Node {
 
   // The real-time loop's: tick() and what it calls.
   struct Loop {
-    Loop(const RobotModel& model, const Config& control, double payload_mass);
+    Loop(const RobotModel& model, const DaemonOptions& options, double payload_mass);
     Controller controller;
-    CommandEncoder command_encoder;
+    CommandWriter command_writer;
+    // g(q) of the bare arm at the state answered, for a driver that adds its own (kOverlay): it
+    // knows the arm, not a payload chasles was told of, whose weight stays in the torque sent.
+    Data gravity_data;
+    Eigen::VectorXd no_gravity;
     JointState state;
     Target target;
     Waypoints waypoints;

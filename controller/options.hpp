@@ -8,6 +8,7 @@
 #include <string>
 
 #include "chasles/controller/controller.hpp"
+#include "chasles/controller/protocol.hpp"
 #include "chasles/controller/statistics.hpp"
 #include "chasles/core/model/payload.hpp"
 
@@ -26,6 +27,15 @@ struct DaemonOptions {
   std::optional<Payload> payload;
   std::string lcm_url;  ///< empty: LCM's default (or $LCM_DEFAULT_URL)
   std::string channel_prefix = "CHASLES_";
+  /// The arm driver's protocol (protocol.hpp, docs/protocols.md): the status read and the command
+  /// sent, on the channels below (empty: the protocol's, PREFIX STATE / COMMAND for chasles's);
+  /// every other channel is chasles's, with the prefix.
+  Protocol protocol = Protocol::kChasles;
+  std::string status_channel, command_channel;
+  /// What the command's torque means to the driver; unset: the protocol's default.
+  std::optional<TorqueSemantics> torque_semantics;
+  /// The position fields of an iiwa torque command.
+  IiwaPositions iiwa_positions = IiwaPositions::kNone;
   bool realtime = false;  ///< SCHED_FIFO, mlockall, CPU affinity for the loop (warn if refused)
   int priority = 80;
   int cpu = -1;

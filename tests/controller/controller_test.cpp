@@ -608,7 +608,8 @@ TEST_F(ControllerTest, StandingDownIsLatchedAgainstFreshStatesAndTargets) {
 
 TEST_F(ControllerTest, TheTickAllocatesNothing) {
   Controller controller(model_, config_);
-  CommandEncoder publisher(7);
+  CommandWriter publisher(Protocol::kChasles, 7, TorqueSemantics::kFull);
+  const VectorXd no_gravity = VectorXd::Zero(7);
   ASSERT_TRUE(controller.tick(0, fresh(0)));
   VectorXd goal = bent_pose();
   goal(1) += 0.4;
@@ -617,7 +618,7 @@ TEST_F(ControllerTest, TheTickAllocatesNothing) {
   for (int k = 1; k <= 10'000; ++k) {
     state_.q(1) += 4e-5;
     state_.seq = k + 1;  // a new state each tick: the contact observer runs (and, with no effort, trips)
-    if (controller.tick(k * kMs / 2, fresh(k * kMs / 2))) publisher.encode(k, k, k, controller.torque());
+    if (controller.tick(k * kMs / 2, fresh(k * kMs / 2))) publisher.write(k, k, state_, controller.torque(), no_gravity);
   }
   controller.tick(state_.arrival_ns + 2 * config_.stale_ns, &state_);  // a FAULT formats its reason
   EXPECT_EQ(counter.count(), 0);

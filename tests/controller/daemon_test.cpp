@@ -360,18 +360,21 @@ TEST(daemon, TickAndPublishAllocateNothing) {
   controller::Bus bus(kLcmUrl);
   const std::string channel = "CHASLES_COMMAND";
   Controller controller(model, Config::critically_damped(7, 20.0));
-  CommandEncoder encoder(7);
+  // Drake's iiwa protocol, whose torque is sent less g(q): the longest send path.
+  CommandWriter encoder(Protocol::kDrakeIiwa, 7, TorqueSemantics::kOverlay, IiwaPositions::kMeasured);
+  Data gravity_data(model);
   JointState state(7);
   state.q = bent_pose();
   ASSERT_TRUE(controller.tick(0, &state));
-  encoder.encode(0, 0, 0, controller.torque());
+  encoder.write(0, 0, state, controller.torque(), gravity_torques(model, gravity_data, state.q));
   ASSERT_TRUE(bus.publish(channel, encoder.bytes()));  // the first send may set things up
   testing::AllocationCounter counter;
   for (int k = 1; k <= 10'000; ++k) {
     state.arrival_ns = k * 1000;
     state.q(0) += 1e-5;
     ASSERT_TRUE(controller.tick(k * 1000, &state));
-    encoder.encode(k, k, k, controller.torque());
+    state.utime = k;
+    encoder.write(k, k, state, controller.torque(), gravity_torques(model, gravity_data, state.q));
     ASSERT_TRUE(bus.publish(channel, encoder.bytes()));
   }
   EXPECT_EQ(counter.count(), 0);

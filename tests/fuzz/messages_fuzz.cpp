@@ -65,7 +65,7 @@ struct Readers {
   Controller controller{model, Config::critically_damped(n, 20.0)};
   SentCommands sent;
   CommandWatch watch{sent};
-  CommandEncoder publisher{n};
+  CommandWriter publisher{Protocol::kChasles, n, TorqueSemantics::kFull};
   SpscRing<LawSettings> laws{4, LawSettings(n)};
   ModeReceiver mode_receiver{n, laws};
   Mailbox<Payload> payloads{Payload{}};
@@ -97,7 +97,9 @@ int64_t big_endian(const uint8_t* p) {
 void judge_the_command_watch(Readers& r, const uint8_t* message, int bytes) {
   for (int k = 0; k < 2; ++k) {
     const int64_t seq = ++r.sent_seq;
-    r.publisher.encode(1000 * seq, seq, 0, Eigen::VectorXd::Zero(r.n));
+    JointState answered(r.n);
+    answered.seq = 0;
+    r.publisher.write(1000 * seq, seq, answered, Eigen::VectorXd::Zero(r.n), Eigen::VectorXd::Zero(r.n));
     r.sent.record(seq, 1000 * seq);
     r.heard.push_back(false);
     if (k == 0) {
