@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/lcmtypes/checked.hpp"
 
 namespace chasles::faults {
@@ -13,31 +14,56 @@ constexpr int kQueue = 1 << 16;      // the test's subscriptions lose nothing, w
 
 }  // namespace
 
-Recorder::Recorder(Bus& bus, const SimulatedClock& clock, const std::string& prefix)
-    : bus_(bus), clock_(clock), prefix_(prefix), positions_(kPositions, {-1, Eigen::VectorXd()}) {
-  subscriptions_.push_back(bus.subscribe(
-      prefix + "STATE",
-      [this](const uint8_t* data, size_t size) {
-        robot_state_t m;
-        if (!messages::decode_checked(data, size, m, messages::kAnyArm, messages::Finite::Required).empty()) return;
-        ++index_;
-        state_arrivals_.push_back(clock_.now_ns());
-        positions_[size_t(m.seq) % kPositions] = {m.seq, vector_of(m.position)};
-        state_ = std::move(m);
-      },
-      kQueue));
-  subscriptions_.push_back(bus.subscribe(
-      prefix + "COMMAND",
-      [this](const uint8_t* data, size_t size) {
-        HeardCommand c{};
-        if (!messages::decode_checked(data, size, c.message).empty()) return;
-        if (own_commands_.count({c.message.seq, c.message.utime}) > 0) return;
-        c.index = ++index_;
-        const auto& [seq, q] = positions_[size_t(std::max<int64_t>(c.message.state_seq, 0)) % kPositions];
-        if (seq == c.message.state_seq) c.q_answered = q;
-        commands_.push_back(std::move(c));
-      },
-      kQueue));
+Recorder::Recorder(Bus& bus, const SimulatedClock& clock, const std::string& prefix, controller::Protocol protocol,
+                   const RobotModel* model)
+    : bus_(bus),
+      clock_(clock),
+      prefix_(prefix),
+      protocol_(protocol),
+      model_(model),
+      positions_(kPositions, {-1, Eigen::VectorXd()}) {
+  const controller::ProtocolChannels driver = controller::default_channels(protocol, prefix);
+  if (protocol == controller::Protocol::kChasles) {
+    subscriptions_.push_back(bus.subscribe(
+        driver.status,
+        [this](const uint8_t* data, size_t size) {
+          robot_state_t m;
+          if (!messages::decode_checked(data, size, m, messages::kAnyArm, messages::Finite::Required).empty()) return;
+          on_state(m);
+        },
+        kQueue));
+    subscriptions_.push_back(bus.subscribe(
+        driver.command,
+        [this](const uint8_t* data, size_t size) {
+          HeardCommand c{};
+          if (!messages::decode_checked(data, size, c.message).empty()) return;
+          if (own_commands_.count({c.message.seq, c.message.utime}) > 0) return;
+          on_command(std::move(c));
+        },
+        kQueue));
+  } else {
+    const int n = model->dof();
+    reader_.emplace(protocol, n);
+    data_.emplace(*model);
+    subscriptions_.push_back(bus.subscribe(
+        driver.status,
+        [this, n](const uint8_t* data, size_t size) {
+          controller::JointState state(n);
+          if (!reader_->read(data, size, clock_.now_ns(), state).empty()) return;
+          robot_state_t m;
+          m.utime = state.utime;
+          m.seq = state.seq;
+          m.num_joints = n;
+          m.position.assign(state.q.data(), state.q.data() + n);
+          m.velocity.assign(state.qd.data(), state.qd.data() + n);
+          m.effort.assign(state.effort.data(), state.effort.data() + n);
+          seq_of_utime_[m.utime] = m.seq;
+          on_state(m);
+        },
+        kQueue));
+    subscriptions_.push_back(bus.subscribe(
+        driver.command, [this](const uint8_t* data, size_t size) { hear_drake_command(data, size); }, kQueue));
+  }
   subscriptions_.push_back(bus.subscribe(
       prefix + "STATUS",
       [this](const uint8_t* data, size_t size) {
@@ -50,12 +76,57 @@ Recorder::Recorder(Bus& bus, const SimulatedClock& clock, const std::string& pre
       kQueue));
 }
 
+void Recorder::on_state(const robot_state_t& m) {
+  ++index_;
+  state_arrivals_.push_back(clock_.now_ns());
+  positions_[size_t(m.seq) % kPositions] = {m.seq, vector_of(m.position)};
+  state_ = m;
+}
+
+void Recorder::on_command(HeardCommand c) {
+  c.index = ++index_;
+  const auto& [seq, q] = positions_[size_t(std::max<int64_t>(c.message.state_seq, 0)) % kPositions];
+  if (seq == c.message.state_seq) c.q_answered = q;
+  commands_.push_back(std::move(c));
+}
+
+void Recorder::hear_drake_command(const void* data, size_t size) {
+  const int n = model_->dof();
+  HeardCommand c{};
+  std::vector<double> torque;
+  int64_t utime = 0;
+  if (protocol_ == controller::Protocol::kDrakeIiwa) {
+    drake::lcmt_iiwa_command m;
+    if (!messages::decode_checked(data, size, m, n).empty() || m.num_torques != n) return;
+    utime = m.utime;
+    torque = m.joint_torque;
+  } else {
+    drake::lcmt_panda_command m;
+    if (!messages::decode_checked(data, size, m, n).empty() || m.num_joint_torque != n) return;
+    utime = m.utime;
+    torque = m.joint_torque;
+  }
+  const auto answered = seq_of_utime_.find(utime);
+  c.message.utime = utime;
+  c.message.seq = ++drake_commands_;
+  c.message.state_seq = answered == seq_of_utime_.end() ? -1 : answered->second;
+  c.message.num_joints = n;
+  c.message.torque = torque;
+  const auto& [seq, q] = positions_[size_t(std::max<int64_t>(c.message.state_seq, 0)) % kPositions];
+  if (controller::default_torque_semantics(protocol_) == controller::TorqueSemantics::kOverlay && seq >= 0 &&
+      seq == c.message.state_seq) {
+    const Eigen::VectorXd& g = gravity_torques(*model_, *data_, q);
+    for (int i = 0; i < n; ++i) c.message.torque[size_t(i)] += g(i);
+  }
+  on_command(std::move(c));
+}
+
 int64_t Recorder::commands_after(int64_t index) const {
   return std::count_if(commands_.begin(), commands_.end(), [index](const HeardCommand& c) { return c.index > index; });
 }
 
-World::World(const RobotModel& model)
-    : model_(model), bus_("memq://"), recorder_(std::make_unique<Recorder>(bus_, clock_)) {}
+World::World(const RobotModel& model, controller::Protocol protocol)
+    : model_(model), bus_("memq://"), recorder_(std::make_unique<Recorder>(bus_, clock_, "CHASLES_", protocol, &model)) {}
 
 World::~World() {
   controllers_.clear();  // their subscriptions before the bus

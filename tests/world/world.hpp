@@ -16,6 +16,7 @@
 #include <chasles/controller_status_t.hpp>
 #include <chasles/robot_state_t.hpp>
 #include <functional>
+#include <map>
 #include <memory>
 #include <optional>
 #include <set>
@@ -25,6 +26,8 @@
 #include <vector>
 
 #include "chasles/controller/node.hpp"
+#include "chasles/controller/protocol.hpp"
+#include "chasles/core/model/model.hpp"
 #include "chasles/controller/realtime/bus.hpp"
 #include "chasles/controller/realtime/clock.hpp"
 #include "chasles/tools/simulation/simulation.hpp"
@@ -37,9 +40,17 @@ using controller::SimulatedClock;
 
 /// The test's seat on the bus: every state (its arrival time), command (with the state it
 /// answers) and status heard, in order of arrival.
+///
+/// On a Drake protocol it hears the driver's status and command channels and records them as
+/// chasles's messages, so that every check reads one form: a status as the robot_state_t the
+/// controller makes of it (StatusReader: its sequence by arrival, chasles's signs), a command as
+/// the joint_torque_command_t it stands for — numbered in order, answering the state with its
+/// utime, and with the whole joint torque the arm gets (the torque sent plus the driver's g(q) of
+/// the bare arm `model` under overlay semantics).
 class Recorder {
  public:
-  Recorder(Bus& bus, const SimulatedClock& clock, const std::string& prefix = "CHASLES_");
+  Recorder(Bus& bus, const SimulatedClock& clock, const std::string& prefix = "CHASLES_",
+           controller::Protocol protocol = controller::Protocol::kChasles, const RobotModel* model = nullptr);
 
   /// Publishes a message on PREFIX + channel; commands sent this way are not the controller's
   /// and are left out of commands().
@@ -47,6 +58,12 @@ class Recorder {
   void publish(const std::string& channel, const Message& message) {
     if constexpr (std::is_same_v<Message, joint_torque_command_t>) own_commands_.insert({message.seq, message.utime});
     bus_.publish_message(prefix_ + channel, message);
+  }
+
+  /// Publishes a message on `channel` as it is (a driver's channel, which takes no prefix).
+  template <typename Message>
+  void publish_on(const std::string& channel, const Message& message) {
+    bus_.publish_message(channel, message);
   }
 
   const std::vector<HeardCommand>& commands() const { return commands_; }
@@ -64,6 +81,15 @@ class Recorder {
   Bus& bus_;
   const SimulatedClock& clock_;
   std::string prefix_;
+  void on_state(const robot_state_t& m);
+  void on_command(HeardCommand c);
+  void hear_drake_command(const void* data, size_t size);
+  controller::Protocol protocol_;
+  const RobotModel* model_;  // Drake's protocols: the arm, for its g(q)
+  std::optional<controller::StatusReader> reader_;
+  std::optional<Data> data_;
+  std::map<int64_t, int64_t> seq_of_utime_;  // Drake's: the states heard, by utime
+  int64_t drake_commands_ = 0;
   int64_t index_ = 0;
   std::vector<std::pair<int64_t, Eigen::VectorXd>> positions_;  // by seq modulo its size
   std::vector<int64_t> state_arrivals_;
@@ -81,7 +107,7 @@ class World {
 
   /// The arm of both the plant and the controllers: the Panda to its TCP (checks.hpp's panda())
   /// unless given. Keeps a reference to it.
-  explicit World(const RobotModel& model = panda());
+  explicit World(const RobotModel& model = panda(), controller::Protocol protocol = controller::Protocol::kChasles);
   const RobotModel& model() const { return model_; }
   ~World();
 

@@ -1,0 +1,208 @@
+// The whole loop under each protocol the controller speaks with an arm's driver (protocol.hpp) and
+// at the rates those drivers stream: chasles's own, Drake's iiwa (FRI's 200 Hz) and Drake's Panda
+// (libfranka's 1 kHz), each also at the other rate. The plant speaks the protocol with its driver's
+// semantics (gravity added to an overlay torque, Drake's signs, no sequence numbers); the checks
+// are the ones the 1 kHz chasles loop is held to: the safety pipeline on every command (as the
+// whole torque the arm gets), the move, the external torque against the plant's truth, the reflex,
+// and the refusal of a malformed or wrongly sized status.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chasles/robot_state_t.hpp>
+#include <cmath>
+#include <cstdio>
+#include <drake/lcmt_iiwa_status.hpp>
+#include <drake/lcmt_panda_status.hpp>
+#include <limits>
+#include <string>
+
+#include "world.hpp"
+
+namespace chasles::faults {
+namespace {
+
+using controller::DaemonOptions;
+using controller::Mode;
+using controller::Protocol;
+using Eigen::VectorXd;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+struct Wire {
+  Protocol protocol;
+  double rate_hz;
+};
+
+std::string name_of(const ::testing::TestParamInfo<Wire>& info) {
+  std::string name = controller::to_string(info.param.protocol);
+  name.erase(std::remove(name.begin(), name.end(), '-'), name.end());
+  return name + "_" + std::to_string(static_cast<int>(info.param.rate_hz)) + "Hz";
+}
+
+class Protocols : public ::testing::TestWithParam<Wire> {
+ protected:
+  double period() const { return 1.0 / GetParam().rate_hz; }
+  int64_t period_ns() const { return static_cast<int64_t>(std::llround(period() * 1e9)); }
+
+  DaemonOptions controller_options() const {
+    DaemonOptions o;
+    o.protocol = GetParam().protocol;
+    o.control = controller::Config::critically_damped(7, 20.0);
+    o.control.damping = VectorXd::Constant(7, 0.5);  // the World plant's, known
+    o.control.period = period();
+    o.control.stale_ns = std::max<int64_t>(10 * World::kMs, 3 * period_ns());  // the daemon's default
+    o.status_hz = 100.0;
+    return o;
+  }
+  plant::SimulationOptions plant_options() const {
+    plant::SimulationOptions p;
+    p.protocol = GetParam().protocol;
+    p.rate_hz = GetParam().rate_hz;
+    return p;
+  }
+  // A plant holding at the bent pose and one controller, ticking half a period after its steps.
+  void start(World& world, const plant::SimulationOptions& plant, const DaemonOptions& options) {
+    world.start_plant(bent_pose(), plant);
+    world.add_controller(options, period_ns() / 2);
+    ASSERT_TRUE(world.run_until([&] { return world.recorder().status_is(controller_status_t::HOLDING); }, 1.0));
+  }
+};
+
+VectorXd goal_a() {
+  VectorXd q = bent_pose();
+  q(0) += 0.4, q(1) -= 0.3, q(3) += 0.3, q(5) += 0.2;
+  return q;
+}
+
+TEST_P(Protocols, AMoveReachesItsGoalAndEveryCommandKeepsTheSafetyPipeline) {
+  World world(panda(), GetParam().protocol);
+  start(world, plant_options(), controller_options());
+  world.send_joint_target(goal_a(), 1.5);
+  world.run_for(2.0);
+  const double off = (world.plant()->plant().q() - goal_a()).cwiseAbs().maxCoeff();
+  const Recorder& bus = world.recorder();
+  const CommandReport c = check_commands(panda(), bus.commands(), bus.statuses(), 0.05, period());
+  const StatusReport s = summarise(bus.statuses());
+  std::printf("[ protocol ] %s at %g Hz: %lld commands, goal reached within %.2e rad, torque %.0f %% of effort, rate "
+              "%.0f %% of its limit; %s\n",
+              controller::to_string(GetParam().protocol), GetParam().rate_hz, static_cast<long long>(c.commands), off,
+              100 * c.max_effort_ratio, 100 * c.max_rate_ratio, s.modes.c_str());
+  EXPECT_LT(off, 1e-3);
+  EXPECT_GE(c.commands, static_cast<int64_t>(2.0 * GetParam().rate_hz));
+  EXPECT_EQ(c.non_finite, 0) << c.first_violation;
+  EXPECT_EQ(c.effort_violations, 0) << c.first_violation;
+  EXPECT_EQ(c.rate_violations, 0) << c.first_violation;
+  EXPECT_EQ(c.seq_gaps, 0);
+  EXPECT_EQ(s.fault_transitions, 0);
+  EXPECT_EQ(s.modes, "WAITING>HOLDING>RUNNING>HOLDING");
+  EXPECT_EQ(world.plant()->rejected_commands(), 0);
+}
+
+// The external torque the controller estimates from the driver's states, against what the plant
+// applied: within the bounds of the 1 kHz chasles loop (contact_loop_test), whatever the rate —
+// the observer steps by the states' own intervals.
+TEST_P(Protocols, APushIsEstimatedWithinTheOneKilohertzBounds) {
+  World world(panda(), GetParam().protocol);
+  plant::SimulationOptions plant = plant_options();
+  plant::Push push;
+  push.start = 0.2, push.duration = 5.0, push.ramp = 0.05;
+  push.wrench << 0, 0, 0, 12.0, -16.0, 0.0;  // 20 N in the base's x-y plane
+  plant.environment.pushes = {push};
+  DaemonOptions o = controller_options();
+  auto& contact = o.control.contact;  // the estimate alone is under test
+  contact.contact_torque = contact.collision_torque = VectorXd::Constant(7, kInf);
+  contact.contact_force = contact.collision_force = contact.contact_moment = contact.collision_moment = kInf;
+  start(world, plant, o);
+  world.run_for(1.2);
+  const auto& estimate = world.controller().controller().contact();
+  const plant::Truth& truth = world.plant()->truth();
+  ASSERT_TRUE(truth.contact);
+  const double force = (estimate.wrench_base.tail<3>() - truth.tip_wrench_ext.tail<3>()).norm();
+  double spare = kInf;
+  for (int i = 0; i < 7; ++i) {
+    const double bound = 0.01 * std::abs(truth.tau_ext(i)) + 0.05;
+    spare = std::min(spare, bound - std::abs(estimate.tau_ext(i) - truth.tau_ext(i)));
+  }
+  std::printf("[ protocol ] %s at %g Hz: |F̂ − F| %.2e N; τ̂ within 1 %% + 0.05 N·m with %.3f N·m to spare\n",
+              controller::to_string(GetParam().protocol), GetParam().rate_hz, force, spare);
+  EXPECT_LE(force, 0.2);
+  EXPECT_GE(spare, 0.0);
+}
+
+// A push that ramps to 30 N in 5 ms: REFLEX within 10 ms of its start, plus one status period at
+// the slower rate (the observer hears of it a status later).
+TEST_P(Protocols, ACollisionStartsTheReflex) {
+  World world(panda(), GetParam().protocol);
+  plant::SimulationOptions plant = plant_options();
+  plant::Push push;
+  push.start = 0.3, push.duration = 1.0, push.ramp = 0.005;
+  push.wrench << 0, 0, 0, 0.0, 0.0, -30.0;
+  plant.environment.pushes = {push};
+  start(world, plant, controller_options());
+  world.run_for(0.29 - 1e-9 * static_cast<double>(world.now()));
+  ASSERT_EQ(world.controller().controller().mode(), Mode::kHolding);
+  ASSERT_TRUE(world.run_until([&] { return world.controller().controller().mode() == Mode::kReflex; }, 0.1));
+  const double latency_ms = 1e3 * (static_cast<double>(world.plant()->steps()) * period() - push.start);
+  std::printf("[ protocol ] %s at %g Hz: REFLEX %.1f ms after the push began\n",
+              controller::to_string(GetParam().protocol), GetParam().rate_hz, latency_ms);
+  EXPECT_LE(latency_ms, 10.0 + 1e3 * period());
+}
+
+// A status of another arm (6 joints) or a malformed one: refused and counted, never taken; with
+// nothing else coming (the plant gone), the stale rule FAULTs as with chasles's own states.
+TEST_P(Protocols, AWronglySizedOrMalformedStatusIsRefusedCountedAndFaults) {
+  World world(panda(), GetParam().protocol);
+  start(world, plant_options(), controller_options());
+  const std::string channel = controller::default_channels(GetParam().protocol).status;
+  world.kill_plant();
+  const int64_t rejected_before = world.controller().summary(1.0).rejected_messages;
+  for (int k = 0; k < 20; ++k) {
+    const int64_t utime = 10'000'000 + 1000 * k;
+    switch (GetParam().protocol) {
+      case Protocol::kChasles: {
+        robot_state_t m;
+        m.utime = utime, m.seq = 100'000 + k, m.num_joints = 6;
+        m.position.assign(6, 0.1), m.velocity.assign(6, 0.0), m.effort.assign(6, 0.0);
+        world.recorder().publish_on(channel, m);
+        break;
+      }
+      case Protocol::kDrakeIiwa: {
+        drake::lcmt_iiwa_status m;
+        m.utime = utime, m.num_joints = 6;
+        for (auto* v : {&m.joint_position_measured, &m.joint_velocity_estimated, &m.joint_position_commanded,
+                        &m.joint_position_ipo, &m.joint_torque_measured, &m.joint_torque_commanded,
+                        &m.joint_torque_external}) {
+          v->assign(6, 0.1);
+        }
+        world.recorder().publish_on(channel, m);
+        break;
+      }
+      case Protocol::kDrakePanda: {
+        drake::lcmt_panda_status m;
+        m.utime = utime, m.num_joints = 6;
+        for (auto* v : {&m.joint_position, &m.joint_position_desired, &m.joint_velocity, &m.joint_velocity_desired,
+                        &m.joint_acceleration_desired, &m.joint_torque, &m.joint_torque_desired,
+                        &m.joint_torque_external}) {
+          v->assign(6, 0.1);
+        }
+        m.control_command_success_rate = 1.0, m.robot_mode = 2, m.robot_utime = utime, m.control_mode = 4;
+        world.recorder().publish_on(channel, m);
+        break;
+      }
+    }
+    world.run_for(period());
+  }
+  world.run_for(0.05);
+  EXPECT_EQ(world.controller().summary(1.0).rejected_messages - rejected_before, 20);
+  EXPECT_EQ(world.controller().controller().mode(), Mode::kFault);
+  EXPECT_NE(std::string(world.controller().controller().fault_reason()).find("no fresh robot state"), std::string::npos)
+      << world.controller().controller().fault_reason();
+}
+
+INSTANTIATE_TEST_SUITE_P(Wires, Protocols,
+                         ::testing::Values(Wire{Protocol::kChasles, 1000.0}, Wire{Protocol::kChasles, 200.0},
+                                           Wire{Protocol::kDrakeIiwa, 200.0}, Wire{Protocol::kDrakeIiwa, 1000.0},
+                                           Wire{Protocol::kDrakePanda, 1000.0}, Wire{Protocol::kDrakePanda, 200.0}),
+                         name_of);
+
+}  // namespace
+}  // namespace chasles::faults
