@@ -16,6 +16,7 @@
 #include <limits>
 #include <string>
 
+#include "chasles/core/kinematics/kinematics.hpp"
 #include "world.hpp"
 
 namespace chasles::faults {
@@ -145,6 +146,45 @@ TEST_P(Protocols, ACollisionStartsTheReflex) {
   std::printf("[ protocol ] %s at %g Hz: REFLEX %.1f ms after the push began\n",
               controller::to_string(GetParam().protocol), GetParam().rate_hz, latency_ms);
   EXPECT_LE(latency_ms, 10.0 + 1e3 * period());
+}
+
+// The table pressed under Cartesian impedance (compliance_test's wall, at the demo's press): the
+// spring of 1000 N/m and the table's 10⁴ N/m in series press with k K / (k + K) · 1 cm.
+TEST_P(Protocols, TheTableIsPressedWithTheSeriesSpringOfTheCommandedStiffness) {
+  const RobotModel& model = panda();
+  Data data(model);
+  VectorXd q0(7);
+  q0 << 0.18, 0.6, 0.18, -0.6698, 0.18, 0.6, 0.18;
+  const Transform T0 = forward_kinematics(model, data, q0);
+  plant::Wall wall;
+  wall.normal = Vector3d::UnitZ();
+  wall.point = T0.translation() - 0.005 * wall.normal;  // 5 mm below the tip
+  World world(model, GetParam().protocol);
+  plant::SimulationOptions plant = plant_options();
+  plant.environment.walls = {wall};
+  world.start_plant(q0, plant);
+  world.add_controller(controller_options(), period_ns() / 2);
+  world.run_for(0.1);
+  const double k = 1000.0;
+  world.recorder().publish("MODE", cartesian_mode(k));
+  world.run_for(0.2);
+  Transform goal = T0;
+  goal.translation() = wall.point - 0.01 * wall.normal;
+  world.recorder().publish("TARGET", cartesian_target(goal, 1.0));
+  world.run_for(6.0);
+  const controller::Controller& c = world.controller().controller();
+  ASSERT_EQ(c.rejected_targets(), 0) << c.last_rejection();
+  const plant::Truth& truth = world.plant()->truth();
+  ASSERT_TRUE(truth.contact);
+  const double expected = k * wall.stiffness / (k + wall.stiffness) * 0.01;
+  const double force = truth.tip_wrench_ext.tail<3>().dot(wall.normal);
+  std::printf("[ protocol ] %s at %g Hz: the table pressed with %.4f N, the series spring %.4f N (%+.3f %%)\n",
+              controller::to_string(GetParam().protocol), GetParam().rate_hz, force, expected,
+              100.0 * (force - expected) / expected);
+  EXPECT_NEAR(force, expected, 0.02 * expected);
+  EXPECT_LT(world.plant()->plant().qd().norm(), 1e-3) << "not at rest";
+  EXPECT_EQ(c.faults(), 0);
+  EXPECT_EQ(c.reflexes(), 0) << c.reflex_reason();
 }
 
 // A status of another arm (6 joints) or a malformed one: refused and counted, never taken; with

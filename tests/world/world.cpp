@@ -1,5 +1,6 @@
 #include "world.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 
@@ -213,6 +214,40 @@ bool World::run_until(const std::function<bool()>& done, double seconds) {
 
 void World::send_joint_target(const Eigen::VectorXd& goal, double duration) {
   recorder_->publish("TARGET", testing::joint_target(goal, duration));
+}
+
+control_mode_t mode_message(controller::Law law, int n) {
+  control_mode_t m{};
+  m.law = static_cast<int8_t>(law);
+  m.num_joints = 0;
+  m.damping_ratio = 1.0;
+  for (int i = 0; i < 6; ++i) m.cartesian_stiffness[i][i] = i < 3 ? 50.0 : 1000.0;
+  m.stiffness_frame_quaternion[0] = 1.0;
+  m.num_posture = 0;
+  m.nullspace_stiffness = 10.0;
+  if (law == controller::Law::kJointImpedance) {
+    const double k[7] = {600, 600, 600, 600, 250, 150, 50};  // franka_ros's example stiffness
+    m.num_joints = n;
+    for (int i = 0; i < n; ++i) m.joint_stiffness.push_back(k[std::min(i, 6)]);
+    m.joint_damping.assign(size_t(n), 0.0);
+  }
+  return m;
+}
+
+control_mode_t cartesian_mode(double translational, double rotational) {
+  control_mode_t m = mode_message(controller::Law::kCartesianImpedance, 0);
+  for (int i = 0; i < 6; ++i) m.cartesian_stiffness[i][i] = i < 3 ? rotational : translational;
+  return m;
+}
+
+arm_target_t cartesian_target(const Transform& T, double duration) {
+  arm_target_t t{};
+  t.mode = arm_target_t::CARTESIAN;
+  const Eigen::Quaterniond r(T.linear());
+  for (int i = 0; i < 3; ++i) t.tip_position[i] = T.translation()(i);
+  t.tip_quaternion[0] = r.w(), t.tip_quaternion[1] = r.x(), t.tip_quaternion[2] = r.y(), t.tip_quaternion[3] = r.z();
+  t.duration = duration;
+  return t;
 }
 
 }  // namespace chasles::faults

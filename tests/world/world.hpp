@@ -13,6 +13,7 @@
 
 #include <Eigen/Core>
 #include <chasles/arm_target_t.hpp>
+#include <chasles/control_mode_t.hpp>
 #include <chasles/controller_status_t.hpp>
 #include <chasles/robot_state_t.hpp>
 #include <functional>
@@ -158,5 +159,13 @@ class World {
   int64_t plant_next_ = 0;
   std::vector<std::unique_ptr<Controller>> controllers_;
 };
+
+/// A control_mode_t for `law`: unit damping ratio; Cartesian stiffness 50 N·m/rad and 1000 N/m
+/// about the tip; under joint impedance, franka_ros's example stiffness.
+control_mode_t mode_message(controller::Law law, int n);
+/// CARTESIAN_IMPEDANCE with this translational (N/m) and rotational (N·m/rad) stiffness.
+control_mode_t cartesian_mode(double translational, double rotational = 50.0);
+/// A CARTESIAN target to the tip pose T over `duration` s.
+arm_target_t cartesian_target(const Transform& T, double duration);
 
 }  // namespace chasles::faults
