@@ -22,33 +22,10 @@
 
 #include "chasles/lcmtypes/checked.hpp"
 #include "support/allocation_counter.hpp"
+#include "wire.hpp"
 
 namespace chasles::testing {
 namespace {
-
-constexpr int kJoints = 7;
-constexpr size_t kHash = 8;  // every message starts with its type's 64-bit fingerprint
-
-// n values that differ from each other and from 0, with a sign change; `scale` tells fields apart.
-std::vector<double> values(int n, double scale) {
-  std::vector<double> v;
-  for (int i = 0; i < n; ++i) v.push_back(scale * (i % 2 == 0 ? 1.0 : -1.0) * (0.1 + i) / 3.0);
-  return v;
-}
-
-template <class Message>
-std::vector<uint8_t> encode(const Message& message) {
-  std::vector<uint8_t> buffer(static_cast<size_t>(message.getEncodedSize()));
-  EXPECT_EQ(message.encode(buffer.data(), 0, static_cast<int>(buffer.size())), static_cast<int>(buffer.size()));
-  return buffer;
-}
-
-template <class Message>
-Message decode(const std::vector<uint8_t>& buffer) {
-  Message message;
-  EXPECT_EQ(message.decode(buffer.data(), 0, static_cast<int>(buffer.size())), static_cast<int>(buffer.size()));
-  return message;
-}
 
 // The first 8 bytes on the wire, big-endian, as a number.
 uint64_t wire_fingerprint(const std::vector<uint8_t>& bytes) {

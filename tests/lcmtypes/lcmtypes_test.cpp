@@ -24,33 +24,10 @@
 #include <vector>
 
 #include "chasles/lcmtypes/checked.hpp"
+#include "wire.hpp"
 
 namespace chasles::testing {
 namespace {
-
-constexpr int kJoints = 7;
-constexpr int kHash = 8;  // every message starts with its type's 64-bit fingerprint
-
-// n values that differ from each other and from 0, with a sign change and awkward magnitudes.
-std::vector<double> values(int n, double scale) {
-  std::vector<double> v;
-  for (int i = 0; i < n; ++i) v.push_back(scale * (i % 2 == 0 ? 1.0 : -1.0) * (0.1 + i) / 3.0);
-  return v;
-}
-
-template <class Message>
-std::vector<uint8_t> encode(const Message& message) {
-  std::vector<uint8_t> buffer(static_cast<size_t>(message.getEncodedSize()));
-  EXPECT_EQ(message.encode(buffer.data(), 0, static_cast<int>(buffer.size())), static_cast<int>(buffer.size()));
-  return buffer;
-}
-
-template <class Message>
-Message decode(const std::vector<uint8_t>& buffer) {
-  Message message;
-  EXPECT_EQ(message.decode(buffer.data(), 0, static_cast<int>(buffer.size())), static_cast<int>(buffer.size()));
-  return message;
-}
 
 // Every proper prefix of a valid encoding must be refused, and so must the encoding with its
 // fingerprint changed.
