@@ -15,6 +15,10 @@
 #include <chasles/payload_t.hpp>
 #include <chasles/robot_state_t.hpp>
 #include <chasles/sim_truth_t.hpp>
+#include <drake/lcmt_iiwa_command.hpp>
+#include <drake/lcmt_iiwa_status.hpp>
+#include <drake/lcmt_panda_command.hpp>
+#include <drake/lcmt_panda_status.hpp>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -483,6 +487,75 @@ TEST(log, ExportGivesBackModesPayloadsAndTruths) {
   std::remove(csv.c_str());
 }
 
+// An arm driven over Drake's protocols logs its driver's messages: each exports field for field,
+// in the .lcm contract's order, with the joints named from the URDF.
+TEST(log, ExportGivesBackDrakesIiwaAndPandaMessages) {
+  Recording recording("drake.lcmlog");
+  drake::lcmt_iiwa_status status{};
+  status.utime = 5000;
+  status.num_joints = 7;
+  std::vector<double>* fields[] = {&status.joint_position_measured, &status.joint_velocity_estimated,
+                                         &status.joint_position_commanded, &status.joint_position_ipo,
+                                         &status.joint_torque_measured, &status.joint_torque_commanded,
+                                         &status.joint_torque_external};
+  for (size_t f = 0; f < 7; ++f) {
+    for (int i = 0; i < 7; ++i) fields[f]->push_back(10.0 * double(f) + 0.25 * i);
+  }
+  drake::lcmt_iiwa_command command{};
+  command.utime = 5000;
+  command.num_joints = 0;
+  command.num_torques = 7;
+  for (int i = 0; i < 7; ++i) command.joint_torque.push_back(-1.5 * i);
+  drake::lcmt_panda_command panda_command{};
+  panda_command.utime = 7000;
+  panda_command.num_joint_torque = 7;
+  for (int i = 0; i < 7; ++i) panda_command.joint_torque.push_back(0.5 * i);
+  panda_command.control_mode_expected = drake::lcmt_panda_status::CONTROL_MODE_TORQUE;
+  recording.send("IIWA_STATUS", status);
+  recording.send("IIWA_COMMAND", command);
+  recording.send("PANDA_COMMAND", panda_command);
+  recording.finish();
+
+  const std::string csv = temp_path("drake.csv");
+  RunResult r = chasles(concat({"log", "export", recording.path, "--channel", "IIWA_STATUS", "--out", csv}, panda()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["type"], "drake.lcmt_iiwa_status");
+  auto records = csv_records(csv);
+  ASSERT_EQ(records.size(), 1u);
+  EXPECT_EQ(records[0].at("utime"), "5000");
+  const char* names[] = {"joint_position_measured", "joint_velocity_estimated", "joint_position_commanded",
+                         "joint_position_ipo", "joint_torque_measured", "joint_torque_commanded",
+                         "joint_torque_external"};
+  for (size_t f = 0; f < 7; ++f) {
+    for (int i = 0; i < 7; ++i) {
+      const std::string column = std::string(names[f]) + "[" + kPandaJoints[size_t(i)] + "]";
+      EXPECT_EQ(number(records[0], column), 10.0 * double(f) + 0.25 * i) << column;
+    }
+  }
+  std::remove(csv.c_str());
+
+  r = chasles({"log", "export", recording.path, "--channel", "IIWA_COMMAND", "--out", csv});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["type"], "drake.lcmt_iiwa_command");
+  records = csv_records(csv);
+  ASSERT_EQ(records.size(), 1u);
+  EXPECT_EQ(records[0].at("num_joints"), "0");
+  EXPECT_EQ(records[0].at("num_torques"), "7");
+  EXPECT_EQ(records[0].at("joint_position[j0]"), "");  // torque-only: no positions
+  EXPECT_EQ(number(records[0], "joint_torque[j6]"), -9.0);
+  std::remove(csv.c_str());
+
+  r = chasles({"log", "export", recording.path, "--channel", "PANDA_COMMAND", "--out", csv});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["type"], "drake.lcmt_panda_command");
+  records = csv_records(csv);
+  ASSERT_EQ(records.size(), 1u);
+  EXPECT_EQ(records[0].at("num_joint_torque"), "7");
+  EXPECT_EQ(number(records[0], "joint_torque[j3]"), 1.5);
+  EXPECT_EQ(records[0].at("control_mode_expected"), "4");
+  std::remove(csv.c_str());
+}
+
 TEST(log, ExportRefusesWhatItCannotDo) {
   Recording recording("refusals.lcmlog");
   for (int k = 0; k < 3; ++k) recording.send("CHASLES_STATE", state_message(k));
@@ -499,7 +572,7 @@ TEST(log, ExportRefusesWhatItCannotDo) {
   };
   refused({"log", "export", recording.path, "--channel", "CHASLES_STATUS", "--out", csv},
           "no messages on CHASLES_STATUS (channels in the log: CHASLES_STATE 3, OTHER 1, WARMUP");
-  refused({"log", "export", recording.path, "--channel", "OTHER", "--out", csv}, "are not of a chasles type");
+  refused({"log", "export", recording.path, "--channel", "OTHER", "--out", csv}, "are not of a type chasles reads");
   refused(concat({"log", "export", recording.path, "--channel", "CHASLES_STATE", "--out", csv},
                  {"--urdf", data_path("ur5.urdf"), "--tip", "tool0"}),
           "carry 7 joints; the URDF's chain has 6");

@@ -39,6 +39,7 @@ struct LogOptions {
   std::string urdf;
   std::string tip;
   std::string prefix = "CHASLES_";
+  std::string command_channel;  ///< plot: the commands' channel (empty: PREFIX COMMAND)
 };
 
 // The joints of the URDF's chain, when one is given.
@@ -162,8 +163,10 @@ Json run_export(const LogOptions& options) {
   }
   if (type == MessageType::Unknown) {
     throw InputError(options.log + ": the messages on " + options.channel +
-                     " are not of a chasles type (robot_state_t, joint_torque_command_t, arm_target_t, "
-                     "controller_status_t, control_mode_t, payload_t, sim_truth_t)");
+                     " are not of a type chasles reads (its own: robot_state_t, joint_torque_command_t, "
+                     "arm_target_t, controller_status_t, control_mode_t, payload_t, sim_truth_t, "
+                     "joint_setpoint_t, jog_command_t, tip_setpoint_t; Drake's lcmt_iiwa_status, "
+                     "lcmt_iiwa_command, lcmt_panda_status, lcmt_panda_command)");
   }
   const std::vector<std::string> labels =
       labels_for(joints, width, "the " + type_name(type) + " messages on " + options.channel);
@@ -265,7 +268,8 @@ std::string mode_name(int8_t mode) {
 }
 
 PlotData collect(const LogOptions& options) {
-  const std::string status_channel = options.prefix + "STATUS", command_channel = options.prefix + "COMMAND",
+  const std::string status_channel = options.prefix + "STATUS",
+                    command_channel = options.command_channel.empty() ? options.prefix + "COMMAND" : options.command_channel,
                     target_channel = options.prefix + "TARGET", truth_channel = options.prefix + "TRUTH";
   PlotData data;
   LogReader reader(options.log);
@@ -303,15 +307,38 @@ PlotData collect(const LogOptions& options) {
       data.status.t.push_back(t);
       data.status.rows.push_back(std::move(row));
     } else if (event.channel == command_channel) {
-      joint_torque_command_t m;
-      if (std::string why = decode_checked(event.data.data(), event.data.size(), m); !why.empty()) {
+      // chasles's command, or the torque of a Drake driver's (what was sent: less g(q) under
+      // overlay semantics).
+      std::vector<double> torque;
+      int64_t utime = 0;
+      std::string why;
+      switch (message_type(event.data.data(), event.data.size())) {
+        case MessageType::IiwaCommand: {
+          drake::lcmt_iiwa_command m;
+          why = decode_checked(event.data.data(), event.data.size(), m);
+          torque = m.joint_torque, utime = m.utime;
+          break;
+        }
+        case MessageType::PandaCommand: {
+          drake::lcmt_panda_command m;
+          why = decode_checked(event.data.data(), event.data.size(), m);
+          torque = m.joint_torque, utime = m.utime;
+          break;
+        }
+        default: {
+          joint_torque_command_t m;
+          why = decode_checked(event.data.data(), event.data.size(), m);
+          torque = m.torque, utime = m.utime;
+        }
+      }
+      if (!why.empty()) {
         skip(why);
         continue;
       }
-      if (!joints_ok(m.num_joints)) continue;
+      if (!joints_ok(static_cast<int>(torque.size()))) continue;
       data.commands.t.push_back(t);
-      data.commands.rows.push_back(m.torque);
-      data.command_utimes.push_back(m.utime);
+      data.commands.rows.push_back(std::move(torque));
+      data.command_utimes.push_back(utime);
     } else if (event.channel == truth_channel) {
       sim_truth_t m;
       if (std::string why = decode_checked(event.data.data(), event.data.size(), m); !why.empty()) {
@@ -723,6 +750,10 @@ Command register_log(CLI::App& app) {
   plotter->add_option("--prefix", options->prefix, "Channel prefix: PREFIX STATUS, PREFIX COMMAND, PREFIX TARGET")
       ->type_name("PREFIX")
       ->capture_default_str();
+  plotter->add_option("--command-channel", options->command_channel,
+                      "The commands' channel, when not PREFIX COMMAND: an arm driven over Drake's protocols "
+                      "(IIWA_COMMAND, PANDA_COMMAND; their torque is plotted as sent)")
+      ->type_name("CHANNEL");
   add_robot_options(*plotter, *options);
   plotter->footer(
       "Writes 1200x800 PNGs: joint_positions.png (q and q_d), tracking_error.png, compute_time.png (from\n"

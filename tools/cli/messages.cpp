@@ -195,6 +195,54 @@ void lay_out(const sim_truth_t& m, Row& row) {
   row.add("contact", int64_t{m.contact ? 1 : 0});
 }
 
+void lay_out(const drake::lcmt_iiwa_status& m, Row& row) {
+  row.add("utime", m.utime);
+  row.add("num_joints", int64_t{m.num_joints});
+  row.joints("joint_position_measured", m.joint_position_measured);
+  row.joints("joint_velocity_estimated", m.joint_velocity_estimated);
+  row.joints("joint_position_commanded", m.joint_position_commanded);
+  row.joints("joint_position_ipo", m.joint_position_ipo);
+  row.joints("joint_torque_measured", m.joint_torque_measured);
+  row.joints("joint_torque_commanded", m.joint_torque_commanded);
+  row.joints("joint_torque_external", m.joint_torque_external);
+}
+
+void lay_out(const drake::lcmt_iiwa_command& m, Row& row) {
+  row.add("utime", m.utime);
+  row.add("num_joints", int64_t{m.num_joints});
+  row.joints("joint_position", m.joint_position);
+  row.add("num_torques", int64_t{m.num_torques});
+  row.joints("joint_torque", m.joint_torque);
+}
+
+void lay_out(const drake::lcmt_panda_status& m, Row& row) {
+  row.add("utime", m.utime);
+  row.add("num_joints", int64_t{m.num_joints});
+  row.joints("joint_position", m.joint_position);
+  row.joints("joint_position_desired", m.joint_position_desired);
+  row.joints("joint_velocity", m.joint_velocity);
+  row.joints("joint_velocity_desired", m.joint_velocity_desired);
+  row.joints("joint_acceleration_desired", m.joint_acceleration_desired);
+  row.joints("joint_torque", m.joint_torque);
+  row.joints("joint_torque_desired", m.joint_torque_desired);
+  row.joints("joint_torque_external", m.joint_torque_external);
+  row.add("control_command_success_rate", m.control_command_success_rate);
+  row.add("robot_mode", int64_t{m.robot_mode});
+  row.add("robot_utime", m.robot_utime);
+  row.add("control_mode", int64_t{m.control_mode});
+}
+
+void lay_out(const drake::lcmt_panda_command& m, Row& row) {
+  row.add("utime", m.utime);
+  row.add("num_joint_position", int64_t{m.num_joint_position});
+  row.joints("joint_position", m.joint_position);
+  row.add("num_joint_velocity", int64_t{m.num_joint_velocity});
+  row.joints("joint_velocity", m.joint_velocity);
+  row.add("num_joint_torque", int64_t{m.num_joint_torque});
+  row.joints("joint_torque", m.joint_torque);
+  row.add("control_mode_expected", int64_t{m.control_mode_expected});
+}
+
 // The widest joint array of a message: its num_joints (a control mode's posture may be the wider;
 // a payload has none).
 template <typename Message>
@@ -203,6 +251,10 @@ int joints_of(const Message& m) {
     return 0;
   } else if constexpr (std::is_same_v<Message, control_mode_t>) {
     return std::max(m.num_joints, m.num_posture);
+  } else if constexpr (std::is_same_v<Message, drake::lcmt_iiwa_command>) {
+    return std::max(m.num_joints, m.num_torques);
+  } else if constexpr (std::is_same_v<Message, drake::lcmt_panda_command>) {
+    return std::max({m.num_joint_position, m.num_joint_velocity, m.num_joint_torque});
   } else {
     return m.num_joints;
   }
@@ -240,6 +292,10 @@ MessageType message_type(const void* data, size_t size) {
   if (messages::starts_as<joint_setpoint_t>(data, size)) return MessageType::Setpoint;
   if (messages::starts_as<jog_command_t>(data, size)) return MessageType::Jog;
   if (messages::starts_as<tip_setpoint_t>(data, size)) return MessageType::TipSetpoint;
+  if (messages::starts_as<drake::lcmt_iiwa_status>(data, size)) return MessageType::IiwaStatus;
+  if (messages::starts_as<drake::lcmt_iiwa_command>(data, size)) return MessageType::IiwaCommand;
+  if (messages::starts_as<drake::lcmt_panda_status>(data, size)) return MessageType::PandaStatus;
+  if (messages::starts_as<drake::lcmt_panda_command>(data, size)) return MessageType::PandaCommand;
   return MessageType::Unknown;
 }
 
@@ -255,6 +311,10 @@ std::string type_name(MessageType type) {
     case MessageType::Setpoint: return std::string("chasles.") + joint_setpoint_t::getTypeName();
     case MessageType::Jog: return std::string("chasles.") + jog_command_t::getTypeName();
     case MessageType::TipSetpoint: return std::string("chasles.") + tip_setpoint_t::getTypeName();
+    case MessageType::IiwaStatus: return std::string("drake.") + drake::lcmt_iiwa_status::getTypeName();
+    case MessageType::IiwaCommand: return std::string("drake.") + drake::lcmt_iiwa_command::getTypeName();
+    case MessageType::PandaStatus: return std::string("drake.") + drake::lcmt_panda_status::getTypeName();
+    case MessageType::PandaCommand: return std::string("drake.") + drake::lcmt_panda_command::getTypeName();
     case MessageType::Unknown: break;
   }
   return "unknown";
@@ -279,6 +339,10 @@ int joint_count(MessageType type, const void* data, size_t size) {
     case MessageType::Setpoint: return count_of<joint_setpoint_t>(data, size);
     case MessageType::Jog: return count_of<jog_command_t>(data, size);
     case MessageType::TipSetpoint: return count_of<tip_setpoint_t>(data, size);
+    case MessageType::IiwaStatus: return count_of<drake::lcmt_iiwa_status>(data, size);
+    case MessageType::IiwaCommand: return count_of<drake::lcmt_iiwa_command>(data, size);
+    case MessageType::PandaStatus: return count_of<drake::lcmt_panda_status>(data, size);
+    case MessageType::PandaCommand: return count_of<drake::lcmt_panda_command>(data, size);
     case MessageType::Unknown: break;
   }
   return -1;
@@ -297,9 +361,13 @@ std::string message_cells(MessageType type, const void* data, size_t size, const
     case MessageType::Setpoint: return cells_of<joint_setpoint_t>(data, size, joints, cells);
     case MessageType::Jog: return cells_of<jog_command_t>(data, size, joints, cells);
     case MessageType::TipSetpoint: return cells_of<tip_setpoint_t>(data, size, joints, cells);
+    case MessageType::IiwaStatus: return cells_of<drake::lcmt_iiwa_status>(data, size, joints, cells);
+    case MessageType::IiwaCommand: return cells_of<drake::lcmt_iiwa_command>(data, size, joints, cells);
+    case MessageType::PandaStatus: return cells_of<drake::lcmt_panda_status>(data, size, joints, cells);
+    case MessageType::PandaCommand: return cells_of<drake::lcmt_panda_command>(data, size, joints, cells);
     case MessageType::Unknown: break;
   }
-  return "not a chasles message (unknown fingerprint)";
+  return "not a chasles or Drake message (unknown fingerprint)";
 }
 
 std::string number_text(double x) {

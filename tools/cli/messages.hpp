@@ -15,12 +15,16 @@ namespace chasles::cli {
 
 using messages::decode_checked;
 
-enum class MessageType { Unknown, State, Command, Target, Status, Mode, Payload, Truth, Setpoint, Jog, TipSetpoint };
+/// chasles's types, and Drake's iiwa and Panda messages (the arm's driver may speak those).
+enum class MessageType {
+  Unknown, State, Command, Target, Status, Mode, Payload, Truth, Setpoint, Jog, TipSetpoint,
+  IiwaStatus, IiwaCommand, PandaStatus, PandaCommand
+};
 
-/// The chasles type whose fingerprint the bytes start with, or Unknown.
+/// The type whose fingerprint the bytes start with, or Unknown.
 MessageType message_type(const void* data, size_t size);
 
-/// "chasles.robot_state_t", ... ; "unknown" for Unknown.
+/// "chasles.robot_state_t", ..., "drake.lcmt_iiwa_status", ...; "unknown" for Unknown.
 std::string type_name(MessageType type);
 
 /// The num_joints of a valid message of `type`, or -1 when the bytes do not decode as one.
