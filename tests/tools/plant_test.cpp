@@ -569,7 +569,9 @@ SimulationOptions drake_options(Protocol protocol, bool lockstep,
   return options;
 }
 
-Eigen::VectorXd as_vector(const std::vector<double>& v) { return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size())); }
+Eigen::VectorXd as_vector(const std::vector<double>& v) {
+  return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size()));
+}
 
 template <typename Message>
 std::vector<uint8_t> bytes_of(const Message& message) {
@@ -891,7 +893,9 @@ TEST(plant, DrakeExternalTorqueIsThePushInDrakesSign) {
       ASSERT_GT(expected.cwiseAbs().maxCoeff(), 1.0);
       const Eigen::VectorXd wire = as_vector(arm.protocol == Protocol::kDrakeIiwa ? h.iiwa.joint_torque_external
                                                                                   : h.panda.joint_torque_external);
-      EXPECT_TRUE(matrices_near(wire, arm.protocol == Protocol::kDrakeIiwa ? expected : Eigen::VectorXd(-expected), 1e-9));
+      const Eigen::VectorXd in_drakes_sign =
+          arm.protocol == Protocol::kDrakeIiwa ? expected : Eigen::VectorXd(-expected);
+      EXPECT_TRUE(matrices_near(wire, in_drakes_sign, 1e-9));
       EXPECT_TRUE(matrices_near(as_vector(h.tau_ext), expected, 1e-9));
       drift = std::max(drift, max_abs_diff(h.state.q, arm.q0));
     }
@@ -902,7 +906,8 @@ TEST(plant, DrakeExternalTorqueIsThePushInDrakesSign) {
 // Real time: a command is judged by the state its utime names. Answering every status in time is
 // never late and releases the brake; answering the one before (a controller a cycle behind) is late
 // every step, and 20 in a row brake the arm (the Panda then reports a reflex, and its success rate
-// counts the braked steps as steps without a command). drake-franka-driver's 0.1 s expiry is the plant's --max-command-lag-ms.
+// counts the braked steps as steps without a command). drake-franka-driver's 0.1 s expiry is the
+// plant's --max-command-lag-ms.
 TEST(plant, DrakeRealTimeJudgesCommandsByTheStateTheirUtimeNames) {
   for (const DrakeArm& arm : drake_arms()) {
     SCOPED_TRACE(controller::to_string(arm.protocol));

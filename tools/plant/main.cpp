@@ -2,10 +2,10 @@
 // joint_torque_command_t (zero-order hold) and publishes robot_state_t after every step, either
 // in real time or in lockstep with its controller; or, with --protocol, speaks a Drake driver's
 // messages as the driver does (lcmt_iiwa_status / lcmt_iiwa_command, lcmt_panda_status /
-// lcmt_panda_command), so a controller can drive it as it would a KUKA iiwa or a Franka Panda. It keeps itself safe: without a valid command
-// for --timeout-ms it brakes to rest against gravity. The arm can be pushed (--push), meet walls
-// (--wall) and carry what its controller does not know (--payload, --friction); the plant then
-// publishes the truth (sim_truth_t) after every state.
+// lcmt_panda_command), so a controller can drive it as it would a KUKA iiwa or a Franka Panda. It
+// keeps itself safe: without a valid command for --timeout-ms it brakes to rest against gravity.
+// The arm can be pushed (--push), meet walls (--wall) and carry what its controller does not know
+// (--payload, --friction); the plant then publishes the truth (sim_truth_t) after every state.
 //
 // Errors: one line "chasles_plant: ..." on stderr; exit 2 for a usage error, 1 for bad input
 // (URDF, --q0, --damping, the environment's specs) or when LCM cannot start. SIGINT and SIGTERM
@@ -349,18 +349,19 @@ int main(int argc, char** argv) {
       "chasles.joint_torque_command_t from PREFIX COMMAND (zero-order hold, clamped to the URDF effort\n"
       "limits). --protocol drake-iiwa or drake-panda speaks Drake's driver messages instead, on\n"
       "IIWA_STATUS / IIWA_COMMAND or PANDA_STATUS / PANDA_COMMAND, with the driver's signs and its\n"
-      "gravity compensation (docs/protocols.md). Dynamics: M(q) qdd = tau - c - g - D qd, RK4. Real time: without a valid command for\n"
-      "--timeout-ms the arm brakes to rest, tau = g(q) - M(q) qd / T. A command answering a state older\n"
-      "than --max-command-lag-ms counts as none (and is reported). A step at which no command answering\n"
-      "the previous state has arrived is a late cycle; after --max-late in a row the arm brakes the same\n"
-      "way until a command is on time again. With --push, --wall, --payload, --friction or --truth it\n"
-      "publishes chasles.sim_truth_t on PREFIX TRUTH right after every state: the external joint torque\n"
-      "and the contact wrench the nominal model (the URDF, --damping) does not contain.\n"
+      "gravity compensation (docs/protocols.md). Dynamics: M(q) qdd = tau - c - g - D qd, RK4.\n"
+      "Real time: without a valid command for --timeout-ms the arm brakes to rest, tau = g(q) -\n"
+      "M(q) qd / T. A command answering a state older than --max-command-lag-ms counts as none (and\n"
+      "is reported). A step at which no command answering the previous state has arrived is a late\n"
+      "cycle; after --max-late in a row the arm brakes the same way until a command is on time again.\n"
+      "With --push, --wall, --payload, --friction or --truth it publishes chasles.sim_truth_t on\n"
+      "PREFIX TRUTH right after every state: the external joint torque and the contact wrench the\n"
+      "nominal model (the URDF, --damping) does not contain.\n"
       "Examples:\n"
       "  tools/netns.sh chasles_plant --robot ur5.urdf --tip tool0 \\\n"
       "      --lcm-url 'udpm://239.255.76.67:7667?ttl=0'\n"
       "  chasles_plant --robot panda.urdf --tip panda_hand --lockstep --q0 0,0.5,0,-1.2,0,1,0\n"
-      "  chasles_plant --robot iiwa14.urdf --protocol drake-iiwa --rate 200\n"
+      "  chasles_plant --robot iiwa14.urdf --tip iiwa_link_ee --protocol drake-iiwa --rate 200\n"
       "  chasles_plant --robot panda.urdf --tip panda_hand --seed 7 --drop 0.01 --delay-ms 2 --noise 1e-4\n"
       "  chasles_plant --robot panda.urdf --tip panda_hand --delay-spike-ms 5 --delay-spike-every 500\n"
       "  chasles_plant --robot panda.urdf --tip panda_hand --push 1,0.5,0.005,0,0,0,0,0,-30 \\\n"

@@ -78,7 +78,8 @@ std::string CommandInbox::decode(const void* data, size_t size) {
         return why;
       }
       if (iiwa_.num_torques != num_joints_) {  // Drake's simulated driver stops on it
-        return "with no torques: the driver runs in torque mode, which needs num_torques " + std::to_string(num_joints_);
+        return "with no torques: the driver runs in torque mode, which needs num_torques " +
+               std::to_string(num_joints_);
       }
       incoming_.state_seq = times_->seq(iiwa_.utime);
       copy_to(iiwa_.joint_torque, incoming_.torque);
@@ -94,7 +95,8 @@ std::string CommandInbox::decode(const void* data, size_t size) {
                ": the driver runs in torque mode (CONTROL_MODE_TORQUE, 4)";
       }
       if (panda_.num_joint_torque != num_joints_) {
-        return "with no torques: the driver runs in torque mode, which needs num_joint_torque " + std::to_string(num_joints_);
+        return "with no torques: the driver runs in torque mode, which needs num_joint_torque " +
+               std::to_string(num_joints_);
       }
       incoming_.state_seq = times_->seq(panda_.utime);
       copy_to(panda_.joint_torque, incoming_.torque);

@@ -151,9 +151,10 @@ struct Faults {
 /// What a Drake driver reports beside the measured state, for one status (see docs/protocols.md,
 /// "The plant speaks them too", for each field).
 struct DriverReport {
-  const Eigen::VectorXd& qd;                  ///< the plant's exact velocity (no driver filter)
-  const Eigen::VectorXd& effort;              ///< the joint torque applied over the last step (limits applied), g included
-  const Eigen::VectorXd& torque_commanded;    ///< what the driver handed the joints: the command (+ g under overlay), or the brake
+  const Eigen::VectorXd& qd;      ///< the plant's exact velocity (no driver filter)
+  const Eigen::VectorXd& effort;  ///< the joint torque applied over the last step (limits applied), g included
+  /// What the driver handed the joints, before the limits: the command (+ g under overlay), or the brake.
+  const Eigen::VectorXd& torque_commanded;
   const Eigen::VectorXd& torque_desired;      ///< the command as received, without the driver's gravity
   const Eigen::VectorXd& position_commanded;  ///< the command's positions, or the measured q
   const Eigen::VectorXd& tau_ext;             ///< the external joint torque, chasles's (and Drake's) sign
