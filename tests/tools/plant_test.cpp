@@ -1018,5 +1018,65 @@ TEST(plant, RefusesUnknownProtocolsAndSemantics) {
   }
 }
 
+// A real-time Drake plant's steps allocate nothing, in process: each command received from the bus
+// (the overlay's gravity added, its utime mapped to a state), each status encoded and sent with the
+// push's external torque in it, then the brake when the commands stop. What the test's own publish
+// allocates (LCM's memq provider copies each message) is counted apart.
+TEST(plant, DrakeRealTimeStepsAllocateNothing) {
+  for (const Protocol protocol : {Protocol::kDrakeIiwa, Protocol::kDrakePanda}) {
+    SCOPED_TRACE(controller::to_string(protocol));
+    const RobotModel model = panda();
+    Vector6d W;
+    W << 0.1, 0, 0, 0, 0, -5;
+    plant::EnvironmentOptions env;
+    env.pushes.push_back({0.0, 10.0, 0.0, W});
+    controller::SimulatedClock clock;
+    Bus bus("memq://");
+    plant::Simulation simulation(model, drake_options(protocol, false, std::nullopt, env), bent_pose(),
+                                 Eigen::VectorXd::Zero(7), bus, clock);
+    const std::string channel = controller::default_channels(protocol).command;
+    lcmt_iiwa_command iiwa = iiwa_torques(0, Eigen::VectorXd::Constant(7, 0.5));
+    lcmt_panda_command panda_command = panda_torques(0, Eigen::VectorXd::Constant(7, 0.5));
+    std::vector<uint8_t> bytes(static_cast<size_t>(
+        protocol == Protocol::kDrakeIiwa ? iiwa.getEncodedSize() : panda_command.getEncodedSize()));
+    long sent_allocations = 0;
+    const auto step = [&](bool command) {
+      if (command) {  // answers the latest state, by its utime
+        const int64_t utime = simulation.state_utime(simulation.steps());
+        if (protocol == Protocol::kDrakeIiwa) {
+          iiwa.utime = utime;
+          iiwa.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+        } else {
+          panda_command.utime = utime;
+          panda_command.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+        }
+        {
+          AllocationCounter sending;  // the test's side: LCM's memq copies what is published
+          bus.publish(channel, bytes);
+          sent_allocations += sending.count();
+        }
+        while (bus.handle_pending() > 0) {
+        }
+      }
+      clock.advance_to(clock.now_ns() + simulation.period_ns());
+      simulation.step();
+    };
+    simulation.start();
+    for (int k = 0; k < 5; ++k) step(true);
+    sent_allocations = 0;
+    long allocations = 0;
+    {
+      AllocationCounter counter;
+      for (int k = 0; k < 100; ++k) step(true);
+      for (int k = 0; k < 100; ++k) step(false);
+      allocations = counter.count();
+    }
+    EXPECT_EQ(allocations - sent_allocations, 0) << sent_allocations << " in the test's own sends";
+    EXPECT_EQ(simulation.steps(), 205);
+    EXPECT_EQ(simulation.rejected_commands() + simulation.stale_commands(), 0);
+    EXPECT_TRUE(simulation.braking()) << "silence for 100 ms: the watchdog brakes";
+  }
+}
+
 }  // namespace
 }  // namespace chasles::testing
