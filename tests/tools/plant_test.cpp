@@ -1078,5 +1078,65 @@ TEST(plant, DrakeRealTimeStepsAllocateNothing) {
   }
 }
 
+// A command's positions, when it carries them (the iiwa's num_joints n: drake-iiwa-driver's default
+// torque mode; a Panda command's joint_position), are reported as the commanded ones —
+// joint_position_commanded and, while commanding, joint_position_ipo; joint_position_desired — and
+// not applied: the torque alone moves the arm (the plant has no impedance controller).
+TEST(plant, DrakeCommandPositionsAreReportedNotApplied) {
+  for (const DrakeArm& arm : drake_arms()) {
+    SCOPED_TRACE(controller::to_string(arm.protocol));
+    const int n = arm.model.dof();
+    const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
+    const Eigen::VectorXd p = arm.q0 + Eigen::VectorXd::Constant(n, 0.25);
+    DrakeRig with(arm.model, arm.q0, drake_options(arm.protocol, true));
+    DrakeRig without(arm.model, arm.q0, drake_options(arm.protocol, true));
+    for (int k = 0; k < 20; ++k) {
+      if (arm.protocol == Protocol::kDrakeIiwa) {
+        lcmt_iiwa_command command = iiwa_torques(with.latest_utime(), zero);
+        command.num_joints = n;
+        command.joint_position.assign(p.data(), p.data() + n);
+        with.send(bytes_of(command));
+      } else {
+        lcmt_panda_command command = panda_torques(with.latest_utime(), zero);
+        command.num_joint_position = n;
+        command.joint_position.assign(p.data(), p.data() + n);
+        command.control_mode_expected |= lcmt_panda_status::CONTROL_MODE_POSITION;  // as Drake's sender marks it
+        with.send(bytes_of(command));
+      }
+      without.step(zero);
+    }
+    ASSERT_EQ(with.heard().size(), 21u);
+    const Heard& h = with.heard().back();
+    if (arm.protocol == Protocol::kDrakeIiwa) {
+      EXPECT_TRUE(matrices_near(as_vector(h.iiwa.joint_position_commanded), p, 0.0));
+      EXPECT_TRUE(matrices_near(as_vector(h.iiwa.joint_position_ipo), p, 0.0));
+    } else {
+      EXPECT_TRUE(matrices_near(as_vector(h.panda.joint_position_desired), p, 0.0));
+    }
+    EXPECT_TRUE(matrices_near(h.state.q, without.heard().back().state.q, 0.0)) << "the positions moved the arm";
+  }
+}
+
+// chasles's own protocol takes --torque-semantics too: with overlay a zero command holds the arm, as
+// g(q0) does under the default (full) in GravityTorquesHoldTheArmStill; the start-up line says so.
+TEST(plant, ChaslesProtocolTakesTheOverlaySemantics) {
+  const RobotModel model = panda();
+  Data data(model);
+  const Eigen::VectorXd q0 = bent_pose(), zero = Eigen::VectorXd::Zero(7);
+  Controller controller;
+  PlantProcess plant({"--robot", data_path("panda.urdf"), "--tip", "panda_hand", "--lockstep", "--q0", list(q0),
+                      "--torque-semantics", "overlay"});
+  const auto trajectory = drive_lockstep(controller, 200, [&](const robot_state_t&) { return zero; });
+  ASSERT_EQ(trajectory.size(), 201u);
+  double drift = 0.0;
+  for (const robot_state_t& state : trajectory) drift = std::max(drift, max_abs_diff(vector_of(state.position), q0));
+  EXPECT_LT(drift, 1e-6);
+  EXPECT_TRUE(matrices_near(vector_of(trajectory.back().effort), gravity_torques(model, data, q0), 1e-9));
+  EXPECT_EQ(plant.stop(), 0);
+  const std::string err = plant.stderr_text();
+  EXPECT_NE(err.find("chasles: status on TEST_STATE, commands on TEST_COMMAND (torque overlay)"), std::string::npos)
+      << err;
+}
+
 }  // namespace
 }  // namespace chasles::testing
