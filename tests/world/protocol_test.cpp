@@ -187,45 +187,57 @@ TEST_P(Protocols, TheTableIsPressedWithTheSeriesSpringOfTheCommandedStiffness) {
   EXPECT_EQ(c.reflexes(), 0) << c.reflex_reason();
 }
 
-// A status of another arm (6 joints) or a malformed one: refused and counted, never taken; with
-// nothing else coming (the plant gone), the stale rule FAULTs as with chasles's own states.
+// A status of another arm (6 joints) or a damaged one (the arm's, cut short): refused and counted,
+// never taken; with nothing else coming (the plant gone), the stale rule FAULTs as with chasles's
+// own states.
 TEST_P(Protocols, AWronglySizedOrMalformedStatusIsRefusedCountedAndFaults) {
   World world(panda(), GetParam().protocol);
   start(world, plant_options(), controller_options());
   const std::string channel = controller::default_channels(GetParam().protocol).status;
   world.kill_plant();
+  // Another arm's status as it is; the arm's own, cut short by a byte.
+  const auto publish = [&world](const std::string& on, const auto& message, int n) {
+    if (n == 7) {
+      world.recorder().publish_truncated(on, message, 1);
+    } else {
+      world.recorder().publish_on(on, message);
+    }
+  };
   const int64_t rejected_before = world.controller().summary(1.0).rejected_messages;
   for (int k = 0; k < 20; ++k) {
     const int64_t utime = 10'000'000 + 1000 * k;
     switch (GetParam().protocol) {
       case Protocol::kChasles: {
         robot_state_t m;
-        m.utime = utime, m.seq = 100'000 + k, m.num_joints = 6;
-        m.position.assign(6, 0.1), m.velocity.assign(6, 0.0), m.effort.assign(6, 0.0);
-        world.recorder().publish_on(channel, m);
+        const int n = k % 2 == 0 ? 6 : 7;
+        m.utime = utime, m.seq = 100'000 + k, m.num_joints = n;
+        m.position.assign(n, 0.1), m.velocity.assign(n, 0.0), m.effort.assign(n, 0.0);
+        publish(channel, m, n);
         break;
       }
       case Protocol::kDrakeIiwa: {
         drake::lcmt_iiwa_status m;
-        m.utime = utime, m.num_joints = 6;
+        const int n = k % 2 == 0 ? 6 : 7;
+        m.utime = utime, m.num_joints = n;
         for (auto* v : {&m.joint_position_measured, &m.joint_velocity_estimated, &m.joint_position_commanded,
                         &m.joint_position_ipo, &m.joint_torque_measured, &m.joint_torque_commanded,
                         &m.joint_torque_external}) {
-          v->assign(6, 0.1);
+          v->assign(size_t(n), 0.1);
         }
-        world.recorder().publish_on(channel, m);
+        publish(channel, m, n);
         break;
       }
       case Protocol::kDrakePanda: {
         drake::lcmt_panda_status m;
-        m.utime = utime, m.num_joints = 6;
+        const int n = k % 2 == 0 ? 6 : 7;
+        m.utime = utime, m.num_joints = n;
         for (auto* v : {&m.joint_position, &m.joint_position_desired, &m.joint_velocity, &m.joint_velocity_desired,
                         &m.joint_acceleration_desired, &m.joint_torque, &m.joint_torque_desired,
                         &m.joint_torque_external}) {
-          v->assign(6, 0.1);
+          v->assign(size_t(n), 0.1);
         }
         m.control_command_success_rate = 1.0, m.robot_mode = 2, m.robot_utime = utime, m.control_mode = 4;
-        world.recorder().publish_on(channel, m);
+        publish(channel, m, n);
         break;
       }
     }

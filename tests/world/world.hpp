@@ -66,6 +66,14 @@ class Recorder {
   void publish_on(const std::string& channel, const Message& message) {
     bus_.publish_message(channel, message);
   }
+  /// Its encoding cut short by `missing` bytes: a damaged message.
+  template <typename Message>
+  void publish_truncated(const std::string& channel, const Message& message, size_t missing) {
+    std::vector<uint8_t> bytes(size_t(message.getEncodedSize()));
+    message.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+    bytes.resize(bytes.size() - missing);
+    bus_.publish(channel, bytes);
+  }
 
   const std::vector<HeardCommand>& commands() const { return commands_; }
   const std::vector<HeardStatus>& statuses() const { return statuses_; }

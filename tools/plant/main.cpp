@@ -1,9 +1,11 @@
 // chasles_plant: a simulated arm on LCM. It integrates the arm's forward dynamics under the latest
 // joint_torque_command_t (zero-order hold) and publishes robot_state_t after every step, either
-// in real time or in lockstep with its controller. It keeps itself safe: without a valid command
-// for --timeout-ms it brakes to rest against gravity. The arm can be pushed (--push), meet walls
-// (--wall) and carry what its controller does not know (--payload, --friction); the plant then
-// publishes the truth (sim_truth_t) after every state.
+// in real time or in lockstep with its controller; or, with --protocol, speaks a Drake driver's
+// messages as the driver does (lcmt_iiwa_status / lcmt_iiwa_command, lcmt_panda_status /
+// lcmt_panda_command), so a controller can drive it as it would a KUKA iiwa or a Franka Panda. It
+// keeps itself safe: without a valid command for --timeout-ms it brakes to rest against gravity.
+// The arm can be pushed (--push), meet walls (--wall) and carry what its controller does not know
+// (--payload, --friction); the plant then publishes the truth (sim_truth_t) after every state.
 //
 // Errors: one line "chasles_plant: ..." on stderr; exit 2 for a usage error, 1 for bad input
 // (URDF, --q0, --damping, the environment's specs) or when LCM cannot start. SIGINT and SIGTERM
@@ -22,8 +24,10 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
+#include "chasles/controller/protocol.hpp"
 #include "chasles/controller/realtime/clock.hpp"
 #include "chasles/controller/realtime/realtime.hpp"
 #include "chasles/core/dynamics/dynamics.hpp"
@@ -53,6 +57,7 @@ struct Options {
   std::string payload, friction;
   std::string armature;
   bool realtime = false;
+  std::string protocol = "chasles", torque_semantics;
   std::string lcm_url;
   Bus::Receive receive = Bus::Receive::kDirect;
   double seconds = 0.0;
@@ -190,14 +195,60 @@ void run_lockstep(Simulation& simulation, Bus& bus, const controller::Clock& clo
 
 int fail(const std::string& message, int code) { return chasles::tools::fail("chasles_plant", message, code); }
 
+// LCM subscribes by regular expression: a channel or prefix has only characters that match themselves.
+const CLI::Validator kPlainChannel(
+    [](const std::string& text) {
+      const bool plain = std::all_of(text.begin(), text.end(), [](char c) {
+        return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '/';
+      });
+      return plain ? std::string() : "letters, digits, '_', '-' and '/' only";
+    },
+    "");
+
+// --protocol and --torque-semantics take the names protocol.hpp gives (to_string / parse_*).
+CLI::Validator named(bool (*parse)(std::string_view), const char* names) {
+  return CLI::Validator(
+      [=](const std::string& text) { return parse(text) ? std::string() : "'" + text + "' is not one of " + names; },
+      "");
+}
+bool is_protocol(std::string_view text) {
+  chasles::controller::Protocol protocol{};
+  return chasles::controller::parse_protocol(text, protocol);
+}
+bool is_torque_semantics(std::string_view text) {
+  chasles::controller::TorqueSemantics semantics{};
+  return chasles::controller::parse_torque_semantics(text, semantics);
+}
+
 void add_options(CLI::App& app, Options& o) {
   app.add_option("--robot", o.robot, "Robot description (URDF file)")->required()->type_name("FILE");
   app.add_option("--tip", o.tip, "Link that ends the chain; needed when the URDF tree has several leaves")
       ->type_name("LINK");
-  app.add_option("--rate", o.sim.rate_hz, "Steps per second; one robot_state_t per step")
+  app.add_option("--rate", o.sim.rate_hz,
+                 "Steps per second; one status per step (default: the protocol's, 1000 for chasles and "
+                 "drake-panda, 200 for drake-iiwa: FRI's 5 ms)")
       ->check(kPositive)
-      ->type_name("HZ")
+      ->type_name("HZ");
+  app.add_option("--protocol", o.protocol,
+                 "The messages spoken: 'chasles' (robot_state_t / joint_torque_command_t), 'drake-iiwa' "
+                 "(lcmt_iiwa_status / lcmt_iiwa_command, as Drake's iiwa driver) or 'drake-panda' "
+                 "(lcmt_panda_status / lcmt_panda_command, as drake-franka-driver in torque mode)")
+      ->check(named(is_protocol, "chasles, drake-iiwa, drake-panda"))
       ->capture_default_str();
+  app.add_option("--status-channel", o.sim.status_channel,
+                 "Channel of the statuses (default: PREFIX STATE, IIWA_STATUS or PANDA_STATUS)")
+      ->check(kPlainChannel)
+      ->type_name("CHANNEL");
+  app.add_option("--command-channel", o.sim.command_channel,
+                 "Channel of the commands (default: PREFIX COMMAND, IIWA_COMMAND or PANDA_COMMAND)")
+      ->check(kPlainChannel)
+      ->type_name("CHANNEL");
+  app.add_option("--torque-semantics", o.torque_semantics,
+                 "'full': a command's torque is the whole joint torque; 'overlay': the plant adds g(q) of its "
+                 "nominal model (the URDF's bare arm, not --payload), as Drake's drivers add gravity "
+                 "compensation (default: full for chasles, overlay for drake-iiwa and drake-panda)")
+      ->check(named(is_torque_semantics, "overlay, full"))
+      ->type_name("SEMANTICS");
   app.add_option("--substeps", o.sim.substeps, "RK4 steps per step")->check(CLI::Range(1, 1000))->capture_default_str();
   app.add_option("--damping", o.damping, "Viscous joint damping, N*m*s/rad or N*s/m: one value, or one per joint")
       ->type_name("D[,D...]")
@@ -224,16 +275,10 @@ void add_options(CLI::App& app, Options& o) {
                  "(or one not sent yet), as if none had come (default: --timeout-ms)")
       ->check(kNonNegative)
       ->type_name("MS");
-  app.add_option("--channel-prefix", o.sim.prefix, "Channels are PREFIX STATE and PREFIX COMMAND")
-      ->check(
-          [](const std::string& prefix) {
-            // LCM subscribes by regular expression: only characters that match themselves.
-            const bool plain = std::all_of(prefix.begin(), prefix.end(), [](char c) {
-              return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '/';
-            });
-            return plain ? std::string() : "letters, digits, '_', '-' and '/' only";
-          },
-          "PREFIX")
+  app.add_option("--channel-prefix", o.sim.prefix,
+                 "Channels are PREFIX STATE and PREFIX COMMAND (chasles's protocol) and PREFIX TRUTH")
+      ->check(kPlainChannel)
+      ->type_name("PREFIX")
       ->capture_default_str();
   app.add_option("--push", o.pushes,
                  "A wrench on the tip, repeatable (pushes add): from START s of simulated time (steps x period) "
@@ -302,17 +347,21 @@ int main(int argc, char** argv) {
   app.footer(
       "Publishes chasles.robot_state_t on PREFIX STATE after every step; applies the latest valid\n"
       "chasles.joint_torque_command_t from PREFIX COMMAND (zero-order hold, clamped to the URDF effort\n"
-      "limits). Dynamics: M(q) qdd = tau - c - g - D qd, RK4. Real time: without a valid command for\n"
-      "--timeout-ms the arm brakes to rest, tau = g(q) - M(q) qd / T. A command answering a state older\n"
-      "than --max-command-lag-ms counts as none (and is reported). A step at which no command answering\n"
-      "the previous state has arrived is a late cycle; after --max-late in a row the arm brakes the same\n"
-      "way until a command is on time again. With --push, --wall, --payload, --friction or --truth it\n"
-      "publishes chasles.sim_truth_t on PREFIX TRUTH right after every state: the external joint torque\n"
-      "and the contact wrench the nominal model (the URDF, --damping) does not contain.\n"
+      "limits). --protocol drake-iiwa or drake-panda speaks Drake's driver messages instead, on\n"
+      "IIWA_STATUS / IIWA_COMMAND or PANDA_STATUS / PANDA_COMMAND, with the driver's signs and its\n"
+      "gravity compensation (docs/protocols.md). Dynamics: M(q) qdd = tau - c - g - D qd, RK4.\n"
+      "Real time: without a valid command for --timeout-ms the arm brakes to rest, tau = g(q) -\n"
+      "M(q) qd / T. A command answering a state older than --max-command-lag-ms counts as none (and\n"
+      "is reported). A step at which no command answering the previous state has arrived is a late\n"
+      "cycle; after --max-late in a row the arm brakes the same way until a command is on time again.\n"
+      "With --push, --wall, --payload, --friction or --truth it publishes chasles.sim_truth_t on\n"
+      "PREFIX TRUTH right after every state: the external joint torque and the contact wrench the\n"
+      "nominal model (the URDF, --damping) does not contain.\n"
       "Examples:\n"
       "  tools/netns.sh chasles_plant --robot ur5.urdf --tip tool0 \\\n"
       "      --lcm-url 'udpm://239.255.76.67:7667?ttl=0'\n"
       "  chasles_plant --robot panda.urdf --tip panda_hand --lockstep --q0 0,0.5,0,-1.2,0,1,0\n"
+      "  chasles_plant --robot iiwa14.urdf --tip iiwa_link_ee --protocol drake-iiwa --rate 200\n"
       "  chasles_plant --robot panda.urdf --tip panda_hand --seed 7 --drop 0.01 --delay-ms 2 --noise 1e-4\n"
       "  chasles_plant --robot panda.urdf --tip panda_hand --delay-spike-ms 5 --delay-spike-every 500\n"
       "  chasles_plant --robot panda.urdf --tip panda_hand --push 1,0.5,0.005,0,0,0,0,0,-30 \\\n"
@@ -323,6 +372,17 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     return fail(std::string(e.what()) + " (see 'chasles_plant --help')", 2);
+  }
+
+  chasles::controller::parse_protocol(options.protocol, options.sim.protocol);  // checked by its validator
+  if (!options.torque_semantics.empty()) {
+    chasles::controller::TorqueSemantics semantics{};
+    chasles::controller::parse_torque_semantics(options.torque_semantics, semantics);
+    options.sim.torque_semantics = semantics;
+  }
+  if (app.count("--rate") == 0) {
+    const double period = chasles::controller::nominal_status_period(options.sim.protocol);
+    options.sim.rate_hz = period > 0.0 ? 1.0 / period : 1000.0;
   }
 
   return chasles::tools::run_main("chasles_plant", [&] {
@@ -375,10 +435,16 @@ int main(int argc, char** argv) {
     Simulation simulation(model, options.sim, q0, damping, *bus, clock);
     pthread_sigmask(SIG_UNBLOCK, &stop_signals, nullptr);
 
-    std::fprintf(stderr, "chasles_plant: %s, %d joints to %s, %g Hz %s; state on %sSTATE, commands on %sCOMMAND%s\n",
-                 model.name().c_str(), model.dof(), model.tip_link().c_str(), options.sim.rate_hz,
-                 options.sim.lockstep ? "lockstep" : "real time (braked until the first command)",
-                 options.sim.prefix.c_str(), options.sim.prefix.c_str(),
+    const std::string wire =
+        options.sim.protocol == chasles::controller::Protocol::kChasles &&
+                simulation.torque_semantics() == chasles::controller::TorqueSemantics::kFull
+            ? "state on " + simulation.status_channel() + ", commands on " + simulation.command_channel()
+            : std::string(chasles::controller::to_string(options.sim.protocol)) + ": status on " +
+                  simulation.status_channel() + ", commands on " + simulation.command_channel() + " (torque " +
+                  chasles::controller::to_string(simulation.torque_semantics()) + ")";
+    std::fprintf(stderr, "chasles_plant: %s, %d joints to %s, %g Hz %s; %s%s\n", model.name().c_str(), model.dof(),
+                 model.tip_link().c_str(), options.sim.rate_hz,
+                 options.sim.lockstep ? "lockstep" : "real time (braked until the first command)", wire.c_str(),
                  simulation.publishes_truth() ? (", truth on " + options.sim.prefix + "TRUTH").c_str() : "");
     const int64_t end_ns = options.seconds > 0.0 ? clock.now_ns() + static_cast<int64_t>(options.seconds * 1e9)
                                                  : std::numeric_limits<int64_t>::max();

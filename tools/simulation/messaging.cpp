@@ -5,25 +5,116 @@
 #include <cstdio>
 #include <iterator>
 #include <limits>
+#include <stdexcept>
 
 #include "chasles/lcmtypes/checked.hpp"
 
 namespace chasles::plant {
 
-CommandInbox::CommandInbox(const Clock& clock, const std::string& channel, int num_joints)
-    : clock_(clock), channel_(channel), num_joints_(num_joints) {
-  for (joint_torque_command_t* message : {&latest_, &incoming_}) {
-    message->utime = message->seq = 0;
-    message->state_seq = -1;
-    message->num_joints = num_joints;
-    message->torque.assign(static_cast<size_t>(num_joints), 0.0);
+int64_t StateTimes::utime(int64_t seq) const {
+  return start_utime_ + std::llround(1e6 * static_cast<double>(seq) * dt_);
+}
+
+int64_t StateTimes::seq(int64_t utime) const {
+  const auto nearest = static_cast<int64_t>(std::llround(1e-6 * static_cast<double>(utime - start_utime_) / dt_));
+  for (const int64_t seq : {nearest, nearest - 1, nearest + 1}) {
+    if (seq >= 0 && seq <= *latest_seq_ && this->utime(seq) == utime) return seq;
   }
+  return -1;
+}
+
+CommandInbox::CommandInbox(const Clock& clock, const std::string& channel, int num_joints, Protocol protocol,
+                           const StateTimes* times)
+    : clock_(clock),
+      channel_(channel),
+      num_joints_(num_joints),
+      protocol_(protocol),
+      times_(times),
+      latest_(num_joints),
+      incoming_(num_joints) {
+  if (protocol != Protocol::kChasles && times == nullptr) {
+    throw std::logic_error("CommandInbox: Drake's commands need the states' times");
+  }
+  const auto n = static_cast<size_t>(num_joints);
+  chasles_.utime = chasles_.seq = 0;
+  chasles_.state_seq = -1;
+  chasles_.num_joints = num_joints;
+  chasles_.torque.assign(n, 0.0);
+  // Every array at its largest, so that decoding any valid command reuses the capacity.
+  iiwa_.utime = 0;
+  iiwa_.num_joints = iiwa_.num_torques = num_joints;
+  iiwa_.joint_position.assign(n, 0.0);
+  iiwa_.joint_torque.assign(n, 0.0);
+  panda_.utime = 0;
+  panda_.num_joint_position = panda_.num_joint_velocity = panda_.num_joint_torque = num_joints;
+  panda_.joint_position.assign(n, 0.0);
+  panda_.joint_velocity.assign(n, 0.0);
+  panda_.joint_torque.assign(n, 0.0);
+  panda_.control_mode_expected = drake::lcmt_panda_status::CONTROL_MODE_TORQUE;
+}
+
+namespace {
+
+void copy_to(const std::vector<double>& from, Eigen::VectorXd& to) {
+  for (size_t i = 0; i < from.size(); ++i) to[static_cast<Eigen::Index>(i)] = from[i];
+}
+
+}  // namespace
+
+std::string CommandInbox::decode(const void* data, size_t size) {
+  using messages::decode_checked;
+  using messages::Finite;
+  switch (protocol_) {
+    case Protocol::kChasles:
+      if (std::string why = decode_checked(data, size, chasles_, num_joints_, Finite::Required); !why.empty()) {
+        return why;
+      }
+      incoming_.state_seq = chasles_.state_seq;
+      copy_to(chasles_.torque, incoming_.torque);
+      incoming_.has_position = false;
+      return {};
+    case Protocol::kDrakeIiwa:
+      if (std::string why = decode_checked(data, size, iiwa_, num_joints_, Finite::Required); !why.empty()) {
+        return why;
+      }
+      if (iiwa_.num_torques != num_joints_) {  // Drake's simulated driver stops on it
+        return "with no torques: the driver runs in torque mode, which needs num_torques " +
+               std::to_string(num_joints_);
+      }
+      incoming_.state_seq = times_->seq(iiwa_.utime);
+      copy_to(iiwa_.joint_torque, incoming_.torque);
+      incoming_.has_position = iiwa_.num_joints == num_joints_;
+      if (incoming_.has_position) copy_to(iiwa_.joint_position, incoming_.position);
+      return {};
+    case Protocol::kDrakePanda:
+      if (std::string why = decode_checked(data, size, panda_, num_joints_, Finite::Required); !why.empty()) {
+        return why;
+      }
+      if ((panda_.control_mode_expected & drake::lcmt_panda_status::CONTROL_MODE_TORQUE) == 0) {
+        return "expecting control mode " + std::to_string(panda_.control_mode_expected) +
+               ": the driver runs in torque mode (CONTROL_MODE_TORQUE, 4)";
+      }
+      if (panda_.num_joint_torque != num_joints_) {
+        return "with no torques: the driver runs in torque mode, which needs num_joint_torque " +
+               std::to_string(num_joints_);
+      }
+      incoming_.state_seq = times_->seq(panda_.utime);
+      copy_to(panda_.joint_torque, incoming_.torque);
+      incoming_.has_position = panda_.num_joint_position == num_joints_;
+      if (incoming_.has_position) copy_to(panda_.joint_position, incoming_.position);
+      return {};
+  }
+  return "of an unknown protocol";
 }
 
 void CommandInbox::receive(const void* data, size_t size) {
-  if (std::string why = messages::decode_checked(data, size, incoming_, num_joints_, messages::Finite::Required);
-      !why.empty()) {
-    return reject(why);
+  if (std::string why = decode(data, size); !why.empty()) return reject(why);
+  if (protocol_ != Protocol::kChasles && incoming_.state_seq < 0) {
+    ++stale_;
+    ++unreported_;
+    std::snprintf(reason_, sizeof(reason_), "a command stamped utime %lld, which no state sent carries",
+                  static_cast<long long>(protocol_ == Protocol::kDrakeIiwa ? iiwa_.utime : panda_.utime));
+    return;
   }
   if (latest_seq_ != nullptr &&
       (incoming_.state_seq > *latest_seq_ || incoming_.state_seq < *latest_seq_ - max_lag_)) {
@@ -34,7 +125,7 @@ void CommandInbox::receive(const void* data, size_t size) {
                   static_cast<long long>(max_lag_));
     return;
   }
-  std::swap(latest_, incoming_);
+  latest_.swap(incoming_);
   fresh_ = true;
   arrival_ns_ = clock_.now_ns();
   ++received_;
@@ -55,17 +146,47 @@ void CommandInbox::report_rejections(int64_t now_ns) {
 }
 
 StatePublisher::StatePublisher(Bus& bus, std::string channel, int num_joints, const Faults& faults,
-                               int max_in_flight)
-    : bus_(bus), channel_(std::move(channel)), faults_(faults), rng_(faults.seed) {
-  message_.utime = message_.seq = 0;
-  message_.num_joints = num_joints;
-  for (auto* v : {&message_.position, &message_.velocity, &message_.effort}) {
-    v->assign(static_cast<size_t>(num_joints), 0.0);
+                               int max_in_flight, Protocol protocol)
+    : bus_(bus), channel_(std::move(channel)), faults_(faults), protocol_(protocol), rng_(faults.seed) {
+  const auto n = static_cast<size_t>(num_joints);
+  size_t size = 0;
+  switch (protocol) {
+    case Protocol::kChasles:
+      message_.utime = message_.seq = 0;
+      message_.num_joints = num_joints;
+      for (auto* v : {&message_.position, &message_.velocity, &message_.effort}) v->assign(n, 0.0);
+      size = static_cast<size_t>(message_.getEncodedSize());
+      break;
+    case Protocol::kDrakeIiwa:
+      iiwa_.utime = 0;
+      iiwa_.num_joints = num_joints;
+      for (auto* v : {&iiwa_.joint_position_measured, &iiwa_.joint_velocity_estimated, &iiwa_.joint_position_commanded,
+                      &iiwa_.joint_position_ipo, &iiwa_.joint_torque_measured, &iiwa_.joint_torque_commanded,
+                      &iiwa_.joint_torque_external}) {
+        v->assign(n, 0.0);
+      }
+      size = static_cast<size_t>(iiwa_.getEncodedSize());
+      break;
+    case Protocol::kDrakePanda:
+      panda_.utime = panda_.robot_utime = 0;
+      panda_.num_joints = num_joints;
+      for (auto* v : {&panda_.joint_position, &panda_.joint_position_desired, &panda_.joint_velocity,
+                      &panda_.joint_velocity_desired, &panda_.joint_acceleration_desired, &panda_.joint_torque,
+                      &panda_.joint_torque_desired, &panda_.joint_torque_external}) {
+        v->assign(n, 0.0);
+      }
+      panda_.control_command_success_rate = 0.0;
+      panda_.robot_mode = drake::lcmt_panda_status::kIdle;
+      panda_.control_mode = 0;
+      size = static_cast<size_t>(panda_.getEncodedSize());
+      break;
   }
-  bytes_.resize(static_cast<size_t>(message_.getEncodedSize()));
+  bytes_.resize(size);
   queue_.resize(faults.delay_ms > 0.0 || faults.spikes() ? static_cast<size_t>(max_in_flight) : 0);
   for (Delayed& slot : queue_) slot.bytes.resize(bytes_.size());
 }
+
+double StatePublisher::noisy(double q) { return q + (faults_.noise > 0.0 ? faults_.noise * gaussian_(rng_) : 0.0); }
 
 void StatePublisher::encode(int64_t utime, int64_t seq, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                             const Eigen::VectorXd& effort) {
@@ -73,11 +194,63 @@ void StatePublisher::encode(int64_t utime, int64_t seq, const Eigen::VectorXd& q
   message_.seq = seq;
   for (size_t i = 0; i < message_.position.size(); ++i) {
     const auto j = static_cast<Eigen::Index>(i);
-    message_.position[i] = q[j] + (faults_.noise > 0.0 ? faults_.noise * gaussian_(rng_) : 0.0);
+    message_.position[i] = noisy(q[j]);
     message_.velocity[i] = qd[j];
     message_.effort[i] = effort[j];
   }
   message_.encode(bytes_.data(), 0, static_cast<int>(bytes_.size()));
+}
+
+void StatePublisher::encode(int64_t utime, int64_t seq, const Eigen::VectorXd& q, const DriverReport& report) {
+  switch (protocol_) {
+    case Protocol::kChasles:
+      return encode(utime, seq, q, report.qd, report.effort);
+    case Protocol::kDrakeIiwa:
+      return encode_iiwa(utime, q, report);
+    case Protocol::kDrakePanda:
+      return encode_panda(utime, q, report);
+  }
+}
+
+// As Drake's simulated driver (manipulation/kuka_iiwa: BuildSimplifiedIiwaControl and
+// IiwaStatusSender) reports: the measured and the commanded torque both negated, the external one
+// not; joint_position_ipo as drake-iiwa-driver: NaN outside FRI's commanding state.
+void StatePublisher::encode_iiwa(int64_t utime, const Eigen::VectorXd& q, const DriverReport& report) {
+  iiwa_.utime = utime;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (size_t i = 0; i < iiwa_.joint_position_measured.size(); ++i) {
+    const auto j = static_cast<Eigen::Index>(i);
+    iiwa_.joint_position_measured[i] = noisy(q[j]);
+    iiwa_.joint_velocity_estimated[i] = report.qd[j];
+    iiwa_.joint_position_commanded[i] = report.position_commanded[j];
+    iiwa_.joint_position_ipo[i] = report.commanding ? report.position_commanded[j] : nan;
+    iiwa_.joint_torque_measured[i] = -report.effort[j];
+    iiwa_.joint_torque_commanded[i] = -report.torque_commanded[j];
+    iiwa_.joint_torque_external[i] = report.tau_ext[j];
+  }
+  iiwa_.encode(bytes_.data(), 0, static_cast<int>(bytes_.size()));
+}
+
+// As libfranka's RobotState through drake-franka-driver: tau_J the torque at the joints (gravity
+// included), tau_J_d the command without gravity, tau_ext_hat_filtered negated.
+void StatePublisher::encode_panda(int64_t utime, const Eigen::VectorXd& q, const DriverReport& report) {
+  panda_.utime = utime;
+  for (size_t i = 0; i < panda_.joint_position.size(); ++i) {
+    const auto j = static_cast<Eigen::Index>(i);
+    panda_.joint_position[i] = noisy(q[j]);
+    panda_.joint_position_desired[i] = report.position_commanded[j];
+    panda_.joint_velocity[i] = report.qd[j];
+    panda_.joint_velocity_desired[i] = 0.0;
+    panda_.joint_acceleration_desired[i] = 0.0;
+    panda_.joint_torque[i] = report.effort[j];
+    panda_.joint_torque_desired[i] = report.torque_desired[j];
+    panda_.joint_torque_external[i] = -report.tau_ext[j];
+  }
+  panda_.control_command_success_rate = report.success_rate;
+  panda_.robot_mode = report.robot_mode;
+  panda_.robot_utime = report.robot_utime;
+  panda_.control_mode = report.control_mode;
+  panda_.encode(bytes_.data(), 0, static_cast<int>(bytes_.size()));
 }
 
 void StatePublisher::send(int64_t now_ns) {

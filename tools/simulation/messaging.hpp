@@ -1,7 +1,8 @@
 // The plant's side of the wire: commands in, states out, through the injected faults, and the
 // truth out beside them, untouched by the faults. Every class preallocates every buffer on
 // construction; receiving a valid command, encoding and publishing allocate nothing afterwards (a
-// refusal builds its reason).
+// refusal builds its reason). Commands and states are in one of the protocols the controller
+// speaks (controller/protocol.hpp): chasles's own, or Drake's iiwa or Panda driver's.
 #pragma once
 
 #include <Eigen/Core>
@@ -9,10 +10,16 @@
 #include <chasles/robot_state_t.hpp>
 #include <chasles/sim_truth_t.hpp>
 #include <cstdint>
+#include <drake/lcmt_iiwa_command.hpp>
+#include <drake/lcmt_iiwa_status.hpp>
+#include <drake/lcmt_panda_command.hpp>
+#include <drake/lcmt_panda_status.hpp>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "chasles/controller/protocol.hpp"
 #include "chasles/controller/realtime/bus.hpp"
 #include "chasles/controller/realtime/clock.hpp"
 #include "chasles/core/lie/types.hpp"
@@ -21,15 +28,54 @@ namespace chasles::plant {
 
 using controller::Bus;
 using controller::Clock;
+using controller::Protocol;
 
-/// Keeps the latest valid joint_torque_command_t for an n-joint arm. Every message passes the
-/// checked decoder (lcmtypes/checked.hpp: fingerprint, joint count, exact size, encoding, finite
-/// torques), and one that fails is counted and reported on stderr (at most once a second), never
-/// kept. Fed by whoever subscribes it to the command channel.
+/// The utime of every state the plant sends: the plant's clock at its first state plus seq periods,
+/// µs. Drake's commands carry no seq, only the utime of the status they answer (what chasles's
+/// CommandWriter and drake-franka-driver's clients send): this gives the seq back.
+class StateTimes {
+ public:
+  /// `latest_seq`: the plant's newest state, read on the caller's thread.
+  StateTimes(double dt, const int64_t* latest_seq) : dt_(dt), latest_seq_(latest_seq) {}
+  void start(int64_t start_utime) { start_utime_ = start_utime; }
+  int64_t utime(int64_t seq) const;
+  /// The seq of the state sent stamped exactly `utime` (up to the newest); −1 when none was.
+  int64_t seq(int64_t utime) const;
+
+ private:
+  double dt_;
+  const int64_t* latest_seq_;
+  int64_t start_utime_ = 0;
+};
+
+/// The latest command as the plant applies it, whichever protocol brought it.
+struct Command {
+  int64_t state_seq = -1;       ///< the state it answers (Drake's: the state stamped with its utime)
+  Eigen::VectorXd torque;       ///< N·m or N, one per joint, as received (before any gravity the driver adds)
+  Eigen::VectorXd position;     ///< rad or m: the positions it carried (Drake's), when has_position
+  bool has_position = false;
+  explicit Command(int n = 0) : torque(Eigen::VectorXd::Zero(n)), position(Eigen::VectorXd::Zero(n)) {}
+  /// Exchanges the contents, buffers and all: allocates nothing.
+  void swap(Command& other) {
+    std::swap(state_seq, other.state_seq);
+    torque.swap(other.torque);
+    position.swap(other.position);
+    std::swap(has_position, other.has_position);
+  }
+};
+
+/// Keeps the latest valid command for an n-joint arm: a joint_torque_command_t (chasles), a
+/// lcmt_iiwa_command or a lcmt_panda_command. Every message passes its checked decoder
+/// (lcmtypes/checked.hpp: fingerprint, counts, exact size, encoding, finite numbers) and what the
+/// driver's torque mode needs (iiwa: num_torques = n; Panda: num_joint_torque = n and
+/// CONTROL_MODE_TORQUE in control_mode_expected), and one that fails is counted and reported on
+/// stderr (at most once a second), never kept. Fed by whoever subscribes it to the command channel.
 class CommandInbox {
  public:
-  /// `clock` stamps each command's arrival.
-  CommandInbox(const Clock& clock, const std::string& channel, int num_joints);
+  /// `clock` stamps each command's arrival. Drake's protocols need `times` (kept by reference) to
+  /// tell which state a command answers.
+  CommandInbox(const Clock& clock, const std::string& channel, int num_joints, Protocol protocol = Protocol::kChasles,
+               const StateTimes* times = nullptr);
   CommandInbox(const CommandInbox&) = delete;
   CommandInbox& operator=(const CommandInbox&) = delete;
 
@@ -37,15 +83,16 @@ class CommandInbox {
   /// A valid command arrived since the last take().
   bool fresh() const { return fresh_; }
   /// The latest valid command; clears fresh().
-  const joint_torque_command_t& take() {
+  const Command& take() {
     fresh_ = false;
     return latest_;
   }
-  const joint_torque_command_t& latest() const { return latest_; }
+  const Command& latest() const { return latest_; }
   /// The clock's time when the latest valid command arrived, ns.
   int64_t latest_arrival_ns() const { return arrival_ns_; }
   int64_t rejected() const { return rejected_; }
-  /// Valid commands refused because they answer a state too old (or one never sent).
+  /// Valid commands refused because they answer a state too old (or one never sent; for Drake's, a
+  /// utime no state sent carries).
   int64_t stale() const { return stale_; }
 
   /// From now on, keep only commands whose state_seq is within `max_lag` of *latest_seq (the
@@ -64,11 +111,18 @@ class CommandInbox {
 
  private:
   void reject(const std::string& why);
+  /// Decodes into incoming_; an empty string or why the message is refused.
+  std::string decode(const void* data, size_t size);
 
   const Clock& clock_;
   std::string channel_;
   int num_joints_;
-  joint_torque_command_t latest_, incoming_;
+  Protocol protocol_;
+  const StateTimes* times_;
+  joint_torque_command_t chasles_;
+  drake::lcmt_iiwa_command iiwa_;
+  drake::lcmt_panda_command panda_;
+  Command latest_, incoming_;
   bool fresh_ = false;
   int64_t arrival_ns_ = 0;
   int64_t received_ = 0;
@@ -94,17 +148,38 @@ struct Faults {
   uint64_t seed = 0;
 };
 
-/// Encodes robot_state_t into a preallocated buffer and publishes it, dropped, delayed and
+/// What a Drake driver reports beside the measured state, for one status (see docs/protocols.md,
+/// "The plant speaks them too", for each field).
+struct DriverReport {
+  const Eigen::VectorXd& qd;      ///< the plant's exact velocity (no driver filter)
+  const Eigen::VectorXd& effort;  ///< the joint torque applied over the last step (limits applied), g included
+  /// What the driver handed the joints, before the limits: the command (+ g under overlay), or the brake.
+  const Eigen::VectorXd& torque_commanded;
+  const Eigen::VectorXd& torque_desired;      ///< the command as received, without the driver's gravity
+  const Eigen::VectorXd& position_commanded;  ///< the command's positions, or the measured q
+  const Eigen::VectorXd& tau_ext;             ///< the external joint torque, chasles's (and Drake's) sign
+  bool commanding = false;                    ///< the last step applied a command (not the brake, not the start)
+  double success_rate = 0.0;                  ///< Panda: steps with a fresh command among the last 100
+  int8_t robot_mode = 0;                      ///< Panda: lcmt_panda_status::kIdle, kMove or kReflex
+  int8_t control_mode = 0;                    ///< Panda: CONTROL_MODE_TORQUE once commanded, else 0
+  int64_t robot_utime = 0;                    ///< Panda: the robot's own clock, µs since the plant started
+};
+
+/// Encodes the protocol's status into a preallocated buffer and publishes it, dropped, delayed and
 /// noisy as `faults` asks.
 class StatePublisher {
  public:
   /// `max_in_flight`: how many delayed messages can wait at once; one more is dropped.
-  StatePublisher(Bus& bus, std::string channel, int num_joints, const Faults& faults, int max_in_flight);
+  StatePublisher(Bus& bus, std::string channel, int num_joints, const Faults& faults, int max_in_flight,
+                 Protocol protocol = Protocol::kChasles);
 
-  /// Encodes a state; the position gets the sensor noise here, so a state sent again is
-  /// the same message.
+  /// Encodes a robot_state_t (chasles's protocol); the position gets the sensor noise here, so a
+  /// state sent again is the same message.
   void encode(int64_t utime, int64_t seq, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
               const Eigen::VectorXd& effort);
+  /// Encodes the protocol's status (any protocol: chasles's takes utime, seq, q, qd and effort);
+  /// the measured position gets the sensor noise.
+  void encode(int64_t utime, int64_t seq, const Eigen::VectorXd& q, const DriverReport& report);
   /// Sends the last encoded state: dropped with probability faults.drop, else now or after the delay.
   void send(int64_t now_ns);
   /// Publishes the delayed states that are due; returns when the next one is due (INT64_MAX: none).
@@ -118,11 +193,17 @@ class StatePublisher {
     std::vector<uint8_t> bytes;
   };
   void publish(const std::vector<uint8_t>& bytes);
+  double noisy(double q);
+  void encode_iiwa(int64_t utime, const Eigen::VectorXd& q, const DriverReport& report);
+  void encode_panda(int64_t utime, const Eigen::VectorXd& q, const DriverReport& report);
 
   Bus& bus_;
   std::string channel_;
   Faults faults_;
+  Protocol protocol_;
   robot_state_t message_;
+  drake::lcmt_iiwa_status iiwa_;
+  drake::lcmt_panda_status panda_;
   std::vector<uint8_t> bytes_;
   std::vector<Delayed> queue_;  // a ring: head_ is the oldest, size_ entries
   size_t head_ = 0, size_ = 0;

@@ -4,6 +4,9 @@
 #include <cmath>
 #include <cstdio>
 
+#include "chasles/core/dynamics/dynamics.hpp"
+#include "chasles/core/error.hpp"
+
 namespace chasles::plant {
 namespace {
 
@@ -15,8 +18,22 @@ constexpr int64_t kLockstepRepeatNs = 10'000'000;
 constexpr double kBrakeTimeConstant = 0.05;
 constexpr int kBrakeStepsPerTimeConstant = 10;
 
-Eigen::Map<const Eigen::VectorXd> torque_of(const joint_torque_command_t& command) {
-  return {command.torque.data(), static_cast<Eigen::Index>(command.torque.size())};
+// The number of steps whose freshness the Panda's control_command_success_rate counts (libfranka's
+// "last 100 control commands").
+constexpr int64_t kSuccessWindow = 100;
+
+controller::TorqueSemantics semantics_of(const SimulationOptions& options) {
+  return options.torque_semantics.value_or(controller::default_torque_semantics(options.protocol));
+}
+
+std::string status_channel_of(const SimulationOptions& options) {
+  return options.status_channel.empty() ? controller::default_channels(options.protocol, options.prefix).status
+                                        : options.status_channel;
+}
+
+std::string command_channel_of(const SimulationOptions& options) {
+  return options.command_channel.empty() ? controller::default_channels(options.protocol, options.prefix).command
+                                         : options.command_channel;
 }
 
 }  // namespace
@@ -26,15 +43,29 @@ Simulation::Simulation(const RobotModel& model, const SimulationOptions& options
     : options_(options),
       bus_(bus),
       clock_(clock),
-      command_channel_(options.prefix + "COMMAND"),
+      model_(model),
+      semantics_(semantics_of(options)),
+      status_channel_(status_channel_of(options)),
+      command_channel_(command_channel_of(options)),
       plant_(model, q0, damping, 1.0 / options.rate_hz, options.substeps, options.environment),
-      inbox_(clock, command_channel_, model.dof()),
-      publisher_(bus, options.prefix + "STATE", model.dof(), options.faults, max_in_flight(options)),
+      data_(model),
+      times_(1.0 / options.rate_hz, &seq_),
+      inbox_(clock, command_channel_, model.dof(), options.protocol, &times_),
+      publisher_(bus, status_channel_, model.dof(), options.faults, max_in_flight(options), options.protocol),
       publish_truth_(options.truth || options.environment.any()),
       truth_publisher_(bus, options.prefix + "TRUTH", model.dof()),
       dt_(1.0 / options.rate_hz),
       period_ns_(static_cast<int64_t>(std::llround(1e9 / options.rate_hz))),
-      brake_time_constant_(std::max(kBrakeTimeConstant, kBrakeStepsPerTimeConstant * dt_)) {
+      brake_time_constant_(std::max(kBrakeTimeConstant, kBrakeStepsPerTimeConstant * dt_)),
+      torque_(Eigen::VectorXd::Zero(model.dof())),
+      desired_(Eigen::VectorXd::Zero(model.dof())),
+      position_commanded_(Eigen::VectorXd::Zero(model.dof())),
+      zero_(Eigen::VectorXd::Zero(model.dof())) {
+  if (options.protocol != controller::Protocol::kChasles && options.rate_hz > 1e6) {
+    throw ArgumentError(std::string("a rate of more than 10^6 steps per second for ") +
+                        controller::to_string(options.protocol) +
+                        ": its statuses are told apart by their utime, which counts microseconds");
+  }
   if (!options.lockstep) inbox_.require_recent(&seq_, max_command_lag());
   subscription_ = bus.subscribe(command_channel_, [this](const uint8_t* data, size_t size) { on_command(data, size); });
 }
@@ -56,20 +87,44 @@ int64_t Simulation::max_command_lag() const {
 
 void Simulation::start() {
   start_utime_ = clock_.utime_us();
+  times_.start(start_utime_);
   publish_state(clock_.now_ns());
 }
 
 // The truth goes out right after the state it belongs to is produced, whatever the faults do to
-// that state: a dropped or delayed state still has its truth, on time.
+// that state: a dropped or delayed state still has its truth, on time. Drake's statuses carry the
+// external joint torque: the truth's, sampled first (zero with nothing in the environment).
 void Simulation::publish_state(int64_t now_ns) {
   // The time of the sample: seq steps of the integrator after the start, whenever it was computed.
-  const int64_t utime = start_utime_ + std::llround(1e6 * static_cast<double>(seq_) * dt_);
-  publisher_.encode(utime, seq_, plant_.q(), plant_.qd(), plant_.effort());
+  const int64_t utime = times_.utime(seq_);
+  const Truth* truth = nullptr;
+  if (options_.protocol == controller::Protocol::kChasles) {
+    publisher_.encode(utime, seq_, plant_.q(), plant_.qd(), plant_.effort());
+  } else {
+    if (options_.environment.any()) truth = &plant_.sample_truth();
+    const int64_t robot_utime = std::llround(1e6 * static_cast<double>(seq_) * dt_);
+    const DriverReport report{plant_.qd(),
+                              plant_.effort(),
+                              torque_,
+                              desired_,
+                              has_position_ ? position_commanded_ : plant_.q(),
+                              truth != nullptr ? truth->tau_ext : zero_,
+                              commanding_,
+                              judged_steps_ > 0 ? static_cast<double>(fresh_steps_.count()) /
+                                                      static_cast<double>(std::min(judged_steps_, kSuccessWindow))
+                                                : 0.0,
+                              !commanded_ever_ ? drake::lcmt_panda_status::kIdle
+                              : commanding_    ? drake::lcmt_panda_status::kMove
+                                               : drake::lcmt_panda_status::kReflex,
+                              commanded_ever_ ? drake::lcmt_panda_status::CONTROL_MODE_TORQUE : int8_t{0},
+                              robot_utime};
+    publisher_.encode(utime, seq_, plant_.q(), report);
+  }
   publisher_.send(now_ns);
   last_send_ns_ = now_ns;
   if (!publish_truth_) return;
-  const Truth& truth = plant_.sample_truth();
-  truth_publisher_.publish(utime, seq_, truth.tau_ext, truth.tip_wrench_ext, truth.contact);
+  if (truth == nullptr) truth = &plant_.sample_truth();
+  truth_publisher_.publish(utime, seq_, truth->tau_ext, truth->tip_wrench_ext, truth->contact);
 }
 
 // Lockstep: one step per command that answers the latest state (state_seq == seq), applied at
@@ -78,12 +133,43 @@ void Simulation::publish_state(int64_t now_ns) {
 void Simulation::on_command(const uint8_t* data, size_t size) {
   inbox_.receive(data, size);
   if (!options_.lockstep || !inbox_.fresh()) return;
-  const joint_torque_command_t& command = inbox_.take();
+  const Command& command = inbox_.take();
   if (command.state_seq != seq_) {
     ++stale_;
     return;
   }
-  step_and_publish(torque_of(command));
+  apply_command(command, true);
+}
+
+// The driver's side: under overlay it adds the gravity of its own model (the nominal one, the bare
+// arm) at the present state to the torque commanded, every step, as drake-iiwa-driver's KUKA
+// controller, Drake's simulated iiwa driver and libfranka do.
+void Simulation::apply_command(const Command& command, bool fresh) {
+  desired_ = command.torque;
+  if (semantics_ == controller::TorqueSemantics::kOverlay) {
+    torque_ = command.torque + gravity_torques(model_, data_, plant_.q());
+  } else {
+    torque_ = command.torque;
+  }
+  has_position_ = command.has_position;
+  if (has_position_) position_commanded_ = command.position;
+  commanding_ = commanded_ever_ = true;
+  fresh_steps_[static_cast<size_t>(judged_steps_ % kSuccessWindow)] = fresh;
+  ++judged_steps_;
+  step_and_publish(torque_);
+}
+
+void Simulation::apply_brake() {
+  torque_ = plant_.brake_torque(brake_time_constant_);
+  desired_ = torque_;
+  if (semantics_ == controller::TorqueSemantics::kOverlay) desired_ -= gravity_torques(model_, data_, plant_.q());
+  has_position_ = false;
+  commanding_ = false;
+  if (commanded_ever_) {
+    fresh_steps_[static_cast<size_t>(judged_steps_ % kSuccessWindow)] = false;
+    ++judged_steps_;
+  }
+  step_and_publish(torque_);
 }
 
 void Simulation::step_and_publish(const Eigen::Ref<const Eigen::VectorXd>& tau) {
@@ -97,9 +183,10 @@ void Simulation::step() {
   count_late_cycle(now);
   update_brake(now);
   if (braking_) {
-    step_and_publish(plant_.brake_torque(brake_time_constant_));
+    apply_brake();
   } else {
-    step_and_publish(torque_of(inbox_.take()));
+    const bool fresh = inbox_.fresh();
+    apply_command(inbox_.take(), fresh);
   }
   publisher_.flush(now);
   inbox_.report_rejections(now);

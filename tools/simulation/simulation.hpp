@@ -1,14 +1,19 @@
 // The simulated arm on a bus: dynamics (Plant) in its environment, zero-order hold of the latest
 // valid command, the watchdog's brake, injected faults on the states it sends, the truth beside
-// them, one step at a time on a Clock.
+// them, one step at a time on a Clock. It speaks one protocol (controller/protocol.hpp): chasles's
+// own, or Drake's iiwa or Panda driver's, with that driver's conventions (docs/protocols.md, "The
+// plant speaks them too").
 // chasles_plant runs it on the system clock and UDP multicast; the in-process tests run it beside
 // a controller::Node on a SimulatedClock and a memq:// bus.
 #pragma once
 
 #include <Eigen/Core>
+#include <bitset>
 #include <cstdint>
+#include <optional>
 #include <string>
 
+#include "chasles/controller/protocol.hpp"
 #include "chasles/controller/realtime/bus.hpp"
 #include "chasles/controller/realtime/clock.hpp"
 #include "chasles/core/model/model.hpp"
@@ -18,7 +23,10 @@
 namespace chasles::plant {
 
 struct SimulationOptions {
-  double rate_hz = 1000.0;  ///< steps per second; one robot_state_t per step
+  /// Steps per second; one status per step. A real iiwa's driver publishes at 200 Hz (FRI's 5 ms,
+  /// controller::nominal_status_period), a Panda's at 1 kHz; chasles_plant takes the protocol's
+  /// rate when --rate is not given.
+  double rate_hz = 1000.0;
   int substeps = 1;         ///< RK4 steps per step
   /// One step per command answering the latest state, at once (deterministic); else real time.
   bool lockstep = false;
@@ -29,7 +37,19 @@ struct SimulationOptions {
   /// Real time: brake after this many late cycles in a row (0: never), as Franka's FCI stops
   /// the arm after 20 (communication_constraints_violation).
   int max_late = 20;
-  std::string prefix = "CHASLES_";  ///< channels PREFIX STATE, PREFIX COMMAND and PREFIX TRUTH
+  std::string prefix = "CHASLES_";  ///< channels PREFIX STATE, PREFIX COMMAND (chasles's protocol) and PREFIX TRUTH
+  /// The protocol spoken: chasles's robot_state_t / joint_torque_command_t, or Drake's
+  /// lcmt_iiwa_status / lcmt_iiwa_command or lcmt_panda_status / lcmt_panda_command, as their
+  /// drivers speak them.
+  controller::Protocol protocol = controller::Protocol::kChasles;
+  /// Empty: the protocol's (controller::default_channels: PREFIX STATE and PREFIX COMMAND, or
+  /// IIWA_STATUS / IIWA_COMMAND, PANDA_STATUS / PANDA_COMMAND).
+  std::string status_channel, command_channel;
+  /// What a command's torque is: the whole joint torque (kFull), or the torque on top of the
+  /// gravity the driver compensates (kOverlay: the plant applies command + g(q) of its nominal
+  /// model, the bare arm, as the driver does with the model it was configured with). None: the
+  /// protocol's (controller::default_torque_semantics: full for chasles, overlay for Drake's).
+  std::optional<controller::TorqueSemantics> torque_semantics;
   Faults faults;
   /// Pushes, walls, a hidden payload, hidden friction (core/simulation/environment.hpp).
   EnvironmentOptions environment;
@@ -42,7 +62,9 @@ class Simulation {
  public:
   /// Starts at rest at q0 with viscous joint damping `damping`; subscribes to the command channel.
   /// Keeps references to model (the nominal model; see Plant), bus and clock. Throws
-  /// chasles::ArgumentError when options.environment is not valid (checked_environment).
+  /// chasles::ArgumentError when options.environment is not valid (checked_environment), or a
+  /// Drake protocol is asked for more than 10^6 steps per second (its statuses are told apart by
+  /// their utime, µs).
   Simulation(const RobotModel& model, const SimulationOptions& options, const Eigen::VectorXd& q0,
              const Eigen::VectorXd& damping, Bus& bus, const Clock& clock);
   Simulation(const Simulation&) = delete;
@@ -65,6 +87,12 @@ class Simulation {
   void count_overrun() { ++overruns_; }
 
   int64_t period_ns() const { return period_ns_; }
+  controller::Protocol protocol() const { return options_.protocol; }
+  controller::TorqueSemantics torque_semantics() const { return semantics_; }
+  const std::string& status_channel() const { return status_channel_; }
+  const std::string& command_channel() const { return command_channel_; }
+  /// The utime of the state numbered seq, µs: the plant's clock at start() plus seq periods.
+  int64_t state_utime(int64_t seq) const { return times_.utime(seq); }
   const Plant& plant() const { return plant_; }
   bool braking() const { return braking_; }
   int64_t steps() const { return seq_; }
@@ -94,6 +122,10 @@ class Simulation {
   static int max_in_flight(const SimulationOptions& options);
   int64_t max_command_lag() const;
   void on_command(const uint8_t* data, size_t size);
+  /// One step under a command (`fresh`: it arrived since the last step), the driver's gravity
+  /// added under overlay; or under the brake.
+  void apply_command(const Command& command, bool fresh);
+  void apply_brake();
   void step_and_publish(const Eigen::Ref<const Eigen::VectorXd>& tau);
   /// Sends the latest state produced (through the faults) and its truth (past them).
   void publish_state(int64_t now_ns);
@@ -104,8 +136,12 @@ class Simulation {
   SimulationOptions options_;
   Bus& bus_;
   const Clock& clock_;
-  const std::string command_channel_;
+  const RobotModel& model_;
+  const controller::TorqueSemantics semantics_;
+  const std::string status_channel_, command_channel_;
   Plant plant_;
+  Data data_;  // the nominal model's, for the driver's gravity
+  StateTimes times_;
   CommandInbox inbox_;
   StatePublisher publisher_;
   const bool publish_truth_;
@@ -122,6 +158,14 @@ class Simulation {
     int64_t last_command_ns = -1, first_step = 0, last_step = 0, late_cycles = 0, late_stops = 0;
   } commanded_;
   bool braking_ = true;  // real time: held until the first command
+  // What the driver did at the last step, for Drake's statuses: the torque it handed the joints
+  // (before the effort limits), the command without its gravity, the command's positions.
+  Eigen::VectorXd torque_, desired_, position_commanded_, zero_;
+  bool has_position_ = false, commanding_ = false, commanded_ever_ = false;
+  // The Panda's control_command_success_rate: which of the last 100 steps since the first command
+  // had a fresh one.
+  std::bitset<100> fresh_steps_;
+  int64_t judged_steps_ = 0;
   Bus::Subscription subscription_;  // last: ended before what it feeds
 };
 
