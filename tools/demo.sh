@@ -3,16 +3,21 @@
 # compares with what this machine can do at best. Installs missing Debian packages and builds
 # first (into build/, as tools/test.sh does).
 #
-#   tools/demo.sh [--seconds N] [--robot ur5|panda|FILE.urdf] [--tip LINK] [--summary FILE]
-#                 [--tick state|clock]
+#   tools/demo.sh [--seconds N] [--robot ur5|panda|iiwa|FILE.urdf] [--tip LINK] [--summary FILE]
+#                 [--tick state|clock] [--protocol chasles|drake-iiwa|drake-panda]
 #
 #   --seconds N      length of the programme of targets (default 16, at least 10); the waypoint
 #                    trajectory, a stream of setpoints and a jog follow it (about 9 s)
-#   --robot R        ur5 or panda (tests/data/R.urdf), or a URDF file (default panda)
-#   --tip LINK       the chain's tip, for a URDF with several leaves (ur5: tool0, panda: panda_hand)
+#   --robot R        ur5, panda or iiwa (tests/data/R.urdf, iiwa14.urdf), or a URDF file (default
+#                    panda; iiwa with --protocol drake-iiwa)
+#   --tip LINK       the chain's tip, for a URDF with several leaves (ur5: tool0, panda: panda_hand,
+#                    iiwa: iiwa_link_ee)
 #   --summary FILE   also copy the controller's summary JSON here
 #   --tick T         the controller's ticks: 'state', as each state arrives (default), or 'clock',
 #                    every period on its own clock (a state then waits up to a period)
+#   --protocol P     the messages plant and controller speak (docs/protocols.md): chasles's own
+#                    (default), or Drake's iiwa driver's (IIWA_STATUS/IIWA_COMMAND at 200 Hz, the
+#                    torque sent less g(q)) or Panda driver's (PANDA_STATUS/PANDA_COMMAND, 1 kHz)
 #
 # In a private network namespace (tools/netns.sh) it starts lcm-logger, chasles_plant (real time,
 # 1 kHz, damped, with a table under the arm) and chasles_controller --realtime, sends a programme
@@ -339,7 +344,8 @@ PY
   local press_k=1000 table_k=10000
 
   start lcm-logger lcm-logger --lcm-url="$lcm_url" --force "$dir/chasles.lcmlog"
-  start chasles_plant "$DEMO_BUILD/tools/chasles_plant" "${model[@]}" --realtime --rate 1000 --damping 0.5 --q0 "$home" \
+  start chasles_plant "$DEMO_BUILD/tools/chasles_plant" "${model[@]}" --realtime --protocol "$DEMO_PROTOCOL" \
+    --damping 0.5 --q0 "$home" \
     --push "$push" --wall "$table,$table_k,100" --lcm-url "$lcm_url"
   # The controller knows the plant's joint damping and feeds it forward (--damping). On the Panda
   # it takes the arm's own acceleration and jerk limits, libfranka's; elsewhere the defaults.
@@ -348,6 +354,7 @@ PY
     limits=(--acceleration-limit 15,7.5,10,12.5,15,20,20 --jerk-limit 7500,3750,5000,6250,7500,10000,10000)
   fi
   start chasles_controller "$DEMO_BUILD/controller/chasles_controller" "${model[@]}" --realtime --damping 0.5 \
+    --protocol "$DEMO_PROTOCOL" \
     "${limits[@]}" --lcm-url "$lcm_url" \
     --tick "$DEMO_TICK" --summary "$dir/summary.json"
   run_start=$(now)
@@ -642,15 +649,16 @@ fi
 # ---------------------------------------------------------------------------------------------
 # Outside: arguments, packages, build, then the run in a fresh network namespace.
 # ---------------------------------------------------------------------------------------------
-usage() { sed -n '6,15s/^# \{0,1\}//p' "$0"; }
+usage() { sed -n '6,20s/^# \{0,1\}//p' "$0"; }
 seconds=16
-robot=panda
+robot=
 tip=
 summary=
 tick=state
+protocol=chasles
 while [ $# -gt 0 ]; do
   case "$1" in
-    --seconds | --robot | --tip | --summary | --tick)
+    --seconds | --robot | --tip | --summary | --tick | --protocol)
       [ $# -ge 2 ] || { echo "demo.sh: $1 needs a value (try --help)" >&2; exit 2; }
       case "$1" in
         --seconds) seconds=$2 ;;
@@ -658,6 +666,7 @@ while [ $# -gt 0 ]; do
         --tip) tip=$2 ;;
         --summary) summary=$2 ;;
         --tick) tick=$2 ;;
+        --protocol) protocol=$2 ;;
       esac
       shift 2
       ;;
@@ -673,16 +682,27 @@ case "$tick" in
   state | clock) ;;
   *) echo "demo.sh: --tick must be state or clock (got '$tick')" >&2; exit 2 ;;
 esac
+case "$protocol" in
+  chasles | drake-panda) : "${robot:=panda}" ;;
+  drake-iiwa) : "${robot:=iiwa}" ;;
+  *) echo "demo.sh: --protocol must be chasles, drake-iiwa or drake-panda (got '$protocol')" >&2; exit 2 ;;
+esac
+command_channel=$(case "$protocol" in chasles) echo CHASLES_COMMAND ;; drake-iiwa) echo IIWA_COMMAND ;;
+                  drake-panda) echo PANDA_COMMAND ;; esac)
 case "$robot" in
   ur5 | panda)
     urdf="$root/tests/data/$robot.urdf"
     [ -n "$tip" ] || { [ "$robot" = ur5 ] && tip=tool0 || tip=panda_hand; }
     ;;
+  iiwa)
+    urdf="$root/tests/data/iiwa14.urdf"
+    [ -n "$tip" ] || tip=iiwa_link_ee
+    ;;
   *.urdf)
     [ -f "$robot" ] || { echo "demo.sh: --robot $robot: no such file" >&2; exit 2; }
     urdf=$(cd "$(dirname "$robot")" && pwd)/$(basename "$robot")
     ;;
-  *) echo "demo.sh: --robot must be ur5, panda or a .urdf file (got '$robot')" >&2; exit 2 ;;
+  *) echo "demo.sh: --robot must be ur5, panda, iiwa or a .urdf file (got '$robot')" >&2; exit 2 ;;
 esac
 if [ -n "$summary" ]; then
   touch "$summary" 2>/dev/null || { echo "demo.sh: --summary $summary: cannot write there" >&2; exit 2; }
@@ -698,12 +718,13 @@ chasles_build demo "$build" chasles chasles_plant chasles_controller_daemon chas
 dir="$build/demo/$(date +%Y%m%d-%H%M%S)"
 mkdir -p "$dir"
 export DEMO_INSIDE=1 DEMO_DIR="$dir" DEMO_BUILD="$build" DEMO_SECONDS="$seconds" DEMO_URDF="$urdf" \
-  DEMO_TIP="$tip" DEMO_TICK="$tick"
+  DEMO_TIP="$tip" DEMO_TICK="$tick" DEMO_PROTOCOL="$protocol"
 "$root/tools/netns.sh" bash "$root/tools/demo.sh"
 report
 
 # The figures of the run, from its LCM log.
 if ! "$build/tools/chasles" log plot "$dir/chasles.lcmlog" --out "$dir/plots" --urdf "$urdf" ${tip:+--tip "$tip"} \
+  --command-channel "$command_channel" \
   >"$dir/plots.json" 2>"$dir/plots.err"; then
   echo "demo.sh: chasles log plot failed: $(cat "$dir/plots.err")" >&2
   exit 1
