@@ -1,8 +1,9 @@
 // The base (identifiable) parameters of a chain: the combinations of π that joint torques can
-// tell apart at all. Some parameters never move τ (the mass of a body whose centre lies on a
-// vertical first axis, which only turns it), and some move it only together (a body's mass and its
-// child's, across a revolute joint); identification fits β = P π of lower dimension instead (Gautier
-// and Khalil 1990, Khalil and Dombre §12.4).
+// tell apart at all. Some parameters never move τ (the mass of a first body that turns about a
+// fixed vertical axis), and some move it only together (across a revolute joint, a body's mass and
+// first moment along the axis act as parts of its parent's); identification fits β = P π of lower
+// dimension instead (Gautier and Khalil 1990; Khalil and Dombre, Modeling, Identification and
+// Control of Robots, ch. 12).
 //
 // Numerically (Gautier 1991): stack Y at random states into W, and factorise W Π = Q R with column
 // pivoting. The first r pivoted columns are independent; each other column of W is a fixed linear

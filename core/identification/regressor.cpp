@@ -1,5 +1,6 @@
 #include "chasles/core/identification/regressor.hpp"
 
+#include <cassert>
 #include <string>
 
 #include "chasles/core/lie/se3.hpp"
@@ -93,9 +94,11 @@ const Eigen::MatrixXd& joint_torque_regressor(const RobotModel& model, Regressor
   check_joint_vector(model, qd, "qd");
   check_joint_vector(model, qdd, "qdd");
   Data& data = workspace.data;
-  local_transforms(model, data, q);
+  local_transforms(model, data, q);  // asserts that data was sized for a chain of this shape
   const int n = model.dof();
   const ParameterLayout layout = parameter_layout(model);
+  assert(workspace.A.size() == static_cast<size_t>(n) && workspace.Y.rows() == n &&
+         workspace.Y.cols() == layout.size() && "a RegressorWorkspace sized for another model");
   // Forward (MR eq. 8.50–8.51): twists and their rates, gravity as the base's acceleration.
   data.V[0].setZero();
   data.Vd[0] << Vector3d::Zero(), -model.gravity();
