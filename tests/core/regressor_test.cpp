@@ -235,9 +235,10 @@ TEST(RegressorReference, MatchesPinocchiosInverseDynamics) {
 // The count of base parameters, against theory. For a chain of revolute joints whose first axis is
 // vertical (parallel to gravity), the ten parameters of body 1 enter τ only through its moment about
 // that axis, a₁ᵀ I₁ a₁ (9 lost), and for each later body the mass, the first moment along its joint
-// axis and one diagonal moment fold into its parent's (Khalil and Dombre §12.4.3's general rule: 3
-// lost per body). No two consecutive axes of these arms are parallel to the first, so no further
-// rule applies: 10 n − 9 − 3 (n − 1) inertial combinations, 36 for the UR5 and 43 for the Panda and
+// axis and one diagonal moment fold into its parent's (Khalil's general grouping rule for revolute
+// joints: 3 lost per body). The rules that remove more need axes parallel to the first (a planar
+// arm); the UR5's parallel axes 2–4 are turned out of their plane by joint 1, so none applies here:
+// 10 n − 9 − 3 (n − 1) inertial combinations, 36 for the UR5 and 43 for the Panda and
 // the iiwa (Gaz et al., RA-L 2019, identify the Panda's 43). Friction adds 2 n, always separable (q̇
 // and sign q̇ in one row); the rotors add n − 2, since a₁ᵀ I₁ a₁ and a₂ᵀ I₂ a₂ for an axis 2 ⟂ axis 1
 // turn with q̇₁ and q̇₂ alone (½ (aᵀ I a) q̇² of kinetic energy, the armature's own form), which
@@ -256,6 +257,9 @@ TEST_P(BaseCountTest, MatchesKhalilsRulesWhateverTheSeedOrSampleCount) {
   options.tip_link = GetParam().arm.tip;
   const RobotModel model = load_urdf_file(testing::data_path(GetParam().arm.name + ".urdf"), options);
   const int n = model.dof();
+  // The premises: revolute joints, the first axis along gravity.
+  for (int i = 0; i < n; ++i) ASSERT_EQ(model.joint(i).type, JointType::Revolute);
+  ASSERT_LT(model.space_axes().col(0).head<3>().cross(model.gravity()).norm(), 1e-12);
   ASSERT_EQ(GetParam().inertial, 10 * n - 9 - 3 * (n - 1));
   ASSERT_EQ(GetParam().total, GetParam().inertial + 2 * n + (n - 2));
   for (const auto& [samples, seed] : {std::pair<int, uint64_t>{20, 1}, {20, 2}, {200, 3}}) {
