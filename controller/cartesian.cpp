@@ -4,7 +4,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include <Eigen/QR>
+#include "chasles/controller/jog.hpp"
 
 #include "chasles/core/kinematics/kinematics.hpp"
 #include "chasles/core/lie/se3.hpp"
@@ -24,7 +24,13 @@ double quintic_rate(double tau) { return 30.0 * tau * tau * (1.0 - tau) * (1.0 -
 class ScrewLineRate {
  public:
   ScrewLineRate(const RobotModel& model, const IkOptions& options, const Vector6d& V, double duration)
-      : model_(model), data_(model), options_(options), V_(V), duration_(duration), A_(6, model.dof()) {}
+      : model_(model),
+        data_(model),
+        options_(options),
+        V_(V),
+        duration_(duration),
+        A_(6, model.dof()),
+        qd_(Eigen::VectorXd::Zero(model.dof())) {}
 
   const Eigen::VectorXd& operator()(const Eigen::VectorXd& q, double t) {
     const double s_dot = quintic_rate(std::clamp(t / duration_, 0.0, 1.0)) / duration_;
@@ -39,7 +45,8 @@ class ScrewLineRate {
       A_.noalias() = options_.weights.asDiagonal() * J;
       b = options_.weights.cwiseProduct(V_) * s_dot;
     }
-    qd_ = A_.completeOrthogonalDecomposition().solve(b);
+    spectrum_.compute(A_);
+    spectrum_.solve(A_, b, qd_);
     return qd_;
   }
 
@@ -50,6 +57,7 @@ class ScrewLineRate {
   const Vector6d V_;
   const double duration_;
   Matrix6Xd A_;
+  JacobianSpectrum spectrum_;
   Eigen::VectorXd qd_;
 };
 
