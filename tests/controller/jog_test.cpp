@@ -17,6 +17,7 @@
 #include "following.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/arm.hpp"
+#include "support/decompositions.hpp"
 
 namespace chasles::controller {
 namespace {

@@ -19,6 +19,7 @@
 #include "chasles/core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/arm.hpp"
+#include "support/decompositions.hpp"
 #include "support/reference.hpp"
 
 namespace chasles::controller {

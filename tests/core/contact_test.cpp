@@ -12,6 +12,7 @@
 #include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
+#include "support/decompositions.hpp"
 #include "support/reference.hpp"
 
 namespace chasles {
