@@ -203,21 +203,6 @@ TEST(DrakeLcmtypes, PandaCommandRoundTrips) {
 
 // ---- The checked decoders ----
 
-// The checked decoder as the controller runs it (an arm of kJoints, finite numbers required): ""
-// or why the bytes were refused.
-template <class Message>
-std::string decode_checked(const std::vector<uint8_t>& bytes, int arm = kJoints,
-                           messages::Finite finite = messages::Finite::Required) {
-  Message message;
-  return messages::decode_checked(bytes.data(), bytes.size(), message, arm, finite);
-}
-
-// The bytes with the big-endian int32 at `offset` replaced by `count`.
-std::vector<uint8_t> with_int32(std::vector<uint8_t> bytes, size_t offset, uint32_t count) {
-  for (int i = 0; i < 4; ++i) bytes[offset + size_t(i)] = uint8_t(count >> (24 - 8 * i));
-  return bytes;
-}
-
 std::vector<uint8_t> prefix(const std::vector<uint8_t>& bytes, size_t length) {
   return std::vector<uint8_t>(bytes.begin(), bytes.begin() + std::ptrdiff_t(length));
 }
