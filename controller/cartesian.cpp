@@ -70,10 +70,11 @@ void fail(JointPath& path, const char* format, double a, double b, double c = 0.
   std::snprintf(path.reason, sizeof(path.reason), format, a, b, c);
 }
 
-// The joint path's velocities and accelerations at the waypoints: the rate there, and its
-// derivative along the motion, d/dt q̇(q(t), t), by a central difference over a step short enough
-// to be exact to rounding; at rest at both ends, where the quintic timing has ṡ = s̈ = 0.
-void path_derivatives(ScrewLineRate& rate, JointPath& path) {
+// The joint path's accelerations at the waypoints, whose velocities (the rate there) the planning
+// loop set: the rate's derivative along the motion, d/dt q̇(q(t), t), by a central difference over
+// a step short enough to be exact to rounding; at rest at both ends, where the quintic timing has
+// ṡ = s̈ = 0.
+void path_accelerations(ScrewLineRate& rate, JointPath& path) {
   const int last = path.count - 1;
   constexpr double kStep = 1e-6;  // s
   path.qd.col(0).setZero();
@@ -82,7 +83,6 @@ void path_derivatives(ScrewLineRate& rate, JointPath& path) {
   path.qdd.col(last).setZero();
   for (int k = 1; k < last; ++k) {
     const double t = k * path.dt;
-    path.qd.col(k) = rate(path.q.col(k), t);
     const Eigen::VectorXd ahead = rate(path.q.col(k) + kStep * path.qd.col(k), t + kStep);
     path.qdd.col(k) = (ahead - rate(path.q.col(k) - kStep * path.qd.col(k), t - kStep)) / (2.0 * kStep);
   }
@@ -181,6 +181,7 @@ void plan_cartesian_path(IkSolver& solver, const MotionLimits& limits, const Car
     if (!step) {
       const double t = (k - 1) * h;
       const Eigen::VectorXd k1 = rate(previous, t);
+      path.qd.col(k - 1) = k1;  // the rate at the waypoint before, which the sampler needs too
       const Eigen::VectorXd k2 = rate(previous + 0.5 * h * k1, t + 0.5 * h);
       const Eigen::VectorXd k3 = rate(previous + 0.5 * h * k2, t + 0.5 * h);
       const Eigen::VectorXd k4 = rate(previous + h * k3, t + h);
@@ -214,7 +215,7 @@ void plan_cartesian_path(IkSolver& solver, const MotionLimits& limits, const Car
     previous = result.q;
   }
   solver.set_options(saved);
-  if (!step) path_derivatives(rate, path);
+  if (!step) path_accelerations(rate, path);
   if (!step && !within_limits(model, limits, request.duration, path)) return;
   path.ok = true;
 }
