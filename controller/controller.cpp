@@ -915,9 +915,25 @@ bool Controller::tick(int64_t now_ns, const JointState* state) {
     return false;
   }
   tau_ = tau_.cwiseMax(-effort_limit_).cwiseMin(effort_limit_);
-  tau_ = tau_.cwiseMax(tau_prev_ - rate_limit_per_tick_).cwiseMin(tau_prev_ + rate_limit_per_tick_);
+  limit_torque_rate();
   tau_prev_ = tau_;
   return true;
+}
+
+// One factor for the whole change, so that a limited command keeps the law's direction. Clamping
+// each joint on its own turns the law's torque, an M-coupled combination, into another one: after
+// a FAULT on a Panda moving at 0.8 rad/s, the hold's braking torque met the limit on joints 1 and 3
+// at once, and equal steps on both drove joint 1 faster (0.8 to 2.6 rad/s in 20 ms at 200 Hz)
+// instead of stopping it. The step is the same fraction of the law's change on every joint.
+void Controller::limit_torque_rate() {
+  double scale = 1.0;
+  for (int i = 0; i < tau_.size(); ++i) {
+    const double step = std::abs(tau_(i) - tau_prev_(i));
+    if (step > rate_limit_per_tick_(i)) scale = std::min(scale, rate_limit_per_tick_(i) / step);
+  }
+  if (scale < 1.0) tau_ = tau_prev_ + scale * (tau_ - tau_prev_);
+  // Exact to the last bit: the product may round past the limit it was scaled to.
+  tau_ = tau_.cwiseMax(tau_prev_ - rate_limit_per_tick_).cwiseMin(tau_prev_ + rate_limit_per_tick_);
 }
 
 void Controller::cap_jerk_to_torque_rate() {

@@ -312,6 +312,7 @@ class Controller {
 
   /// The generator's jerk limits at this state: the configured ones, scaled down by one factor
   /// until M(q) times them asks at most kTorqueRateShare of each joint's torque-rate limit.
+  void limit_torque_rate();
   void cap_jerk_to_torque_rate();
   /// The law's torque at this tick into tau_ (before the switch's offset and the safety pipeline).
   void apply_law(int64_t now_ns);

@@ -378,8 +378,8 @@ int main(int argc, char** argv) {
     if (!flags.damping.empty()) options.control.damping = gains(flags.damping, n, "--damping");
     const double status_period = chasles::controller::nominal_status_period(options.protocol);
     options.control.period = flags.rate > 0.0 ? 1.0 / flags.rate : status_period > 0.0 ? status_period : 1e-3;
-    const double stale_ms = flags.stale_ms > 0.0 ? flags.stale_ms : std::max(10.0, 3e3 * options.control.period);
-    options.control.stale_ns = static_cast<int64_t>(stale_ms * 1e6);
+    options.control.stale_ns = flags.stale_ms > 0.0 ? static_cast<int64_t>(flags.stale_ms * 1e6)
+                                                    : chasles::controller::default_stale_ns(options.control.period);
     options.control.torque_ramp = flags.torque_ramp_ms * 1e-3;
     options.control.contact = flags.contact;
     options.control.contact.retract_distance = flags.retract_mm * 1e-3;

@@ -159,9 +159,12 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
 
 std::string Node::refusal() const {
   if (foreign_commands() == 0) return {};
+  const std::string first = options_.protocol == Protocol::kChasles
+                                ? "first seq " + std::to_string(command_watch_.first_seq())
+                                : "the first answering utime " + std::to_string(digest_watch_.first_utime());
   return "another controller is already commanding " + channels_.command + " (heard " +
-         std::to_string(foreign_commands()) + " command(s) before this one sent any, first seq " +
-         std::to_string(command_watch_.first_seq()) + "); refusing to start";
+         std::to_string(foreign_commands()) + " command(s) before this one sent any, " + first +
+         "); refusing to start";
 }
 
 // When the message being handled reached this host: the kernel's stamp where the bus has one,
@@ -272,11 +275,19 @@ int64_t Node::tick(int64_t scheduled) {
 // commanding for good and reports a FAULT; the arm's own watchdog takes over if the other sender
 // stops too. Latched: only an operator can tell which sender should drive.
 void Node::stand_down() {
-  loop_.controller.stand_down("another sender is commanding %s (seq %lld answering state %lld; our latest state %lld): "
-                         "stopped commanding",
-                         channels_.command.c_str(), static_cast<long long>(command_watch_.first_seq()),
-                         static_cast<long long>(command_watch_.first_state_seq()),
-                         static_cast<long long>(loop_.have_state ? loop_.state.seq : -1));
+  if (options_.protocol == Protocol::kChasles) {
+    loop_.controller.stand_down(
+        "another sender is commanding %s (seq %lld answering state %lld; our latest state %lld): stopped commanding",
+        channels_.command.c_str(), static_cast<long long>(command_watch_.first_seq()),
+        static_cast<long long>(command_watch_.first_state_seq()),
+        static_cast<long long>(loop_.have_state ? loop_.state.seq : -1));
+  } else {  // Drake's commands carry no seq: the status each answers, by its utime
+    loop_.controller.stand_down(
+        "another sender is commanding %s (a command not ours answering utime %lld; our latest state utime %lld): "
+        "stopped commanding",
+        channels_.command.c_str(), static_cast<long long>(digest_watch_.first_utime()),
+        static_cast<long long>(loop_.have_state ? loop_.state.utime : -1));
+  }
 }
 
 // Written straight into the mailbox's free slot: nothing is copied twice on the loop.

@@ -1,6 +1,7 @@
 #include "chasles/controller/protocol.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include "chasles/lcmtypes/checked.hpp"
 
@@ -69,6 +70,10 @@ double nominal_status_period(Protocol protocol) {
       break;
   }
   return 0.0;
+}
+
+int64_t default_stale_ns(double period) {
+  return std::max<int64_t>(10'000'000, std::llround(3e9 * period));
 }
 
 const char* to_string(IiwaPositions positions) { return positions == IiwaPositions::kNone ? "none" : "measured"; }
@@ -320,6 +325,13 @@ bool SentDigests::take(const void* data, size_t size) {
 
 bool DigestCommandWatch::receive(const void* data, size_t size) {
   if (sent_.take(data, size)) return false;
+  if (foreign_.load(std::memory_order_relaxed) == 0 && size >= 16) {
+    // After the 8-byte fingerprint, utime as LCM encodes an int64: big-endian.
+    const auto* bytes = static_cast<const uint8_t*>(data);
+    uint64_t utime = 0;
+    for (size_t i = 8; i < 16; ++i) utime = (utime << 8) | bytes[i];
+    first_utime_.store(static_cast<int64_t>(utime), std::memory_order_relaxed);
+  }
   foreign_.fetch_add(1, std::memory_order_release);
   return true;
 }

@@ -73,6 +73,10 @@ ProtocolChannels default_channels(Protocol protocol, const std::string& prefix =
 /// learns from the states.
 double nominal_status_period(Protocol protocol);
 
+/// The stale limit when none is given, ns: 10 ms, or three periods of a slower stream (the iiwa's
+/// 5 ms gives 15 ms), so that one lost status never makes a FAULT at any rate.
+int64_t default_stale_ns(double period);
+
 /// What an iiwa command carries in its position fields beside the torques. Which the driver needs
 /// depends on how it runs:
 ///  - kNone (num_joints 0): Drake's torque-only mode (IiwaControlMode::kTorqueOnly, whose
@@ -246,10 +250,15 @@ class DigestCommandWatch {
   explicit DigestCommandWatch(SentDigests& sent) : sent_(sent) {}
   bool receive(const void* data, size_t size);
   int64_t foreign() const { return foreign_.load(std::memory_order_acquire); }
+  /// The utime of the first foreign command, read from its bytes (both of Drake's commands begin
+  /// with it: the status it answers, on the driver's clock); −1 before one, or when it was too
+  /// short to hold one. What an operator needs to find the other sender's messages in a log.
+  int64_t first_utime() const { return first_utime_.load(std::memory_order_relaxed); }
 
  private:
   SentDigests& sent_;
   std::atomic<int64_t> foreign_{0};
+  std::atomic<int64_t> first_utime_{-1};
 };
 
 }  // namespace chasles::controller

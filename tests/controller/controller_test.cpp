@@ -291,6 +291,36 @@ TEST_F(ControllerTest, ClampsToEffortLimitsAndLimitsTheTorqueRate) {
   EXPECT_TRUE(saturated) << "the effort limit should have been reached";
 }
 
+// Where the rate limit binds, it shortens the law's change as a whole: the command moves from the
+// last one towards the law's torque (a controller without the limit, at the same state) by the one
+// fraction that brings the most limited joint to its limit, so the torque keeps the law's direction
+// through the joints' coupling (clamped joint by joint, the Panda's joints 1 and 3 were driven the
+// wrong way after a FAULT at 200 Hz).
+TEST_F(ControllerTest, TheTorqueRateLimitKeepsTheLawsDirection) {
+  Controller limited(model_, config_);
+  Config free_config = config_;
+  free_config.torque_ramp = 1e-9;
+  Controller law(model_, free_config);
+  ASSERT_TRUE(limited.tick(0, fresh(0)));
+  ASSERT_TRUE(law.tick(0, fresh(0)));
+  const VectorXd g = limited.torque();
+  state_.q = bent_pose() + VectorXd::LinSpaced(7, 0.02, -0.02);  // knocked away from the hold, moving
+  state_.qd = VectorXd::LinSpaced(7, 0.2, -0.1);
+  state_.seq = 2;
+  ASSERT_TRUE(limited.tick(kMs, fresh(kMs)));
+  ASSERT_TRUE(law.tick(kMs, fresh(kMs)));
+  const VectorXd effort = VectorXd::NullaryExpr(7, [&](Eigen::Index i) { return model_.joint(int(i)).limits.effort; });
+  ASSERT_LT((law.torque().cwiseAbs() - effort).maxCoeff(), 0.0) << "the law's torque must be within the effort limits";
+  const VectorXd step = effort / config_.torque_ramp * config_.period;
+  const VectorXd asked = law.torque() - g;
+  const double fraction = (step.array() / asked.cwiseAbs().array()).minCoeff();
+  ASSERT_LT(fraction, 0.5) << "the limit must bind";
+  const VectorXd taken = limited.torque() - g;
+  EXPECT_LT((taken - fraction * asked).cwiseAbs().maxCoeff(), 1e-12 * asked.cwiseAbs().maxCoeff());
+  EXPECT_LT((taken.cwiseAbs() - step).maxCoeff(), 1e-12) << "every joint within its limit";
+  EXPECT_LT((taken.cwiseAbs() - step).cwiseAbs().minCoeff(), 1e-12) << "the most limited joint at it";
+}
+
 TEST_F(ControllerTest, RefusesBadTargetsAndKeepsTheCurrentOne) {
   Controller controller(model_, config_);
   ASSERT_TRUE(controller.tick(0, fresh(0)));

@@ -473,8 +473,10 @@ TEST(Protocol, DigestWatchTellsOurOwnDrakeCommandsFromAnotherSenders) {
   sent.record(writer.bytes());  // the same bytes again: a second tick on the same state
   EXPECT_FALSE(watch.receive(first.data(), first.size())) << "ours, coming back";
   EXPECT_FALSE(watch.receive(first.data(), first.size())) << "the second of two identical commands";
+  EXPECT_EQ(watch.first_utime(), -1) << "nothing foreign yet";
   EXPECT_TRUE(watch.receive(first.data(), first.size())) << "a third copy: a replay";
   EXPECT_EQ(watch.foreign(), 1);
+  EXPECT_EQ(watch.first_utime(), 5000) << "the status the replayed command answers";
 
   // Another controller's command: another torque, same utime.
   drake::lcmt_iiwa_command other;

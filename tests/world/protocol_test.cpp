@@ -17,6 +17,7 @@
 #include <string>
 
 #include "chasles/core/kinematics/kinematics.hpp"
+#include "wires.hpp"
 #include "world.hpp"
 
 namespace chasles::faults {
@@ -28,38 +29,12 @@ using controller::Protocol;
 using Eigen::VectorXd;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-struct Wire {
-  Protocol protocol;
-  double rate_hz;
-};
-
-std::string name_of(const ::testing::TestParamInfo<Wire>& info) {
-  std::string name = controller::to_string(info.param.protocol);
-  name.erase(std::remove(name.begin(), name.end(), '-'), name.end());
-  return name + "_" + std::to_string(static_cast<int>(info.param.rate_hz)) + "Hz";
-}
-
 class Protocols : public ::testing::TestWithParam<Wire> {
  protected:
-  double period() const { return 1.0 / GetParam().rate_hz; }
-  int64_t period_ns() const { return static_cast<int64_t>(std::llround(period() * 1e9)); }
-
-  DaemonOptions controller_options() const {
-    DaemonOptions o;
-    o.protocol = GetParam().protocol;
-    o.control = controller::Config::critically_damped(7, 20.0);
-    o.control.damping = VectorXd::Constant(7, 0.5);  // the World plant's, known
-    o.control.period = period();
-    o.control.stale_ns = std::max<int64_t>(10 * World::kMs, 3 * period_ns());  // the daemon's default
-    o.status_hz = 100.0;
-    return o;
-  }
-  plant::SimulationOptions plant_options() const {
-    plant::SimulationOptions p;
-    p.protocol = GetParam().protocol;
-    p.rate_hz = GetParam().rate_hz;
-    return p;
-  }
+  double period() const { return GetParam().period(); }
+  int64_t period_ns() const { return GetParam().period_ns(); }
+  DaemonOptions controller_options() const { return controller_on(GetParam()); }
+  plant::SimulationOptions plant_options() const { return plant_on(GetParam()); }
   // A plant holding at the bent pose and one controller, ticking half a period after its steps.
   void start(World& world, const plant::SimulationOptions& plant, const DaemonOptions& options) {
     world.start_plant(bent_pose(), plant);
@@ -67,12 +42,6 @@ class Protocols : public ::testing::TestWithParam<Wire> {
     ASSERT_TRUE(world.run_until([&] { return world.recorder().status_is(controller_status_t::HOLDING); }, 1.0));
   }
 };
-
-VectorXd goal_a() {
-  VectorXd q = bent_pose();
-  q(0) += 0.4, q(1) -= 0.3, q(3) += 0.3, q(5) += 0.2;
-  return q;
-}
 
 TEST_P(Protocols, AMoveReachesItsGoalAndEveryCommandKeepsTheSafetyPipeline) {
   World world(panda(), GetParam().protocol);
@@ -250,11 +219,7 @@ TEST_P(Protocols, AWronglySizedOrMalformedStatusIsRefusedCountedAndFaults) {
       << world.controller().controller().fault_reason();
 }
 
-INSTANTIATE_TEST_SUITE_P(Wires, Protocols,
-                         ::testing::Values(Wire{Protocol::kChasles, 1000.0}, Wire{Protocol::kChasles, 200.0},
-                                           Wire{Protocol::kDrakeIiwa, 200.0}, Wire{Protocol::kDrakeIiwa, 1000.0},
-                                           Wire{Protocol::kDrakePanda, 1000.0}, Wire{Protocol::kDrakePanda, 200.0}),
-                         name_of);
+INSTANTIATE_TEST_SUITE_P(Wires, Protocols, ::testing::ValuesIn(every_wire()), wire_name);
 
 }  // namespace
 }  // namespace chasles::faults

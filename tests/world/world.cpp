@@ -37,7 +37,7 @@ Recorder::Recorder(Bus& bus, const SimulatedClock& clock, const std::string& pre
         driver.command,
         [this](const uint8_t* data, size_t size) {
           HeardCommand c{};
-          if (!messages::decode_checked(data, size, c.message).empty()) return;
+          if (own_raw(data, size) || !messages::decode_checked(data, size, c.message).empty()) return;
           if (own_commands_.count({c.message.seq, c.message.utime}) > 0) return;
           on_command(std::move(c));
         },
@@ -53,7 +53,8 @@ Recorder::Recorder(Bus& bus, const SimulatedClock& clock, const std::string& pre
           if (!reader_->read(data, size, clock_.now_ns(), state).empty()) return;
           robot_state_t m;
           m.utime = state.utime;
-          m.seq = state.seq;
+          const int64_t plant_seq = plant_seq_ ? plant_seq_(state.utime) : -1;
+          m.seq = plant_seq >= 0 ? plant_seq : state.seq;
           m.num_joints = n;
           m.position.assign(state.q.data(), state.q.data() + n);
           m.velocity.assign(state.qd.data(), state.qd.data() + n);
@@ -91,7 +92,31 @@ void Recorder::on_command(HeardCommand c) {
   commands_.push_back(std::move(c));
 }
 
-void Recorder::hear_drake_command(const void* data, size_t size) {
+bool Recorder::own_raw(const uint8_t* data, size_t size) {
+  const auto own = own_raw_.find(std::vector<uint8_t>(data, data + size));
+  if (own == own_raw_.end()) return false;
+  own_raw_.erase(own);
+  return true;
+}
+
+void Recorder::publish_raw(const std::string& channel, const std::vector<uint8_t>& bytes) {
+  own_raw_.insert(bytes);
+  bus_.publish(channel, bytes);
+}
+
+void Recorder::publish_status(const robot_state_t& state) {
+  const int n = state.num_joints;
+  plant::StatePublisher publisher(bus_, controller::default_channels(protocol_, prefix_).status, n, {}, 1, protocol_);
+  const Eigen::VectorXd q = vector_of(state.position), qd = vector_of(state.velocity),
+                        effort = vector_of(state.effort), zero = Eigen::VectorXd::Zero(n);
+  const plant::DriverReport report{qd,   effort, effort, zero, q, zero, true, 1.0, drake::lcmt_panda_status::kMove,
+                                   drake::lcmt_panda_status::CONTROL_MODE_TORQUE, state.utime};
+  publisher.encode(state.utime, state.seq, q, report);
+  publisher.send(clock_.now_ns());
+}
+
+void Recorder::hear_drake_command(const uint8_t* data, size_t size) {
+  if (own_raw(data, size)) return;
   const int n = model_->dof();
   HeardCommand c{};
   std::vector<double> torque;
@@ -108,7 +133,7 @@ void Recorder::hear_drake_command(const void* data, size_t size) {
     torque = m.joint_torque;
   }
   const auto answered = seq_of_utime_.find(utime);
-  c.message.utime = utime;
+  c.message.utime = clock_.utime_us();  // sent now: the bus has no latency here
   c.message.seq = ++drake_commands_;
   c.message.state_seq = answered == seq_of_utime_.end() ? -1 : answered->second;
   c.message.num_joints = n;
@@ -127,7 +152,9 @@ int64_t Recorder::commands_after(int64_t index) const {
 }
 
 World::World(const RobotModel& model, controller::Protocol protocol)
-    : model_(model), bus_("memq://"), recorder_(std::make_unique<Recorder>(bus_, clock_, "CHASLES_", protocol, &model)) {}
+    : model_(model), bus_("memq://"), recorder_(std::make_unique<Recorder>(bus_, clock_, "CHASLES_", protocol, &model)) {
+  recorder_->number_states_by([this](int64_t utime) { return plant_ ? plant_->state_seq(utime) : -1; });
+}
 
 World::~World() {
   controllers_.clear();  // their subscriptions before the bus

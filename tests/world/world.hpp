@@ -45,9 +45,10 @@ using controller::SimulatedClock;
 /// On a Drake protocol it hears the driver's status and command channels and records them as
 /// chasles's messages, so that every check reads one form: a status as the robot_state_t the
 /// controller makes of it (StatusReader: its sequence by arrival, chasles's signs), a command as
-/// the joint_torque_command_t it stands for — numbered in order, answering the state with its
-/// utime, and with the whole joint torque the arm gets (the torque sent plus the driver's g(q) of
-/// the bare arm `model` under overlay semantics).
+/// the joint_torque_command_t it stands for — numbered in order, stamped when it was heard (the
+/// controller's send: the bus has no latency), answering the state with its utime, and with the
+/// whole joint torque the arm gets (the torque sent plus the driver's g(q) of the bare arm `model`
+/// under overlay semantics).
 class Recorder {
  public:
   Recorder(Bus& bus, const SimulatedClock& clock, const std::string& prefix = "CHASLES_",
@@ -66,6 +67,16 @@ class Recorder {
   void publish_on(const std::string& channel, const Message& message) {
     bus_.publish_message(channel, message);
   }
+  /// Publishes bytes on `channel` as they are; heard on the command channel, they are the test's
+  /// own and left out of commands().
+  void publish_raw(const std::string& channel, const std::vector<uint8_t>& bytes);
+  /// Publishes `state` as the protocol's status on its driver's status channel, encoded by the
+  /// plant's own encoder (a Drake status reports it as a driver commanding the arm would).
+  void publish_status(const robot_state_t& state);
+  /// Drake's protocols: number the statuses heard as the plant did (`seq_of(utime)`), not by
+  /// arrival as the controller does, so that a command's state_seq names the plant's step even
+  /// when statuses were lost on the way.
+  void number_states_by(std::function<int64_t(int64_t)> seq_of) { plant_seq_ = std::move(seq_of); }
   /// Its encoding cut short by `missing` bytes: a damaged message.
   template <typename Message>
   void publish_truncated(const std::string& channel, const Message& message, size_t missing) {
@@ -92,12 +103,13 @@ class Recorder {
   std::string prefix_;
   void on_state(const robot_state_t& m);
   void on_command(HeardCommand c);
-  void hear_drake_command(const void* data, size_t size);
+  void hear_drake_command(const uint8_t* data, size_t size);
   controller::Protocol protocol_;
   const RobotModel* model_;  // Drake's protocols: the arm, for its g(q)
   std::optional<controller::StatusReader> reader_;
   std::optional<Data> data_;
   std::map<int64_t, int64_t> seq_of_utime_;  // Drake's: the states heard, by utime
+  std::function<int64_t(int64_t)> plant_seq_;
   int64_t drake_commands_ = 0;
   int64_t index_ = 0;
   std::vector<std::pair<int64_t, Eigen::VectorXd>> positions_;  // by seq modulo its size
@@ -107,6 +119,8 @@ class Recorder {
   std::vector<HeardStatus> statuses_;
   std::vector<HeardCommand> commands_;
   std::set<std::pair<int64_t, int64_t>> own_commands_;
+  std::multiset<std::vector<uint8_t>> own_raw_;
+  bool own_raw(const uint8_t* data, size_t size);
   std::vector<Bus::Subscription> subscriptions_;
 };
 

@@ -93,6 +93,8 @@ class Simulation {
   const std::string& command_channel() const { return command_channel_; }
   /// The utime of the state numbered seq, µs: the plant's clock at start() plus seq periods.
   int64_t state_utime(int64_t seq) const { return times_.utime(seq); }
+  /// The seq of the state sent stamped `utime`; −1 when none was.
+  int64_t state_seq(int64_t utime) const { return times_.seq(utime); }
   const Plant& plant() const { return plant_; }
   bool braking() const { return braking_; }
   int64_t steps() const { return seq_; }
