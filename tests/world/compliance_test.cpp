@@ -1,5 +1,6 @@
 // Compliance in the whole loop in simulated time (world.hpp): the laws of [L] against the plant,
-// with the plant's truth (its wall, its push, its hidden payload) as the reference. Every law and
+// with the plant's truth (its wall, its push, its hidden payload) as the reference, under each
+// protocol (wires.hpp: chasles's and Drake's) at 1 kHz. Every law and
 // payload reaches the controller as an lcm-gen encoded control_mode_t or payload_t on the bus.
 //   - stiffness: pressing on a wall 1 cm behind its surface, the steady force is the series spring
 //     of the commanded stiffness and the wall's, within 2 %, and the tip does not drift sideways
@@ -20,6 +21,7 @@
 #include <vector>
 
 #include "chasles/core/kinematics/kinematics.hpp"
+#include "wires.hpp"
 #include "world.hpp"
 
 namespace chasles::faults {
@@ -31,13 +33,7 @@ using controller::Law;
 using controller::Mode;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-DaemonOptions options_for(const RobotModel& model) {
-  DaemonOptions o;
-  o.control = controller::Config::critically_damped(model.dof(), 20.0);
-  o.control.damping = VectorXd::Constant(model.dof(), 0.5);  // the World plant's, known
-  o.status_hz = 100.0;
-  return o;
-}
+class Compliance : public ::testing::TestWithParam<Wire> {};
 
 // Contact is expected here: no threshold starts a reflex.
 void no_reflex(DaemonOptions& o, int n) {
@@ -67,7 +63,7 @@ Vector3d tip_position(const RobotModel& model, World& world) {
 // A wall under the tip, the Cartesian target 1 cm behind its surface: the spring of stiffness k
 // and the wall's K in series press with F = k K / (k + K) · 1 cm. Two poses: a bent arm, and the
 // demo's press (tools/demo.sh's second pose), where the nullspace settles slowest (about 1 s).
-TEST(compliance, TheWallIsPressedWithTheSeriesSpringOfTheCommandedStiffness) {
+TEST_P(Compliance, TheWallIsPressedWithTheSeriesSpringOfTheCommandedStiffness) {
   const RobotModel& model = panda();
   Data data(model);
   VectorXd demo_press(7);
@@ -78,12 +74,12 @@ TEST(compliance, TheWallIsPressedWithTheSeriesSpringOfTheCommandedStiffness) {
       plant::Wall wall;
       wall.normal = Vector3d::UnitZ();
       wall.point = T0.translation() - 0.005 * wall.normal;  // 5 mm below the tip
-      World world;
-      plant::SimulationOptions plant;
+      World world(panda(), GetParam().protocol);
+      plant::SimulationOptions plant = plant_on(GetParam());
       plant.environment.walls = {wall};
       world.start_plant(q0, plant);
       // The default thresholds: 16.7 N pressed on purpose is a contact, not a collision (15 N).
-      world.add_controller(options_for(model));
+      world.add_controller(controller_on(GetParam()), GetParam().period_ns() / 2);
       world.run_for(0.1);
       world.recorder().publish("MODE", cartesian_mode(k));
       world.run_for(0.2);
@@ -115,16 +111,15 @@ TEST(compliance, TheWallIsPressedWithTheSeriesSpringOfTheCommandedStiffness) {
 // What an impedance presses with on purpose raises the collision thresholds by exactly that, no
 // more: holding under Cartesian impedance, a push of 30 N (twice the 15 N threshold) is a collision
 // and the reflex stops the arm, as under computed torque.
-TEST(compliance, ACollisionUnderCartesianImpedanceStillStartsTheReflex) {
-  const RobotModel& model = panda();
-  World world;
-  plant::SimulationOptions plant;
+TEST_P(Compliance, ACollisionUnderCartesianImpedanceStillStartsTheReflex) {
+  World world(panda(), GetParam().protocol);
+  plant::SimulationOptions plant = plant_on(GetParam());
   plant::Push push;
   push.start = 0.8, push.duration = 0.3, push.ramp = 0.005;
   push.wrench << 0, 0, 0, 30.0, 0, 0;
   plant.environment.pushes = {push};
   world.start_plant(configurations()[0], plant);
-  world.add_controller(options_for(model));
+  world.add_controller(controller_on(GetParam()), GetParam().period_ns() / 2);
   world.run_for(0.1);
   world.recorder().publish("MODE", cartesian_mode(1000.0));
   world.run_for(0.65);
@@ -141,16 +136,16 @@ TEST(compliance, ACollisionUnderCartesianImpedanceStillStartsTheReflex) {
 
 // A 5 mm step of the Cartesian target along each base axis from five configurations: the tip gets
 // there without overshooting by more than 5 % of the step, damped critically by the law's ζ = 1.
-TEST(compliance, AFiveMillimetreStepOfTheTargetSettlesWithoutOvershoot) {
+TEST_P(Compliance, AFiveMillimetreStepOfTheTargetSettlesWithoutOvershoot) {
   const RobotModel& model = panda();
   Data data(model);
   double worst_overshoot = 0.0, worst_final = 0.0;
   for (const VectorXd& q0 : configurations()) {
     for (int axis = 0; axis < 3; ++axis) {
-      World world;
-      world.start_plant(q0);
-      DaemonOptions o = options_for(model);
-      world.add_controller(o);
+      World world(panda(), GetParam().protocol);
+      world.start_plant(q0, plant_on(GetParam()));
+      DaemonOptions o = controller_on(GetParam());
+      world.add_controller(o, GetParam().period_ns() / 2);
       world.run_for(0.1);
       world.recorder().publish("MODE", cartesian_mode(1000.0));
       world.run_for(0.3);
@@ -185,19 +180,19 @@ TEST(compliance, AFiveMillimetreStepOfTheTargetSettlesWithoutOvershoot) {
 // and stays there. The push is a hand guiding the arm, no collision: the thresholds are raised, as
 // they must be for guiding (a 10 N push on the hand is 2 N·m on the Panda's wrist, over 15 % of
 // its effort limit).
-TEST(compliance, FreeDriveYieldsToAPushAndStaysWhereItIsLeft) {
+TEST_P(Compliance, FreeDriveYieldsToAPushAndStaysWhereItIsLeft) {
   const RobotModel& model = panda();
   for (const VectorXd& q0 : configurations()) {
-    World world;
-    plant::SimulationOptions plant;
+    World world(panda(), GetParam().protocol);
+    plant::SimulationOptions plant = plant_on(GetParam());
     plant::Push push;
     push.start = 0.5, push.duration = 0.5, push.ramp = 0.02;
     push.wrench << 0, 0, 0, 10.0, 0, 0;
     plant.environment.pushes = {push};
     world.start_plant(q0, plant);
-    DaemonOptions o = options_for(model);
+    DaemonOptions o = controller_on(GetParam());
     no_reflex(o, model.dof());
-    world.add_controller(o);
+    world.add_controller(o, GetParam().period_ns() / 2);
     world.run_for(0.1);
     world.recorder().publish("MODE", mode_message(Law::kFreeDrive, model.dof()));
     world.run_for(0.35);
@@ -218,18 +213,17 @@ TEST(compliance, FreeDriveYieldsToAPushAndStaysWhereItIsLeft) {
 
 // A 1.5 kg payload the plant carries and the controller does not know: the arm sags under computed
 // torque and the observer reads it as external torque; once told at run time, both drop.
-TEST(compliance, APayloadGivenAtRunTimeRemovesTheHoldErrorAndTheExternalTorque) {
-  const RobotModel& model = panda();
+TEST_P(Compliance, APayloadGivenAtRunTimeRemovesTheHoldErrorAndTheExternalTorque) {
   double worst_ratio = kInf, worst_residual = 0.0;
   for (const VectorXd& q0 : configurations()) {
     Payload load;
     load.mass = 1.5;
     load.centre = Vector3d(0.0, 0.02, 0.05);
-    World world;
-    plant::SimulationOptions plant;
+    World world(panda(), GetParam().protocol);
+    plant::SimulationOptions plant = plant_on(GetParam());
     plant.environment.payload = load;
     world.start_plant(q0, plant);
-    world.add_controller(options_for(model));
+    world.add_controller(controller_on(GetParam()), GetParam().period_ns() / 2);
     world.run_for(2.0);
     const controller::Controller& c = world.controller().controller();
     const double error_before = c.error().cwiseAbs().maxCoeff();
@@ -259,17 +253,17 @@ TEST(compliance, APayloadGivenAtRunTimeRemovesTheHoldErrorAndTheExternalTorque) 
 // Every ordered pair of the four laws: the first drives a joint motion (free drive is moved by a
 // push instead), the second takes over halfway through. No command steps by more than the rate
 // limit, nothing faults, and the target is reached under every law but free drive.
-TEST(compliance, EverySwitchBetweenTheFourLawsMidMotionStaysWithinTheRateLimit) {
+TEST_P(Compliance, EverySwitchBetweenTheFourLawsMidMotionStaysWithinTheRateLimit) {
   const RobotModel& model = panda();
   const VectorXd q0 = configurations()[0];
   VectorXd far = q0;
   far(0) += 0.4, far(1) -= 0.2, far(3) += 0.3, far(5) -= 0.3;
-  World world;
-  plant::SimulationOptions plant;
+  World world(panda(), GetParam().protocol);
+  plant::SimulationOptions plant = plant_on(GetParam());
   world.start_plant(q0, plant);
-  DaemonOptions o = options_for(model);
+  DaemonOptions o = controller_on(GetParam());
   no_reflex(o, model.dof());  // a switch into free drive mid-motion lets the arm coast: no reflex
-  world.add_controller(o);
+  world.add_controller(o, GetParam().period_ns() / 2);
   world.run_for(0.2);
   const Law laws[] = {Law::kComputedTorque, Law::kJointImpedance, Law::kCartesianImpedance, Law::kFreeDrive};
   const controller::Controller& c = world.controller().controller();
@@ -311,6 +305,25 @@ TEST(compliance, EverySwitchBetweenTheFourLawsMidMotionStaysWithinTheRateLimit) 
   EXPECT_EQ(c.faults(), 0);
   EXPECT_EQ(c.rejected_modes(), 0) << c.mode_rejection();
 }
+
+// Each protocol at 1 kHz. At 200 Hz two laws are beyond what the loop renders stably on the
+// Panda's light joints, and these tests show it: joint impedance at franka_ros's example stiffness
+// drives joint 3 past its velocity limit (REFLEX) within a switch, and free drive's damping leaves
+// the arm drifting at 1 to 12 mm/s instead of resting. The laws' gains are not yet bounded by the
+// rate (docs/protocols.md, "Rate"). Under the sanitizers (which look for memory errors and run the
+// loop several times slower) chasles's and the Panda driver's.
+#ifdef CHASLES_SANITIZED
+INSTANTIATE_TEST_SUITE_P(Wires, Compliance,
+                         ::testing::Values(Wire{controller::Protocol::kChasles, 1000.0},
+                                           Wire{controller::Protocol::kDrakePanda, 1000.0}),
+                         wire_name);
+#else
+INSTANTIATE_TEST_SUITE_P(Wires, Compliance,
+                         ::testing::Values(Wire{controller::Protocol::kChasles, 1000.0},
+                                           Wire{controller::Protocol::kDrakeIiwa, 1000.0},
+                                           Wire{controller::Protocol::kDrakePanda, 1000.0}),
+                         wire_name);
+#endif
 
 }  // namespace
 }  // namespace chasles::faults
