@@ -202,6 +202,7 @@ Controller::Controller(const RobotModel& model, const Config& config)
     torque_rate_(i) = effort_limit_(i) / config_.torque_ramp;
     rate_limit_per_tick_(i) = torque_rate_(i) * config_.period;
   }
+  work_.period = config_.period;
 }
 
 bool Controller::refuse(const char* format, ...) {

@@ -49,8 +49,9 @@ struct LawDefaults {
   static constexpr double kRotationalStiffness = 50.0;      ///< N·m/rad about each axis of frame c
   static constexpr double kTranslationalStiffness = 1000.0;  ///< N/m along each axis of frame c
   static constexpr double kNullspaceStiffness = 10.0;       ///< N·m/rad per joint
-  /// The decay rate of free drive's default damping, 1/s: unpushed, each joint's speed decays as
-  /// if alone, in about 1/rate (50 ms); a 10 N push on a Panda's hand moves it at about 0.15 m/s.
+  /// The decay rate of free drive's default damping D = rate · M(q), 1/s: unpushed, the arm's
+  /// velocity decays in about 1/rate (50 ms) in every direction; a 10 N push on a Panda's hand
+  /// moves it at about 0.15 m/s.
   static constexpr double kFreeDriveRate = 20.0;
 };
 
@@ -62,8 +63,9 @@ struct LawSettings {
   Eigen::VectorXd joint_stiffness;
   /// Joint impedance (when !damping_from_ratio) and free drive: D per joint, N·m·s/rad or N·s/m.
   Eigen::VectorXd joint_damping;
-  /// Joint impedance: D_i = 2ζ√(K_i M_ii(q)) instead of joint_damping. Free drive: D_i =
-  /// LawDefaults::kFreeDriveRate · M_ii(q) instead of joint_damping.
+  /// Joint impedance: D_i = 2ζ√(K_i M_ii(q)), at most m_i / T (m_i = 1 / (M⁻¹(q))_ii, T the loop's
+  /// period: what the loop renders), instead of joint_damping. Free drive: D =
+  /// LawDefaults::kFreeDriveRate · M(q), the whole matrix, instead of joint_damping.
   bool damping_from_ratio = true;
   double damping_ratio = LawDefaults::kDampingRatio;  ///< ζ
   /// Cartesian impedance: K_c, (ω, v) order, about and in the axes of frame c.
@@ -99,6 +101,10 @@ struct LawWorkspace {
   Eigen::LLT<Eigen::MatrixXd> M_llt;
   Eigen::VectorXd null_torque;
   Eigen::VectorXd damping;  ///< the joint impedance's D at the last call
+  Eigen::VectorXd apparent_inertia;  ///< 1 / (M⁻¹)_ii: joint i's inertia with the others free
+  /// The loop's period, s: the joint impedance's damping from a ratio is bounded by what a loop of
+  /// this period renders (0: unbounded).
+  double period = 0.0;
   /// An impedance's own pull at the last call, τ less what compensates the arm's dynamics: K e + D ė
   /// (joint), J_cᵀ F + N τ_null (Cartesian). The force the arm is meant to apply when it presses.
   Eigen::VectorXd spring;

@@ -5,7 +5,7 @@
 // are the ones the 1 kHz chasles loop is held to: the safety pipeline on every command (as the
 // whole torque the arm gets), the move, the external torque against the plant's truth, the reflex,
 // and the refusal of a malformed or wrongly sized status. The fault table (fault_test) runs on the
-// same wires; the compliance suite (compliance_test) under each protocol at 1 kHz.
+// same wires, and so does the compliance suite (compliance_test).
 #include <gtest/gtest.h>
 
 #include <algorithm>

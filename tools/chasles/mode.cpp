@@ -379,7 +379,7 @@ Command register_mode(CLI::App& app) {
           ->add_option("--damping", options->damping,
                        "joint-impedance: joint damping D, N*m*s/rad, >= 0 (default: 2 Z sqrt(K M_ii(q)) from "
                        "--damping-ratio); free-drive: its damping, > 0 (default: D_i = " +
-                           quote(LawDefaults::kFreeDriveRate) + "/s * M_ii(q))")
+                           quote(LawDefaults::kFreeDriveRate) + "/s * M(q), the whole mass matrix)")
           ->type_name("D[,D...]");
   CLI::Option* ratio = command
                            ->add_option("--damping-ratio", options->damping_ratio,
