@@ -6,6 +6,7 @@
 #include <Eigen/Eigenvalues>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <random>
 #include <string>
@@ -15,6 +16,13 @@ namespace chasles {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// A number for a message: six significant digits, no trailing zeros.
+std::string text(double x) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof(buffer), "%g", x);
+  return buffer;
+}
 
 // The optimiser's grid: points per cycle of the highest harmonic. A sinusoid sampled 24 times a
 // cycle peaks at most 1 − cos(π/24) = 0.9 % above its samples, well inside the margins.
@@ -397,7 +405,7 @@ void ExcitationLimits::validate(int dof) const {
   for (int i = 0; i < dof; ++i) {
     const std::string joint = "excitation limits, joint " + std::to_string(i) + ": ";
     if (std::isnan(lower(i)) || std::isnan(upper(i)) || !(lower(i) <= upper(i))) {
-      throw ArgumentError(joint + "position limits [" + std::to_string(lower(i)) + ", " + std::to_string(upper(i)) +
+      throw ArgumentError(joint + "position limits [" + text(lower(i)) + ", " + text(upper(i)) +
                           "] are not a range");
     }
     if (!(velocity(i) > 0.0) || !(acceleration(i) > 0.0) || !(jerk(i) > 0.0)) {
@@ -448,11 +456,11 @@ std::string excitation_limit_problem(const RobotModel& model, const FourierTraje
     const double t = std::min(k * step, trajectory.duration());
     sample_fourier(trajectory, t, q, qd, qdd, qddd);
     for (int i = 0; i < n; ++i) {
-      const std::string at = " at t = " + std::to_string(t) + " s";
+      const std::string at = " at t = " + text(t) + " s";
       const std::string joint = "joint " + model.joint(i).name + ": ";
       if (q(i) < limits.lower(i) || q(i) > limits.upper(i)) {
-        return joint + "position " + std::to_string(q(i)) + at + " outside [" + std::to_string(limits.lower(i)) + ", " +
-               std::to_string(limits.upper(i)) + "]";
+        return joint + "position " + text(q(i)) + at + " outside [" + text(limits.lower(i)) + ", " +
+               text(limits.upper(i)) + "]";
       }
       const struct {
         const char* name;
@@ -462,8 +470,8 @@ std::string excitation_limit_problem(const RobotModel& model, const FourierTraje
                     {"jerk", qddd(i), limits.jerk(i)}};
       for (const auto& rate : rates) {
         if (std::abs(rate.value) > rate.limit) {
-          return joint + rate.name + " " + std::to_string(rate.value) + at + " beyond its limit " +
-                 std::to_string(rate.limit);
+          return joint + rate.name + " " + text(rate.value) + at + " beyond its limit " +
+                 text(rate.limit);
         }
       }
     }
@@ -499,9 +507,9 @@ ExcitationResult optimize_excitation(const RobotModel& model, const BaseParamete
   const Targets targets = targets_of(limits, options);
   for (int i = 0; i < n; ++i) {
     if (!(start(i) >= targets.lower(i) && start(i) <= targets.upper(i))) {
-      throw ArgumentError("excitation start: joint " + model.joint(i).name + " at " + std::to_string(start(i)) +
-                          " is not within [" + std::to_string(targets.lower(i)) + ", " +
-                          std::to_string(targets.upper(i)) + "], its limits less the margin");
+      throw ArgumentError("excitation start: joint " + model.joint(i).name + " at " + text(start(i)) +
+                          " is not within [" + text(targets.lower(i)) + ", " +
+                          text(targets.upper(i)) + "], its limits less the margin");
     }
   }
 
