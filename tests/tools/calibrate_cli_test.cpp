@@ -5,6 +5,7 @@
 #include <stdlib.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -259,6 +260,132 @@ TEST(calibrateCli, BadInputWritesNothing) {
                         1, "missing.urdf");
 }
 
+// The brief's Fourier series, evaluated here from the report's q0, a and b: q, q̇, q̈, q⃛ of joint i.
+std::array<double, 4> swevers_series(const json& report, int i, double t) {
+  const double w = 2.0 * kPi / report.at("period").get<double>();
+  std::array<double, 4> x{report.at("q0").at(i).get<double>(), 0.0, 0.0, 0.0};
+  const json& a = report.at("a").at(i);
+  const json& b = report.at("b").at(i);
+  for (size_t l = 1; l <= a.size(); ++l) {
+    const double al = a.at(l - 1).get<double>(), bl = b.at(l - 1).get<double>(), wl = w * l;
+    const double s = std::sin(wl * t), c = std::cos(wl * t);
+    x[0] += al / wl * s - bl / wl * c;
+    x[1] += al * c + bl * s;
+    x[2] += wl * (-al * s + bl * c);
+    x[3] += wl * wl * (-al * c - bl * s);
+  }
+  return x;
+}
+
+// excite writes the series as waypoints — each one the series' q, q̇, q̈ at its time, the last
+// exactly at rest at the start — within the controller's default limits every millisecond: the
+// URDF's positions less 0.01 rad, its velocities, velocity / 0.4 s and that / 0.02 s
+// (docs/controller.md, "Limits"). A short optimisation, as CI affords.
+TEST(calibrateCli, ExciteWritesTheSeriesAsWaypointsWithinTheLimits) {
+  const ScratchDir dir;
+  const RunResult result = run({"excite", "--urdf", kPanda.urdf, "--tip", kPanda.tip, "--out", dir / "excitation.json",
+                                "--report", dir / "report.json", "--period", "4", "--harmonics", "3", "--duration", "8",
+                                "--samples", "20", "--iterations", "10", "--waypoints", "400"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("62 base parameters"), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("chasles target --joint 0,0,0,-1.5708"), std::string::npos) << result.out;
+  const json report = read_json(dir / "report.json");
+  const json trajectory = read_json(dir / "excitation.json");
+  const RobotModel model = load_to(kPanda.urdf, kPanda.tip);
+  const int n = model.dof();
+  EXPECT_EQ(report.at("base_parameters"), 62);
+  EXPECT_LT(report.at("condition_number").get<double>(), report.at("start_condition_number").get<double>());
+  EXPECT_EQ(report.at("periods"), 2);
+
+  // The file as `chasles target --trajectory` reads it (tools/chasles/target.cpp, read_trajectory).
+  ASSERT_EQ(trajectory.at("joint_names").size(), 7u);
+  for (int i = 0; i < n; ++i) EXPECT_EQ(trajectory.at("joint_names").at(i), model.joint(i).name);
+  const json& points = trajectory.at("points");
+  ASSERT_EQ(points.size(), 400u);
+  double before = 0.0, worst = 0.0;
+  for (size_t k = 0; k < points.size(); ++k) {
+    const json& point = points[k];
+    const double t = point.at("time_from_start").get<double>();
+    ASSERT_GT(t, before) << "waypoint " << k;
+    before = t;
+    for (const char* key : {"positions", "velocities", "accelerations"}) ASSERT_EQ(point.at(key).size(), 7u) << key;
+    for (int i = 0; i < n; ++i) {
+      const std::array<double, 4> x = swevers_series(report, i, t);
+      for (int d = 0; d < 3; ++d) {
+        const char* key = d == 0 ? "positions" : d == 1 ? "velocities" : "accelerations";
+        worst = std::max(worst, std::abs(point.at(key).at(i).get<double>() - x[d]));
+      }
+    }
+  }
+  EXPECT_LT(worst, 1e-12);
+  EXPECT_EQ(before, 8.0);
+  const json& last = points.back();
+  for (int i = 0; i < n; ++i) {
+    EXPECT_EQ(last.at("positions").at(i), report.at("start").at(i));
+    EXPECT_EQ(last.at("velocities").at(i), 0.0);
+    EXPECT_EQ(last.at("accelerations").at(i), 0.0);
+  }
+
+  // Every millisecond from the start at rest to the end.
+  for (int i = 0; i < n; ++i) {
+    const JointLimits& l = model.joint(i).limits;
+    const double v = l.velocity, a = v / 0.4, j = a / 0.02;
+    double peak[3] = {0.0, 0.0, 0.0};
+    for (int k = 0; k <= 8000; ++k) {
+      const std::array<double, 4> x = swevers_series(report, i, 1e-3 * k);
+      ASSERT_GE(x[0], l.lower + 0.01) << model.joint(i).name << " at " << 1e-3 * k << " s";
+      ASSERT_LE(x[0], l.upper - 0.01) << model.joint(i).name << " at " << 1e-3 * k << " s";
+      for (int d = 0; d < 3; ++d) peak[d] = std::max(peak[d], std::abs(x[d + 1]));
+    }
+    EXPECT_LE(peak[0], v) << model.joint(i).name;
+    EXPECT_LE(peak[1], a) << model.joint(i).name;
+    EXPECT_LE(peak[2], j) << model.joint(i).name;
+    const json& reported = report.at("joints").at(i);
+    EXPECT_NEAR(reported.at("velocity_fraction").get<double>(), peak[0] / v, 1e-9);
+    EXPECT_NEAR(reported.at("jerk_fraction").get<double>(), peak[2] / j, 1e-9);
+    const std::array<double, 4> at_start = swevers_series(report, i, 0.0);
+    EXPECT_NEAR(at_start[0], report.at("start").at(i).get<double>(), 1e-14);
+    EXPECT_NEAR(at_start[1], 0.0, 1e-14);
+    EXPECT_NEAR(at_start[2], 0.0, 1e-13);
+  }
+#ifdef CHASLES_CLI
+  // And chasles target itself takes it (on an in-process bus: nothing leaves the machine).
+  const RunResult sent = run_to_completion({CHASLES_CLI, "target", "--robot", kPanda.urdf, "--tip", kPanda.tip,
+                                            "--trajectory", dir / "excitation.json", "--lcm-url", "memq://"});
+  EXPECT_EQ(sent.exit_code, 0) << sent.err;
+  EXPECT_EQ(json::parse(sent.out).at("points"), 400) << sent.out;
+#endif
+}
+
+// Refused before anything is optimised or written: a duration shorter than a period or not a whole
+// number of them, a start of the wrong size or outside the limits, a limit list of the wrong size.
+TEST(calibrateCli, ExciteRefusesBadInputAndWritesNothing) {
+  const ScratchDir dir;
+  const std::vector<std::string> common{"excite", "--urdf", kPanda.urdf, "--tip", kPanda.tip, "--out",
+                                        dir / "excitation.json", "--report", dir / "report.json"};
+  struct Case {
+    std::vector<std::string> args;
+    std::string fragment;
+  };
+  const std::vector<Case> cases = {
+      {{"--duration", "5"}, "--duration 5 s is shorter than one period (--period 10 s)"},
+      {{"--duration", "15"}, "--duration 15 s is not a whole number of 10 s periods"},
+      {{"--start", "0,0,0,-1.5,0,1.8"}, "--start has 6 values; the arm has 7 joints (panda_joint1, "},
+      {{"--start", "0,0,0,0,0,1.8,0"}, "joint panda_joint4 at 0 is not within"},
+      {{"--start", "0,0,x,-1.5,0,1.8,0"}, "--start: entry 2 ('x') is not a number"},
+      {{"--acceleration-limit", "1,2"}, "--acceleration-limit has 2 entries; give one or 7"},
+  };
+  for (const Case& c : cases) {
+    std::vector<std::string> args = common;
+    args.insert(args.end(), c.args.begin(), c.args.end());
+    expect_one_error_line(run(args), 1, c.fragment);
+  }
+  EXPECT_TRUE(std::filesystem::is_empty(dir.path));
+  std::vector<std::string> one = common;
+  one.insert(one.end(), {"--harmonics", "1"});
+  expect_one_error_line(run(one), 2, "--harmonics");
+}
+
 TEST(calibrateCli, UsageErrorsExitTwo) {
   const ScratchDir dir;
   expect_one_error_line(run({"fit", "--urdf", kUr5.urdf, "--out", dir / "o", "--report", dir / "r"}), 2, "--data");
@@ -277,6 +404,11 @@ TEST(calibrateCli, HelpDescribesTheOutput) {
   EXPECT_EQ(fit.exit_code, 0);
   for (const char* text : {"marker_joint", "T_tracker_base", "Example", "atomically", "--position-only", "--loss"}) {
     EXPECT_NE(fit.out.find(text), std::string::npos) << text;
+  }
+  const RunResult excite = run({"excite", "--help"});
+  EXPECT_EQ(excite.exit_code, 0);
+  for (const char* text : {"--start", "chasles target", "atomically", "Example"}) {
+    EXPECT_NE(excite.out.find(text), std::string::npos) << text;
   }
   const RunResult synth = run({"synth", "--help"});
   EXPECT_EQ(synth.exit_code, 0);
