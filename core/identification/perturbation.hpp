@@ -5,10 +5,10 @@
 //
 // What "±f" means, body by body (f the fraction, each u an independent draw, uniform in [−1, 1)):
 //   mass                 m' = m (1 + f u₀);
-//   centre of mass       c' = c + f ρ (u₁, u₂, u₃) in the body frame, ρ = √(tr Σ_c / m) the root mean
-//                        square distance of the body's mass from its centre (its size: the centre of
-//                        mass cannot leave the body, and |c| is no scale for a body centred on its
-//                        joint's axis);
+//   centre of mass       c' = c + f ρ (u₁, u₂, u₃) in the body frame, ρ = √(tr Σ_c / m) the body's
+//                        radius of gyration about its centre, the root mean square distance of its
+//                        mass from there (its size: the centre of mass cannot leave the body, and |c|
+//                        is no scale for a body centred on its joint's axis);
 //   spread of the mass   Σ_c = ∫ρ r rᵀ about the centre has eigenvalues σ_k, the mass's second
 //                        moment along principal axis k; each is scaled by (1 + f u₄₊ₖ), so that each
 //                        principal moment of inertia, λ_i = σ_j + σ_k, changes by at most ±f too;
