@@ -80,6 +80,14 @@ void check_friction(const Friction& friction, const RobotModel& model, const std
   }
 }
 
+void check_perturbation(const InertiaPerturbation& perturbation, const std::string& what) {
+  if (!(perturbation.fraction >= 0.0 && perturbation.fraction < 1.0)) {
+    refuse(what, "FRACTION " + number(perturbation.fraction) +
+                     " is not in [0, 1): a body's mass and spread are scaled by as little as 1 - FRACTION, which "
+                     "must stay positive (0.2 is +-20 %)");
+  }
+}
+
 double Push::profile(double t) const {
   const double end = start + duration;
   if (t < start || t > end) return 0.0;
@@ -93,6 +101,7 @@ EnvironmentOptions checked_environment(const EnvironmentOptions& options, const 
   for (size_t i = 0; i < out.walls.size(); ++i) check_wall(out.walls[i], "wall " + std::to_string(i + 1));
   if (out.payload) check_payload(*out.payload, "payload");
   if (!out.friction.empty()) check_friction(out.friction, model, "friction");
+  if (out.perturbation) check_perturbation(*out.perturbation, "perturbation");
   return out;
 }
 

@@ -1,8 +1,8 @@
 // What the simulated arm meets that its controller does not know: wrenches pushed onto the tip,
-// one-sided walls, a payload at the tip and joint friction, each given as a plain spec
-// (EnvironmentOptions, from chasles_plant's --push, --wall, --payload and --friction or set by an
-// in-process test) and applied by Plant (plant.hpp). Physics only: the command-line forms are
-// chasles_plant's (tools/simulation/environment_forms.hpp).
+// one-sided walls, a payload at the tip, joint friction and inertias off the URDF's, each given as a
+// plain spec (EnvironmentOptions, from chasles_plant's --push, --wall, --payload, --friction and
+// --perturb-inertia or set by an in-process test) and applied by Plant (plant.hpp). Physics only:
+// the command-line forms are chasles_plant's (tools/simulation/environment_forms.hpp).
 //
 // Frames: a wrench is (m, f), N·m then N. A push is given and the contact is reported with the
 // base frame's orientation at the tip frame's origin (libfranka's O_F_ext_hat_K, in Modern
@@ -11,6 +11,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -56,20 +57,33 @@ struct Friction {
   bool empty() const { return viscous.size() == 0 && coulomb.size() == 0; }
 };
 
+/// The arm's own inertias off its model's, as a real arm's are off its CAD's: every body's mass,
+/// centre of mass, spread of mass and principal axes perturbed by up to ±fraction, drawn from
+/// `seed` (identification/perturbation.hpp, with_perturbed_inertias, says exactly how). The payload
+/// goes on top of the perturbed arm.
+struct InertiaPerturbation {
+  double fraction = 0.0;  ///< in [0, 1)
+  uint64_t seed = 0;
+};
+
 struct EnvironmentOptions {
   std::vector<Push> pushes;        ///< they add
   std::vector<Wall> walls;         ///< they add
   std::optional<Payload> payload;  ///< none: the model as loaded
   Friction friction;
+  std::optional<InertiaPerturbation> perturbation;  ///< none: the model's inertias
   /// Whether anything is simulated that the nominal model lacks (then the plant publishes its truth).
-  bool any() const { return !pushes.empty() || !walls.empty() || payload.has_value() || !friction.empty(); }
+  bool any() const {
+    return !pushes.empty() || !walls.empty() || payload.has_value() || !friction.empty() || perturbation.has_value();
+  }
 };
 
 /// The options with every wall's normal made unit, checked: throws chasles::ArgumentError naming the
-/// item ("push 2: ...", "wall 1: ...", "payload: ...", "friction: joint panda_joint3 ...") when a
-/// number is not finite, a push's duration is not positive or its ramp does not fit in half of it,
-/// a normal is zero, a stiffness is not positive, or a damping, mass or friction coefficient is
-/// negative, or the friction does not have one entry per joint. Plant calls it.
+/// item ("push 2: ...", "wall 1: ...", "payload: ...", "friction: joint panda_joint3 ...",
+/// "perturbation: ...") when a number is not finite, a push's duration is not positive or its ramp
+/// does not fit in half of it, a normal is zero, a stiffness is not positive, or a damping, mass or
+/// friction coefficient is negative, the friction does not have one entry per joint, or the
+/// perturbation's fraction is not in [0, 1). Plant calls it.
 EnvironmentOptions checked_environment(const EnvironmentOptions& options, const RobotModel& model);
 
 // The checks checked_environment makes, one item at a time, for a caller that builds the items
@@ -82,5 +96,7 @@ void check_push(const Push& push, const std::string& what);
 void check_wall(Wall& wall, const std::string& what);
 /// One viscous and one Coulomb coefficient per joint of `model`, finite and ≥ 0.
 void check_friction(const Friction& friction, const RobotModel& model, const std::string& what);
+/// FRACTION in [0, 1): at 1 a body's mass or spread could vanish.
+void check_perturbation(const InertiaPerturbation& perturbation, const std::string& what);
 
 }  // namespace chasles::plant

@@ -6,6 +6,7 @@
 #include <random>
 
 #include "chasles/core/dynamics/dynamics.hpp"
+#include "chasles/core/identification/perturbation.hpp"
 
 namespace chasles::plant {
 namespace {
@@ -22,16 +23,24 @@ double sample_joint(const JointLimits& limits, uint64_t bits) {
   return lower + u * (upper - lower);
 }
 
+// The arm as it really is, when it is not its model: its inertias perturbed, then the payload on its
+// last body (the load is what it is; the arm's own bodies are what the CAD got wrong).
+std::unique_ptr<const RobotModel> own_model(const RobotModel& model, const EnvironmentOptions& environment) {
+  const std::optional<InertiaPerturbation>& perturbation = environment.perturbation;
+  if (!perturbation && !environment.payload) return nullptr;
+  RobotModel arm = perturbation ? with_perturbed_inertias(model, perturbation->fraction, perturbation->seed) : model;
+  if (environment.payload) arm = with_payload(arm, *environment.payload);
+  return std::make_unique<const RobotModel>(std::move(arm));
+}
+
 }  // namespace
 
 Plant::Plant(const RobotModel& model, const Eigen::VectorXd& q0, const Eigen::VectorXd& damping, double dt,
              int substeps, const EnvironmentOptions& environment)
     : model_(model),
       environment_(checked_environment(environment, model)),
-      payload_model_(environment_.payload
-                         ? std::make_unique<const RobotModel>(with_payload(model, *environment_.payload))
-                         : nullptr),
-      true_model_(payload_model_ ? *payload_model_ : model),
+      own_model_(own_model(model, environment_)),
+      true_model_(own_model_ ? *own_model_ : model),
       data_(true_model_),
       nominal_data_(model),
       dt_(dt),

@@ -1,9 +1,11 @@
 // The simulated arm: rigid-body dynamics of the chain, M(q) q̈ = τ − c(q, q̇) − g(q) − D q̇, in an
 // environment (environment.hpp) the controller does not know — pushes and walls at the tip, a
-// hidden payload, hidden joint friction — integrated with classic fourth-order Runge-Kutta (RK4):
+// hidden payload, hidden joint friction, inertias off the model's — integrated with classic
+// fourth-order Runge-Kutta (RK4):
 //   M_true(q) q̈ + c_true + g_true = τ − D q̇ + τ_f(q̇) + J_bᵀ F_env,
-// M_true, c_true, g_true those of the model with the payload, τ_f the friction and F_env the
-// contact wrench in the tip frame, both evaluated at every RK4 stage (they depend on the state).
+// M_true, c_true, g_true those of the true model (the perturbed inertias, the payload on top), τ_f
+// the friction and F_env the contact wrench in the tip frame, both evaluated at every RK4 stage
+// (they depend on the state).
 //
 // RK4 rather than semi-implicit Euler, measured on the Panda swinging freely from a bent pose with
 // no damping, one step per millisecond (the plant's default): after 0.5 s RK4 is within 8e-9 rad
@@ -29,7 +31,9 @@ namespace chasles::plant {
 struct Truth {
   int64_t steps = -1;                          ///< steps taken when sampled (the state's seq); −1: none yet
   double time = 0.0;                           ///< s of simulated time, steps × period
-  Eigen::VectorXd tau_ext;                     ///< N·m or N: ID_nominal(q, q̇, q̈_true) + D q̇ − τ
+  /// N·m or N: ID_nominal(q, q̇, q̈_true) + D q̇ − τ, everything the nominal model does not explain:
+  /// contact, payload and friction, and the error of its inertias when they are perturbed.
+  Eigen::VectorXd tau_ext;
   Vector6d tip_wrench_ext = Vector6d::Zero();  ///< contact (m, f) on the tip, base-aligned at its origin
   bool contact = false;                        ///< a push acts or a wall is penetrated
 };
@@ -39,8 +43,8 @@ class Plant {
   /// Starts at rest at q0. `damping` is the viscous joint damping D, one entry per joint
   /// (N·m·s/rad or N·s/m), which the controller knows. Every step() is `dt` seconds long, in
   /// `substeps` RK4 steps. Throws chasles::ArgumentError when the environment is not valid (see
-  /// checked_environment). Keeps a reference to `model`, the nominal model; with a payload it
-  /// integrates a model of its own (true_model()).
+  /// checked_environment). Keeps a reference to `model`, the nominal model; with a payload or
+  /// perturbed inertias it integrates a model of its own (true_model()).
   Plant(const RobotModel& model, const Eigen::VectorXd& q0, const Eigen::VectorXd& damping, double dt, int substeps = 1,
         const EnvironmentOptions& environment = {});
 
@@ -67,7 +71,8 @@ class Plant {
   int64_t steps() const { return steps_; }
   /// Simulated time since the first step: steps × dt, s.
   double time() const { return static_cast<double>(steps_) * dt_; }
-  /// The model integrated: the nominal one with the payload's point mass on its last body.
+  /// The model integrated: the nominal one with its inertias perturbed (with_perturbed_inertias of
+  /// the environment's perturbation) and the payload on its last body; the nominal one without either.
   const RobotModel& true_model() const { return true_model_; }
   /// The contact wrench the environment applies to the tip at time t and state (q, q̇): (m, f),
   /// base-aligned at the tip origin; `contact` says whether a push acts or a wall is penetrated.
@@ -90,7 +95,7 @@ class Plant {
 
   const RobotModel& model_;
   const EnvironmentOptions environment_;
-  const std::unique_ptr<const RobotModel> payload_model_;  // null without a payload
+  const std::unique_ptr<const RobotModel> own_model_;  // null without a payload or a perturbation
   const RobotModel& true_model_;
   Data data_;          // the true model's
   Data nominal_data_;  // the nominal model's, for the truth

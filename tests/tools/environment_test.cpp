@@ -3,7 +3,7 @@
 // back from the bus with the checked decoders. Each test holds the plant against a fact that does
 // not come from the plant's code: statics (τ = g − J_bᵀ F holds an arm against a wrench F), a
 // trapezoid drawn by hand, a spring's rest length, energy, a point mass's kinetic and potential
-// energy, the friction law.
+// energy, the friction law, the forward dynamics of the perturbed model, a Gaussian's moments.
 #include "chasles/core/simulation/environment.hpp"
 
 #include <gtest/gtest.h>
@@ -24,6 +24,7 @@
 #include "chasles/controller/realtime/bus.hpp"
 #include "chasles/controller/realtime/clock.hpp"
 #include "chasles/core/dynamics/dynamics.hpp"
+#include "chasles/core/identification/perturbation.hpp"
 #include "chasles/core/lie/so3.hpp"
 #include "chasles/core/model/urdf.hpp"
 #include "chasles/core/simulation/plant.hpp"
@@ -583,6 +584,197 @@ TEST(environment, TruthIsOnTheBusOnlyWhenAskedWithTheStatesSeq) {
   }
 }
 
+// The reported effort is a noisy sensor's: over 10 000 states of the Panda turned back and forth, the
+// reports minus the torque applied (the same run's without noise, whose reports are exact) have, per
+// joint, a mean within 4 σ/√N of 0 and a standard deviation within 5 % of σ (measured: within 0.7 %),
+// 68.3 % of them within ±σ (a Gaussian's share) and no correlation between the two joints of a
+// Box–Muller pair or from one state to the next. The motion is the same bit for bit: the noise is on
+// the report only. The same seed draws the same noise, another seed other noise.
+TEST(environment, EffortNoiseIsOnTheReportedEffortOnly) {
+  const Arm arm = panda_arm();
+  Data data(arm.model);
+  constexpr double kSigma = 0.05;
+  constexpr int kSteps = 10'000;
+  Eigen::VectorXd wobble(7);
+  wobble << 6, -5, 4, 6, -1.5, 1.2, 0.8;
+  const auto run = [&](Rig& rig, int steps) {
+    for (int k = 0; k < steps; ++k) {
+      const double s = std::sin(2 * kPi * k * kDt / 0.4);
+      rig.step(gravity_torques(arm.model, data, rig.q()) + s * wobble);
+    }
+  };
+  SimulationOptions noisy_options = lockstep();
+  noisy_options.faults.effort_noise = {kSigma, 3};
+  Rig noisy(arm.model, arm.q0, noisy_options, Eigen::VectorXd::Constant(7, 2.0));
+  Rig exact(arm.model, arm.q0, lockstep(), Eigen::VectorXd::Constant(7, 2.0));
+  run(noisy, kSteps);
+  run(exact, kSteps);
+  ASSERT_EQ(noisy.states().size(), size_t{kSteps + 1});
+  ASSERT_EQ(exact.states().size(), size_t{kSteps + 1});
+  EXPECT_FALSE(noisy.simulation().publishes_truth()) << "the noise hides nothing from the nominal model";
+  EXPECT_EQ(exact.plant().effort(), noisy.plant().effort());
+
+  Eigen::MatrixXd residual(kSteps + 1, 7);
+  for (int k = 0; k <= kSteps; ++k) {
+    const robot_state_t& a = noisy.states()[static_cast<size_t>(k)];
+    const robot_state_t& b = exact.states()[static_cast<size_t>(k)];
+    ASSERT_EQ(a.position, b.position) << "seq " << k;
+    ASSERT_EQ(a.velocity, b.velocity) << "seq " << k;
+    residual.row(k) = (vector_of(a.effort) - vector_of(b.effort)).transpose();
+  }
+  const double N = kSteps + 1;
+  const Eigen::RowVectorXd mean = residual.colwise().mean();
+  const Eigen::MatrixXd centred = residual.rowwise() - mean;
+  const Eigen::RowVectorXd deviation = (centred.colwise().squaredNorm() / (N - 1)).cwiseSqrt();
+  const double within = static_cast<double>((residual.array().abs() < kSigma).count()) / (7 * N);
+  const auto correlation = [&](const Eigen::VectorXd& x, const Eigen::VectorXd& y) {
+    return x.dot(y) / (x.norm() * y.norm());
+  };
+  for (int i = 0; i < 7; ++i) {
+    SCOPED_TRACE("joint " + std::to_string(i + 1));
+    EXPECT_LT(std::abs(mean[i]), 4 * kSigma / std::sqrt(N));
+    EXPECT_NEAR(deviation[i] / kSigma, 1.0, 0.05);
+    const Eigen::VectorXd x = centred.col(i);
+    EXPECT_LT(std::abs(correlation(x.head(kSteps), x.tail(kSteps))), 0.04) << "one state to the next";
+  }
+  EXPECT_NEAR(within, 0.6827, 0.01);
+  for (int i = 0; i < 6; i += 2) {
+    EXPECT_LT(std::abs(correlation(centred.col(i), centred.col(i + 1))), 0.04) << "joints " << i + 1 << ", " << i + 2;
+  }
+
+  Rig again(arm.model, arm.q0, noisy_options, Eigen::VectorXd::Constant(7, 2.0));
+  SimulationOptions other_seed = noisy_options;
+  other_seed.faults.effort_noise.seed = 4;
+  Rig other(arm.model, arm.q0, other_seed, Eigen::VectorXd::Constant(7, 2.0));
+  run(again, 50);
+  run(other, 50);
+  for (size_t k = 0; k <= 50; ++k) {
+    EXPECT_EQ(again.states()[k].effort, noisy.states()[k].effort) << "seq " << k;
+    EXPECT_NE(other.states()[k].effort, noisy.states()[k].effort) << "seq " << k;
+  }
+}
+
+// Drake's statuses report the same noisy effort as their measured torque, in their drivers' signs —
+// the iiwa's joint_torque_measured negated, the Panda's joint_torque (tau_J) not — and nothing else
+// noisy: the commanded and desired torques, the external one, the positions are as given. The
+// draws do not depend on the protocol: three publishers with one seed add the same noise.
+TEST(environment, DrakeStatusesReportTheNoisyEffortAsMeasuredTorque) {
+  const Eigen::VectorXd q = bent_pose(), qd = Eigen::VectorXd::LinSpaced(7, -1.0, 1.0);
+  const Eigen::VectorXd effort = Eigen::VectorXd::LinSpaced(7, -20.0, 30.0);
+  const Eigen::VectorXd commanded = effort + Eigen::VectorXd::Constant(7, 1.0);
+  const Eigen::VectorXd desired = effort - Eigen::VectorXd::Constant(7, 2.0);
+  const Eigen::VectorXd tau_ext = Eigen::VectorXd::LinSpaced(7, 0.5, 3.5);
+  const plant::DriverReport report{qd, effort, commanded, desired, q, tau_ext, true, 1.0, 2, 4, 1000};
+  plant::Faults faults;
+  faults.effort_noise = {0.2, 9};
+  Bus bus("memq://");
+  std::vector<robot_state_t> states;
+  std::vector<drake::lcmt_iiwa_status> iiwas;
+  std::vector<drake::lcmt_panda_status> pandas;
+  std::vector<Bus::Subscription> subscriptions;
+  subscriptions.push_back(bus.subscribe("CHASLES", [&](const uint8_t* data, size_t size) {
+    states.emplace_back();
+    ASSERT_EQ(messages::decode_checked(data, size, states.back(), 7, messages::Finite::Required), "");
+  }));
+  subscriptions.push_back(bus.subscribe("IIWA", [&](const uint8_t* data, size_t size) {
+    iiwas.emplace_back();
+    ASSERT_EQ(messages::decode_checked(data, size, iiwas.back(), 7, messages::Finite::Required), "");
+  }));
+  subscriptions.push_back(bus.subscribe("PANDA", [&](const uint8_t* data, size_t size) {
+    pandas.emplace_back();
+    ASSERT_EQ(messages::decode_checked(data, size, pandas.back(), 7, messages::Finite::Required), "");
+  }));
+  plant::StatePublisher chasles(bus, "CHASLES", 7, faults, 4, controller::Protocol::kChasles);
+  plant::StatePublisher iiwa(bus, "IIWA", 7, faults, 4, controller::Protocol::kDrakeIiwa);
+  plant::StatePublisher panda(bus, "PANDA", 7, faults, 4, controller::Protocol::kDrakePanda);
+  for (int k = 0; k < 20; ++k) {
+    for (plant::StatePublisher* publisher : {&chasles, &iiwa, &panda}) {
+      publisher->encode(k, k, q, report);
+      publisher->send(0);
+    }
+    while (bus.handle_pending() > 0) {
+    }
+  }
+  ASSERT_EQ(states.size(), 20u);
+  ASSERT_EQ(iiwas.size(), 20u);
+  ASSERT_EQ(pandas.size(), 20u);
+  for (size_t k = 0; k < 20; ++k) {
+    const Eigen::VectorXd measured = vector_of(states[k].effort);
+    EXPECT_GT(max_abs_diff(measured, effort), 0.0) << "state " << k;
+    EXPECT_LT(max_abs_diff(measured, effort), 8.6 * 0.2) << "Box-Muller's bound";
+    EXPECT_EQ(vector_of(iiwas[k].joint_torque_measured), -measured) << "state " << k;
+    EXPECT_EQ(vector_of(pandas[k].joint_torque), measured) << "state " << k;
+    EXPECT_EQ(vector_of(iiwas[k].joint_torque_commanded), -commanded);
+    EXPECT_EQ(vector_of(iiwas[k].joint_torque_external), tau_ext);
+    EXPECT_EQ(vector_of(iiwas[k].joint_position_measured), q);
+    EXPECT_EQ(vector_of(pandas[k].joint_torque_desired), desired);
+    EXPECT_EQ(vector_of(pandas[k].joint_torque_external), -tau_ext);
+    EXPECT_EQ(vector_of(states[k].velocity), qd);
+    if (k > 0) {
+      EXPECT_NE(vector_of(states[k].effort), vector_of(states[k - 1].effort)) << "a new draw per state";
+    }
+  }
+}
+
+// M q̈ = τ − g at rest: the acceleration of a model under a torque from rest.
+Eigen::VectorXd acceleration_from_rest(const RobotModel& model, const Eigen::VectorXd& q, const Eigen::VectorXd& tau) {
+  Data data(model);
+  return mass_matrix(model, data, q).llt().solve(tau - gravity_torques(model, data, q));
+}
+
+// The plant integrates with_perturbed_inertias(model, f, seed), not the model it was given. One
+// 0.1 ms step from rest under a fixed torque: q̇(h) = q̈(0) h + O(h³) (from rest q̈ changes only at
+// second order: its first derivative is ∂q̈/∂q q̇ = 0 and the Coriolis terms are quadratic in q̇), so
+// q̇(h)/h is M_perturbed⁻¹(τ − g_perturbed) to 1e-7 relative (measured; 1e-5 with 1 ms steps), and
+// not the nominal model's acceleration (20 % of the largest away on the UR5, 83 % on the Panda).
+// Its truth at rest, before any torque, is what the nominal model makes of that fall:
+// τ_ext = M q̈_true + g with q̈_true = −M_perturbed⁻¹ g_perturbed. A payload goes on the perturbed
+// arm: the plant with both moves bit for bit as a plant given that model.
+TEST(environment, PerturbedInertiasAreTheArmThePlantIntegrates) {
+  for (const Arm& arm : {panda_arm(), ur5_arm()}) {
+    SCOPED_TRACE(arm.name);
+    const int n = arm.model.dof();
+    const plant::InertiaPerturbation perturbation{0.2, 7};
+    const RobotModel perturbed = with_perturbed_inertias(arm.model, perturbation.fraction, perturbation.seed);
+    Data data(arm.model);
+    const Eigen::VectorXd tau = 0.5 * gravity_torques(arm.model, data, arm.q0);
+    EnvironmentOptions env;
+    env.perturbation = perturbation;
+
+    constexpr double kShortStep = 1e-4;
+    plant::Plant plant(arm.model, arm.q0, Eigen::VectorXd::Zero(n), kShortStep, 1, env);
+    plant.step(tau);
+    const Eigen::VectorXd qdd = plant.qd() / kShortStep;
+    const Eigen::VectorXd qdd_perturbed = acceleration_from_rest(perturbed, arm.q0, tau);
+    const Eigen::VectorXd qdd_nominal = acceleration_from_rest(arm.model, arm.q0, tau);
+    const double scale = qdd_perturbed.cwiseAbs().maxCoeff();
+    EXPECT_LT(max_abs_diff(qdd, qdd_perturbed) / scale, 1e-6);
+    EXPECT_GT(max_abs_diff(qdd, qdd_nominal) / scale, 0.05) << "the nominal model should not be what moves";
+
+    Rig rig(arm.model, arm.q0, lockstep(env));
+    EXPECT_TRUE(rig.simulation().publishes_truth());
+    const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
+    const Eigen::VectorXd falling = acceleration_from_rest(perturbed, arm.q0, zero);
+    const Eigen::VectorXd expected =
+        mass_matrix(arm.model, data, arm.q0) * falling + gravity_torques(arm.model, data, arm.q0);
+    const sim_truth_t& first = rig.truths().front();
+    EXPECT_TRUE(matrices_near(as_vector(first.tau_ext.data(), n), expected, 1e-9));
+    EXPECT_GT(expected.cwiseAbs().maxCoeff(), 0.5) << "the model error should weigh";
+
+    env.payload = plant::Payload{1.5, Vector3d(0.02, 0.0, 0.08)};
+    plant::Plant both(arm.model, arm.q0, Eigen::VectorXd::Zero(n), kDt, 1, env);
+    const RobotModel reference_model = plant::with_payload(perturbed, *env.payload);
+    plant::Plant reference(reference_model, arm.q0, Eigen::VectorXd::Zero(n), kDt, 1);
+    for (int k = 0; k < 200; ++k) {
+      both.step(tau);
+      reference.step(tau);
+    }
+    EXPECT_EQ(both.q(), reference.q());
+    EXPECT_EQ(both.qd(), reference.qd());
+    EXPECT_GT(max_abs_diff(both.q(), arm.q0), 1e-3) << "it should have moved";
+  }
+}
+
 // The plant's step and its truth allocate nothing, with every part of the environment in use.
 TEST(environment, StepAndTruthAllocateNothing) {
   const Arm arm = panda_arm();
@@ -593,6 +785,7 @@ TEST(environment, StepAndTruthAllocateNothing) {
   env.walls.push_back({p0 - Vector3d(0, 0, 0.005), Vector3d::UnitZ(), 1e4, 100});
   env.payload = plant::Payload{1.0, Vector3d(0, 0, 0.1)};
   env.friction = {Eigen::VectorXd::Constant(7, 0.1), Eigen::VectorXd::Constant(7, 0.5)};
+  env.perturbation = plant::InertiaPerturbation{0.2, 1};
   plant::Plant plant(arm.model, arm.q0, Eigen::VectorXd::Constant(7, 0.5), kDt, 2, env);
   const Eigen::VectorXd tau = Eigen::VectorXd::Zero(7);
   plant.step(tau);
@@ -675,6 +868,27 @@ TEST(environment, SpecsAreParsedAndCheckedWithSpecificMessages) {
   refuses([&] { plant::parse_friction("1,2,3,4,5,6,7,8,9,10,11,12,13,-14", model); },
           "--friction: joint panda_joint7: Coulomb friction -14 N*m is negative");
 
+  const plant::InertiaPerturbation perturbation = plant::parse_perturbation("0.2,18446744073709551615");
+  EXPECT_EQ(perturbation.fraction, 0.2);
+  EXPECT_EQ(perturbation.seed, UINT64_MAX) << "a seed beyond 2^53 is read whole, not as a double";
+  EXPECT_EQ(plant::parse_perturbation("0").seed, 0u);
+  const plant::EffortNoise noise = plant::parse_effort_noise("0.05,7");
+  EXPECT_EQ(noise.sigma, 0.05);
+  EXPECT_EQ(noise.seed, 7u);
+  EXPECT_EQ(plant::parse_effort_noise("0").sigma, 0.0);
+  refuses([] { plant::parse_perturbation("1"); }, "--perturb-inertia: FRACTION 1 is not in [0, 1)");
+  refuses([] { plant::parse_perturbation("-0.1,3"); }, "--perturb-inertia: FRACTION -0.1 is not in [0, 1)");
+  refuses([] { plant::parse_perturbation("twenty"); }, "--perturb-inertia: entry 0 ('twenty') is not a number");
+  refuses([] { plant::parse_perturbation("inf"); }, "--perturb-inertia: entry 0 ('inf') is not finite");
+  refuses([] { plant::parse_perturbation("0.2,-3"); }, "--perturb-inertia: SEED '-3' is not a whole number");
+  refuses([] { plant::parse_perturbation("0.2,1.5"); }, "--perturb-inertia: SEED '1.5' is not a whole number");
+  refuses([] { plant::parse_perturbation("0.2,18446744073709551616"); }, "SEED '18446744073709551616' is not");
+  refuses([] { plant::parse_perturbation("0.2,1,2"); }, "--perturb-inertia takes FRACTION[,SEED]");
+  refuses([] { plant::parse_effort_noise("-0.01"); }, "--effort-noise: SIGMA -0.01 N*m is not a standard deviation");
+  refuses([] { plant::parse_effort_noise("nan,2"); }, "--effort-noise: entry 0 ('nan') is not finite");
+  refuses([] { plant::parse_effort_noise("0.1,"); }, "--effort-noise: SEED '' is not a whole number");
+  refuses([] { plant::parse_effort_noise("x"); }, "--effort-noise: entry 0 ('x') is not a number");
+
   // In process: the same checks, naming the item.
   Bus bus("memq://");
   SimulatedClock clock;
@@ -694,6 +908,13 @@ TEST(environment, SpecsAreParsedAndCheckedWithSpecificMessages) {
   env = {};
   env.friction = {Eigen::VectorXd::Zero(6), Eigen::VectorXd::Zero(6)};
   simulation_refuses(env, "friction: has 6 viscous and 6 Coulomb coefficients; the arm has 7 joints");
+  env = {};
+  env.perturbation = plant::InertiaPerturbation{1.0, 0};
+  simulation_refuses(env, "perturbation: FRACTION 1 is not in [0, 1)");
+  SimulationOptions noisy = lockstep();
+  noisy.faults.effort_noise.sigma = -1.0;
+  refuses([&] { plant::Simulation simulation(model, noisy, q0, damping, bus, clock); },
+          "effort noise: SIGMA -1 N*m is not a standard deviation");
 }
 
 // The checked decoder of sim_truth_t (lcmtypes/checked.hpp), which every reader of TRUTH uses:

@@ -450,7 +450,8 @@ TEST(plant, StopsAfterSecondsAndFailsCleanly) {
 
 // TRUTH over the real wire: chasles_plant publishes sim_truth_t on PREFIX TRUTH right after every
 // state, with that state's seq and utime, when asked (--truth, or anything in the environment: here
-// a constant push, which the truth reports exactly as given), and never otherwise.
+// a constant push, which the truth reports exactly as given, or perturbed inertias, which its start
+// line names with their seed, as it names the effort noise's), and never otherwise.
 TEST(plant, PublishesTruthOnlyWhenAsked) {
   const RobotModel model = panda();
   Data data(model);
@@ -474,10 +475,12 @@ TEST(plant, PublishesTruthOnlyWhenAsked) {
   EXPECT_TRUE(truths.empty()) << truths.size() << " truths sent unasked";
   EXPECT_EQ(err.find("TRUTH"), std::string::npos) << err;
 
-  for (const bool push : {false, true}) {
-    SCOPED_TRACE(push ? "--push" : "--truth");
-    const auto [pushed_states, pushed_truths, pushed_err] =
-        run(push ? std::vector<std::string>{"--push", "0,100,0,0.5,0,0,0,0,-10"} : std::vector<std::string>{"--truth"});
+  const std::vector<std::vector<std::string>> askings = {
+      {"--truth"}, {"--push", "0,100,0,0.5,0,0,0,0,-10"}, {"--perturb-inertia", "0.2,7", "--effort-noise", "0.05,3"}};
+  for (const std::vector<std::string>& asking : askings) {
+    SCOPED_TRACE(asking.front());
+    const bool push = asking.front() == "--push";
+    const auto [pushed_states, pushed_truths, pushed_err] = run(asking);
     ASSERT_EQ(pushed_truths.size(), 21u);
     for (size_t k = 0; k < pushed_truths.size(); ++k) {
       const sim_truth_t& truth = pushed_truths[k];
@@ -494,6 +497,12 @@ TEST(plant, PublishesTruthOnlyWhenAsked) {
     }
     EXPECT_NE(pushed_err.find(", truth on TEST_TRUTH"), std::string::npos) << pushed_err;
     EXPECT_NE(pushed_err.find("; truths sent on TEST_TRUTH, not sent 0"), std::string::npos) << pushed_err;
+    if (asking.front() == "--perturb-inertia") {
+      EXPECT_NE(pushed_err.find("; inertias perturbed by up to +-20 % (seed 7), not the URDF's; effort reported with "
+                                "noise of sigma 0.05 N*m (seed 3)\n"),
+                std::string::npos)
+          << pushed_err;
+    }
   }
 }
 
@@ -520,6 +529,9 @@ TEST(plant, RefusesBadEnvironmentSpecs) {
   expect_refusal({"--payload", "inf"}, "--payload: entry 0 ('inf') is not finite");
   expect_refusal({"--friction", "0.1,-0.5"}, "--friction: joint panda_joint1: Coulomb friction -0.5 N*m is negative");
   expect_refusal({"--friction", "0.1,0.5,0.2"}, "--friction takes VISCOUS,COULOMB for every joint or a pair per joint");
+  expect_refusal({"--perturb-inertia", "1"}, "--perturb-inertia: FRACTION 1 is not in [0, 1)");
+  expect_refusal({"--perturb-inertia", "0.2,x"}, "--perturb-inertia: SEED 'x' is not a whole number");
+  expect_refusal({"--effort-noise", "-0.1"}, "--effort-noise: SIGMA -0.1 N*m is not a standard deviation");
 }
 
 // ---- The Drake protocols, in process and in simulated time ----
@@ -942,7 +954,8 @@ TEST(plant, DrakeRealTimeJudgesCommandsByTheStateTheirUtimeNames) {
   }
 }
 
-// Receiving a valid Drake command and encoding a Drake status allocate nothing once constructed.
+// Receiving a valid Drake command and encoding a Drake status allocate nothing once constructed,
+// the effort noise drawn.
 TEST(plant, DrakeCommandsAndStatusesAllocateNothing) {
   for (const Protocol protocol : {Protocol::kDrakeIiwa, Protocol::kDrakePanda}) {
     SCOPED_TRACE(controller::to_string(protocol));
@@ -955,7 +968,9 @@ TEST(plant, DrakeCommandsAndStatusesAllocateNothing) {
     const std::vector<uint8_t> command = protocol == Protocol::kDrakeIiwa ? bytes_of(iiwa_torques(1'003'000, tau))
                                                                           : bytes_of(panda_torques(1'003'000, tau));
     Bus bus("memq://");
-    plant::StatePublisher publisher(bus, "STATUS", 7, plant::Faults{}, 4, protocol);
+    plant::Faults faults;
+    faults.effort_noise = {0.1, 5};
+    plant::StatePublisher publisher(bus, "STATUS", 7, faults, 4, protocol);
     const plant::DriverReport report{q, tau, tau, tau, q, tau, true, 1.0, 2, 4, 1000};
     inbox.receive(command.data(), command.size());
     publisher.encode(1, 1, q, report);

@@ -5,7 +5,9 @@
 // lcmt_panda_command), so a controller can drive it as it would a KUKA iiwa or a Franka Panda. It
 // keeps itself safe: without a valid command for --timeout-ms it brakes to rest against gravity.
 // The arm can be pushed (--push), meet walls (--wall) and carry what its controller does not know
-// (--payload, --friction); the plant then publishes the truth (sim_truth_t) after every state.
+// (--payload, --friction, inertias off the URDF's with --perturb-inertia); the plant then publishes
+// the truth (sim_truth_t) after every state. --effort-noise makes the reported effort a noisy
+// sensor's.
 //
 // Errors: one line "chasles_plant: ..." on stderr; exit 2 for a usage error, 1 for bad input
 // (URDF, --q0, --damping, the environment's specs) or when LCM cannot start. SIGINT and SIGTERM
@@ -54,7 +56,7 @@ struct Options {
   std::string damping = "0";
   std::string q0;
   std::vector<std::string> pushes, walls;
-  std::string payload, friction;
+  std::string payload, friction, perturb_inertia, effort_noise;
   std::string armature;
   bool realtime = false;
   std::string protocol = "chasles", torque_semantics;
@@ -143,8 +145,8 @@ Eigen::VectorXd joint_damping(const RobotModel& model, const std::string& text) 
   return damping;
 }
 
-// --push, --wall, --payload and --friction, each checked (environment_forms.hpp and
-// core/simulation/environment.hpp say what is refused).
+// --push, --wall, --payload, --friction and --perturb-inertia, each checked (environment_forms.hpp
+// and core/simulation/environment.hpp say what is refused).
 EnvironmentOptions environment(const RobotModel& model, const Options& o) {
   try {
     EnvironmentOptions env;
@@ -152,10 +154,34 @@ EnvironmentOptions environment(const RobotModel& model, const Options& o) {
     for (const std::string& text : o.walls) env.walls.push_back(parse_wall(text));
     if (!o.payload.empty()) env.payload = parse_payload(o.payload);
     if (!o.friction.empty()) env.friction = parse_friction(o.friction, model);
+    if (!o.perturb_inertia.empty()) env.perturbation = parse_perturbation(o.perturb_inertia);
     return env;
   } catch (const chasles::ArgumentError& e) {
     throw InputError(e.what());
   }
+}
+
+EffortNoise effort_noise(const Options& o) {
+  try {
+    return o.effort_noise.empty() ? EffortNoise{} : parse_effort_noise(o.effort_noise);
+  } catch (const chasles::ArgumentError& e) {
+    throw InputError(e.what());
+  }
+}
+
+// For the start line: what the plant simulates that its controller's model and sensors lack, as
+// numbers to retake the run with (the seeds above all).
+std::string model_errors(const SimulationOptions& sim) {
+  std::string text;
+  if (const auto& p = sim.environment.perturbation) {
+    text += "; inertias perturbed by up to +-" + number(100.0 * p->fraction) + " % (seed " + std::to_string(p->seed) +
+            "), not the URDF's";
+  }
+  if (const EffortNoise& noise = sim.faults.effort_noise; noise.sigma > 0.0) {
+    text += "; effort reported with noise of sigma " + number(noise.sigma) + " N*m (seed " +
+            std::to_string(noise.seed) + ")";
+  }
+  return text;
 }
 
 // Real time: one step per period on an absolute CLOCK_MONOTONIC schedule, with the latest command
@@ -303,9 +329,20 @@ void add_options(CLI::App& app, Options& o) {
                  "Hidden joint friction on top of --damping: tau_f = -b*qd - fc*tanh(qd/v_s), one pair for every "
                  "joint or a pair per joint (N*m*s/rad, N*m); v_s is set for the RK4 step (see the docs)")
       ->type_name("B,FC[,B,FC...]");
+  app.add_option("--perturb-inertia", o.perturb_inertia,
+                 "Simulate inertias off the URDF's (which the controller keeps): every body's mass scaled by up to "
+                 "+-FRACTION, its centre of mass moved by up to FRACTION times its radius of gyration per axis, its "
+                 "spread along each principal axis scaled by up to +-FRACTION and the axes turned by up to FRACTION "
+                 "rad, physically consistent; drawn from SEED (default 0). 0 <= FRACTION < 1, e.g. 0.2")
+      ->type_name("FRACTION[,SEED]");
+  app.add_option("--effort-noise", o.effort_noise,
+                 "Gaussian noise of standard deviation SIGMA (N*m) on the effort each state reports (robot_state_t "
+                 "effort, the Drake statuses' measured torque), independent per joint and state, drawn from SEED "
+                 "(default 0); the torque applied to the arm stays the commanded one")
+      ->type_name("SIGMA[,SEED]");
   app.add_flag("--truth", o.sim.truth,
                "Publish chasles.sim_truth_t on PREFIX TRUTH after every state even with none of --push, --wall, "
-               "--payload, --friction (with any of them it is always published)");
+               "--payload, --friction, --perturb-inertia (with any of them it is always published)");
   app.add_option("--receive", o.receive,
                  "who reads the commands off the wire: 'direct', this process's step loop on its own multicast "
                  "socket (default), or 'lcm', LCM's receive thread and its hand-over")
@@ -354,9 +391,10 @@ int main(int argc, char** argv) {
       "M(q) qd / T. A command answering a state older than --max-command-lag-ms counts as none (and\n"
       "is reported). A step at which no command answering the previous state has arrived is a late\n"
       "cycle; after --max-late in a row the arm brakes the same way until a command is on time again.\n"
-      "With --push, --wall, --payload, --friction or --truth it publishes chasles.sim_truth_t on\n"
-      "PREFIX TRUTH right after every state: the external joint torque and the contact wrench the\n"
-      "nominal model (the URDF, --damping) does not contain.\n"
+      "With --push, --wall, --payload, --friction, --perturb-inertia or --truth it publishes\n"
+      "chasles.sim_truth_t on PREFIX TRUTH right after every state: the external joint torque and the\n"
+      "contact wrench the nominal model (the URDF, --damping) does not contain; with --perturb-inertia\n"
+      "the external torque includes the error of the nominal model's inertias.\n"
       "Examples:\n"
       "  tools/netns.sh chasles_plant --robot ur5.urdf --tip tool0 \\\n"
       "      --lcm-url 'udpm://239.255.76.67:7667?ttl=0'\n"
@@ -365,7 +403,8 @@ int main(int argc, char** argv) {
       "  chasles_plant --robot panda.urdf --tip panda_hand --seed 7 --drop 0.01 --delay-ms 2 --noise 1e-4\n"
       "  chasles_plant --robot panda.urdf --tip panda_hand --delay-spike-ms 5 --delay-spike-every 500\n"
       "  chasles_plant --robot panda.urdf --tip panda_hand --push 1,0.5,0.005,0,0,0,0,0,-30 \\\n"
-      "      --wall 0.5,0,0.2,0,0,1 --payload 1.5,0,0,0.1 --friction 0.1,0.5");
+      "      --wall 0.5,0,0.2,0,0,1 --payload 1.5,0,0,0.1 --friction 0.1,0.5\n"
+      "  chasles_plant --robot panda.urdf --tip panda_hand --perturb-inertia 0.2,7 --effort-noise 0.05,3");
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& e) {  // --help
@@ -400,6 +439,7 @@ int main(int argc, char** argv) {
     const Eigen::VectorXd q0 = initial_position(model, options.q0);
     const Eigen::VectorXd damping = joint_damping(model, options.damping);
     options.sim.environment = environment(model, options);
+    options.sim.faults.effort_noise = effort_noise(options);
 
     // SIGINT and SIGTERM stop the loop. They are blocked while LCM starts its receive thread, which
     // inherits the mask, so they always reach (and interrupt) the simulation thread.
@@ -442,10 +482,11 @@ int main(int argc, char** argv) {
             : std::string(chasles::controller::to_string(options.sim.protocol)) + ": status on " +
                   simulation.status_channel() + ", commands on " + simulation.command_channel() + " (torque " +
                   chasles::controller::to_string(simulation.torque_semantics()) + ")";
-    std::fprintf(stderr, "chasles_plant: %s, %d joints to %s, %g Hz %s; %s%s\n", model.name().c_str(), model.dof(),
+    std::fprintf(stderr, "chasles_plant: %s, %d joints to %s, %g Hz %s; %s%s%s\n", model.name().c_str(), model.dof(),
                  model.tip_link().c_str(), options.sim.rate_hz,
                  options.sim.lockstep ? "lockstep" : "real time (braked until the first command)", wire.c_str(),
-                 simulation.publishes_truth() ? (", truth on " + options.sim.prefix + "TRUTH").c_str() : "");
+                 simulation.publishes_truth() ? (", truth on " + options.sim.prefix + "TRUTH").c_str() : "",
+                 model_errors(options.sim).c_str());
     const int64_t end_ns = options.seconds > 0.0 ? clock.now_ns() + static_cast<int64_t>(options.seconds * 1e9)
                                                  : std::numeric_limits<int64_t>::max();
     simulation.start();

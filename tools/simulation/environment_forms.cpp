@@ -1,5 +1,7 @@
 #include "chasles/tools/simulation/environment_forms.hpp"
 
+#include <charconv>
+#include <utility>
 #include <vector>
 
 #include "chasles/core/error.hpp"
@@ -10,6 +12,27 @@ namespace {
 
 std::string count_error(const std::string& form, const std::string& counts, size_t got) {
   return form + " (" + counts + "); got " + std::to_string(got);
+}
+
+// "NUMBER[,SEED]": the number as every list entry is read, the seed a whole number that fits the
+// generator's 64 bits (a double would round seeds beyond 2^53).
+std::pair<double, uint64_t> number_and_seed(const std::string& text, const std::string& option,
+                                            const std::string& form) {
+  const size_t comma = text.find(',');
+  const std::string seed_text = comma == std::string::npos ? std::string() : text.substr(comma + 1);
+  if (seed_text.find(',') != std::string::npos) {
+    throw ArgumentError(option + " takes " + form + "; got more than two entries in '" + text + "'");
+  }
+  const std::vector<double> number = parse_number_list(text.substr(0, comma), option);
+  uint64_t seed = 0;
+  if (comma != std::string::npos) {
+    const char* end = seed_text.data() + seed_text.size();
+    const auto [stop, error] = std::from_chars(seed_text.data(), end, seed);
+    if (seed_text.empty() || error != std::errc() || stop != end) {
+      throw ArgumentError(option + ": SEED '" + seed_text + "' is not a whole number from 0 to 18446744073709551615");
+    }
+  }
+  return {number[0], seed};
 }
 
 }  // namespace
@@ -66,6 +89,20 @@ Friction parse_friction(const std::string& text, const RobotModel& model) {
   }
   check_friction(friction, model, "--friction");
   return friction;
+}
+
+InertiaPerturbation parse_perturbation(const std::string& text) {
+  const auto [fraction, seed] = number_and_seed(text, "--perturb-inertia", "FRACTION[,SEED]");
+  const InertiaPerturbation perturbation{fraction, seed};
+  check_perturbation(perturbation, "--perturb-inertia");
+  return perturbation;
+}
+
+EffortNoise parse_effort_noise(const std::string& text) {
+  const auto [sigma, seed] = number_and_seed(text, "--effort-noise", "SIGMA[,SEED]");
+  const EffortNoise noise{sigma, seed};
+  check_effort_noise(noise, "--effort-noise");
+  return noise;
 }
 
 }  // namespace chasles::plant

@@ -1,12 +1,14 @@
 // chasles_plant's command-line forms of the environment (environment.hpp in core/simulation):
-// --push, --wall, --payload and --friction as text. Each throws chasles::ArgumentError with a
-// one-line message that starts with the option and says what to give instead.
+// --push, --wall, --payload, --friction and --perturb-inertia as text, and of the sensor's
+// --effort-noise (messaging.hpp). Each throws chasles::ArgumentError with a one-line message that
+// starts with the option and says what to give instead.
 #pragma once
 
 #include <string>
 
 #include "chasles/core/model/model.hpp"
 #include "chasles/core/simulation/environment.hpp"
+#include "chasles/tools/simulation/messaging.hpp"
 
 namespace chasles::plant {
 
@@ -18,5 +20,9 @@ Wall parse_wall(const std::string& text);
 Payload parse_payload(const std::string& text);
 /// "VISCOUS,COULOMB" for every joint, or one such pair per joint, root to tip (--friction).
 Friction parse_friction(const std::string& text, const RobotModel& model);
+/// "FRACTION[,SEED]" (--perturb-inertia): 0 ≤ FRACTION < 1, SEED a whole number (default 0).
+InertiaPerturbation parse_perturbation(const std::string& text);
+/// "SIGMA[,SEED]" (--effort-noise): SIGMA ≥ 0 in N·m, SEED a whole number (default 0).
+EffortNoise parse_effort_noise(const std::string& text);
 
 }  // namespace chasles::plant

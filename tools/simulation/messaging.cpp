@@ -7,6 +7,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "chasles/core/error.hpp"
 #include "chasles/lcmtypes/checked.hpp"
 
 namespace chasles::plant {
@@ -145,9 +146,25 @@ void CommandInbox::report_rejections(int64_t now_ns) {
   last_report_ns_ = now_ns;
 }
 
+void check_effort_noise(const EffortNoise& noise, const std::string& what) {
+  if (!(noise.sigma >= 0.0) || !std::isfinite(noise.sigma)) {
+    char text[64];
+    std::snprintf(text, sizeof(text), "%g", noise.sigma);
+    throw ArgumentError(what + ": SIGMA " + text +
+                        " N*m is not a standard deviation (a finite number >= 0; 0 for no noise)");
+  }
+}
+
 StatePublisher::StatePublisher(Bus& bus, std::string channel, int num_joints, const Faults& faults,
                                int max_in_flight, Protocol protocol)
-    : bus_(bus), channel_(std::move(channel)), faults_(faults), protocol_(protocol), rng_(faults.seed) {
+    : bus_(bus),
+      channel_(std::move(channel)),
+      faults_(faults),
+      protocol_(protocol),
+      rng_(faults.seed),
+      effort_rng_(faults.effort_noise.seed),
+      measured_effort_(Eigen::VectorXd::Zero(num_joints)) {
+  check_effort_noise(faults.effort_noise, "effort noise");
   const auto n = static_cast<size_t>(num_joints);
   size_t size = 0;
   switch (protocol) {
@@ -188,15 +205,33 @@ StatePublisher::StatePublisher(Bus& bus, std::string channel, int num_joints, co
 
 double StatePublisher::noisy(double q) { return q + (faults_.noise > 0.0 ? faults_.noise * gaussian_(rng_) : 0.0); }
 
+// Box–Muller: two uniforms from the generator's top 53 bits give two independent standard normals,
+// joints (0, 1), (2, 3), … in turn; an odd arm's last second draw goes unused. u₁ ∈ (0, 1] keeps
+// the logarithm finite, which bounds a draw at √(2 · 53 ln 2) ≈ 8.6 σ.
+const Eigen::VectorXd& StatePublisher::measured(const Eigen::VectorXd& effort) {
+  const double sigma = faults_.effort_noise.sigma;
+  if (sigma == 0.0) return effort;
+  const Eigen::Index n = effort.size();
+  for (Eigen::Index i = 0; i < n; i += 2) {
+    const double u1 = static_cast<double>((effort_rng_() >> 11) + 1) * 0x1.0p-53;
+    const double u2 = static_cast<double>(effort_rng_() >> 11) * 0x1.0p-53;
+    const double r = sigma * std::sqrt(-2.0 * std::log(u1)), angle = 2.0 * kPi * u2;
+    measured_effort_[i] = effort[i] + r * std::cos(angle);
+    if (i + 1 < n) measured_effort_[i + 1] = effort[i + 1] + r * std::sin(angle);
+  }
+  return measured_effort_;
+}
+
 void StatePublisher::encode(int64_t utime, int64_t seq, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                             const Eigen::VectorXd& effort) {
   message_.utime = utime;
   message_.seq = seq;
+  const Eigen::VectorXd& effort_measured = measured(effort);
   for (size_t i = 0; i < message_.position.size(); ++i) {
     const auto j = static_cast<Eigen::Index>(i);
     message_.position[i] = noisy(q[j]);
     message_.velocity[i] = qd[j];
-    message_.effort[i] = effort[j];
+    message_.effort[i] = effort_measured[j];
   }
   message_.encode(bytes_.data(), 0, static_cast<int>(bytes_.size()));
 }
@@ -218,13 +253,14 @@ void StatePublisher::encode(int64_t utime, int64_t seq, const Eigen::VectorXd& q
 void StatePublisher::encode_iiwa(int64_t utime, const Eigen::VectorXd& q, const DriverReport& report) {
   iiwa_.utime = utime;
   const double nan = std::numeric_limits<double>::quiet_NaN();
+  const Eigen::VectorXd& effort_measured = measured(report.effort);
   for (size_t i = 0; i < iiwa_.joint_position_measured.size(); ++i) {
     const auto j = static_cast<Eigen::Index>(i);
     iiwa_.joint_position_measured[i] = noisy(q[j]);
     iiwa_.joint_velocity_estimated[i] = report.qd[j];
     iiwa_.joint_position_commanded[i] = report.position_commanded[j];
     iiwa_.joint_position_ipo[i] = report.commanding ? report.position_commanded[j] : nan;
-    iiwa_.joint_torque_measured[i] = -report.effort[j];
+    iiwa_.joint_torque_measured[i] = -effort_measured[j];
     iiwa_.joint_torque_commanded[i] = -report.torque_commanded[j];
     iiwa_.joint_torque_external[i] = report.tau_ext[j];
   }
@@ -235,6 +271,7 @@ void StatePublisher::encode_iiwa(int64_t utime, const Eigen::VectorXd& q, const 
 // included), tau_J_d the command without gravity, tau_ext_hat_filtered negated.
 void StatePublisher::encode_panda(int64_t utime, const Eigen::VectorXd& q, const DriverReport& report) {
   panda_.utime = utime;
+  const Eigen::VectorXd& effort_measured = measured(report.effort);
   for (size_t i = 0; i < panda_.joint_position.size(); ++i) {
     const auto j = static_cast<Eigen::Index>(i);
     panda_.joint_position[i] = noisy(q[j]);
@@ -242,7 +279,7 @@ void StatePublisher::encode_panda(int64_t utime, const Eigen::VectorXd& q, const
     panda_.joint_velocity[i] = report.qd[j];
     panda_.joint_velocity_desired[i] = 0.0;
     panda_.joint_acceleration_desired[i] = 0.0;
-    panda_.joint_torque[i] = report.effort[j];
+    panda_.joint_torque[i] = effort_measured[j];
     panda_.joint_torque_desired[i] = report.torque_desired[j];
     panda_.joint_torque_external[i] = -report.tau_ext[j];
   }

@@ -135,6 +135,20 @@ class CommandInbox {
   char reason_[160] = {};
 };
 
+/// Gaussian noise on the effort a state reports — robot_state_t's effort, the iiwa's
+/// joint_torque_measured, the Panda's joint_torque (tau_J) — as a joint torque sensor's: an
+/// independent draw per joint for every state produced, from a generator of its own (Box–Muller on
+/// std::mt19937_64's bits, the same sequence on every platform; std::normal_distribution's is not).
+/// On the report only: the torque the dynamics get, the commanded torques Drake's statuses also
+/// carry and the truth are exact.
+struct EffortNoise {
+  double sigma = 0.0;  ///< standard deviation, N·m or N; ≥ 0 (0: none)
+  uint64_t seed = 0;
+};
+
+/// Throws chasles::ArgumentError "<what>: ..." when sigma is negative or not finite.
+void check_effort_noise(const EffortNoise& noise, const std::string& what);
+
 /// Seeded fault injection on outgoing states.
 struct Faults {
   double drop = 0.0;      ///< probability that a state message is not sent
@@ -145,14 +159,17 @@ struct Faults {
   double spike_ms = 0.0;
   int64_t spike_every = 0;
   bool spikes() const { return spike_ms > 0.0 && spike_every > 0; }
-  uint64_t seed = 0;
+  uint64_t seed = 0;  ///< of the drops and the position noise
+  EffortNoise effort_noise;
 };
 
 /// What a Drake driver reports beside the measured state, for one status (see docs/protocols.md,
 /// "The plant speaks them too", for each field).
 struct DriverReport {
   const Eigen::VectorXd& qd;      ///< the plant's exact velocity (no driver filter)
-  const Eigen::VectorXd& effort;  ///< the joint torque applied over the last step (limits applied), g included
+  /// The joint torque applied over the last step (limits applied), g included; reported with the
+  /// effort noise.
+  const Eigen::VectorXd& effort;
   /// What the driver handed the joints, before the limits: the command (+ g under overlay), or the brake.
   const Eigen::VectorXd& torque_commanded;
   const Eigen::VectorXd& torque_desired;      ///< the command as received, without the driver's gravity
@@ -166,19 +183,19 @@ struct DriverReport {
 };
 
 /// Encodes the protocol's status into a preallocated buffer and publishes it, dropped, delayed and
-/// noisy as `faults` asks.
+/// noisy (position and effort) as `faults` asks.
 class StatePublisher {
  public:
   /// `max_in_flight`: how many delayed messages can wait at once; one more is dropped.
   StatePublisher(Bus& bus, std::string channel, int num_joints, const Faults& faults, int max_in_flight,
                  Protocol protocol = Protocol::kChasles);
 
-  /// Encodes a robot_state_t (chasles's protocol); the position gets the sensor noise here, so a
-  /// state sent again is the same message.
+  /// Encodes a robot_state_t (chasles's protocol); the position and the effort get the sensor
+  /// noise here, so a state sent again is the same message.
   void encode(int64_t utime, int64_t seq, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
               const Eigen::VectorXd& effort);
   /// Encodes the protocol's status (any protocol: chasles's takes utime, seq, q, qd and effort);
-  /// the measured position gets the sensor noise.
+  /// the measured position and torque get the sensor noise.
   void encode(int64_t utime, int64_t seq, const Eigen::VectorXd& q, const DriverReport& report);
   /// Sends the last encoded state: dropped with probability faults.drop, else now or after the delay.
   void send(int64_t now_ns);
@@ -194,6 +211,8 @@ class StatePublisher {
   };
   void publish(const std::vector<uint8_t>& bytes);
   double noisy(double q);
+  /// The effort as the sensor reports it: `effort` plus this state's draw of the effort noise.
+  const Eigen::VectorXd& measured(const Eigen::VectorXd& effort);
   void encode_iiwa(int64_t utime, const Eigen::VectorXd& q, const DriverReport& report);
   void encode_panda(int64_t utime, const Eigen::VectorXd& q, const DriverReport& report);
 
@@ -210,6 +229,8 @@ class StatePublisher {
   std::mt19937_64 rng_;
   std::uniform_real_distribution<double> uniform_{0.0, 1.0};
   std::normal_distribution<double> gaussian_{0.0, 1.0};
+  std::mt19937_64 effort_rng_;
+  Eigen::VectorXd measured_effort_;
   int64_t dropped_ = 0;
   int64_t sends_ = 0;          // states handed to send(), for the spikes
   int64_t spike_end_ns_ = 0;   // the current spike holds states until then
