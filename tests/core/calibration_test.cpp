@@ -191,7 +191,7 @@ TEST(calibration, RedundanciesAreExplained) {
   const std::vector<Measurement> rows = measure(truth, 60, 6, 0.0, 0.0, false);
   const MeasurementModel model(nominal, truth.T_tracker_base, truth.T_tip_marker, 1e-4, 1e-3);
   const Identifiability id = analyse_identifiability(model, rows, Eigen::VectorXd::Zero(model.num_parameters()), true, 1e-6);
-  const ParameterLayout& layout = model.layout();
+  const CalibrationLayout& layout = model.layout();
   auto fixed = [&](int index) -> const FixedParameter* {
     for (const FixedParameter& f : id.fixed) {
       if (f.index == index) return &f;
