@@ -1,6 +1,7 @@
-// chasles_calibrate: offline kinematic calibration (chasles::calibration, Ceres).
-//   fit    a dataset of joint positions and tracker measurements → a corrected URDF and a report
-//   synth  a synthetic dataset from a perturbed copy of the robot, to test and to rehearse with
+// chasles_calibrate: offline calibration (chasles::calibration, chasles::identification, Ceres).
+//   fit       a dataset of joint positions and tracker measurements → a corrected URDF and a report
+//   synth     a synthetic dataset from a perturbed copy of the robot, to test and to rehearse with
+//   dynamics  an LCM log of the arm moving → its identified inertias, friction and rotors in its URDF
 // Errors: one line "chasles_calibrate: ..." on stderr and nothing written; exit 2 for a usage error,
 // 1 for bad input (URDF, dataset, too few rows, a file that cannot be written).
 #include <iostream>
@@ -20,7 +21,9 @@ int fail(const std::string& message, int code) { return chasles::tools::fail("ch
 int main(int argc, char** argv) {
   using namespace chasles::calibrate_cli;
 
-  CLI::App app("chasles_calibrate: kinematic calibration of a serial arm from tracker measurements", "chasles_calibrate");
+  CLI::App app("chasles_calibrate: kinematic calibration of a serial arm from tracker measurements, and dynamic "
+               "identification from its logs",
+               "chasles_calibrate");
   app.set_version_flag("--version", std::string("chasles_calibrate ") + CHASLES_VERSION);
   app.require_subcommand(1);
   app.footer(
@@ -28,8 +31,10 @@ int main(int argc, char** argv) {
       "  chasles_calibrate synth --urdf panda.urdf --tip panda_hand --seed 3 --n 200 --out data.csv --truth truth.urdf\n"
       "  chasles_calibrate fit --urdf panda.urdf --tip panda_hand --data data.csv --holdout 0.2 \\\n"
       "      --out corrected.urdf --report report.json\n"
+      "  chasles_calibrate dynamics --urdf panda.urdf --tip panda_hand --log run.lcmlog --out identified.urdf \\\n"
+      "      --report identified.json\n"
       "Run 'chasles_calibrate COMMAND --help' for a command's input and output.");
-  const std::vector<Command> commands = {register_fit(app), register_synth(app)};
+  const std::vector<Command> commands = {register_fit(app), register_synth(app), register_dynamics(app)};
 
   try {
     app.parse(argc, argv);
@@ -39,7 +44,7 @@ int main(int argc, char** argv) {
     std::string help = "chasles_calibrate --help";
     for (const CLI::App* sub : app.get_subcommands()) help = "chasles_calibrate " + sub->get_name() + " --help";
     if (app.get_subcommands().empty() && argc > 1 && argv[1][0] != '-') {
-      return fail(std::string("unknown command '") + argv[1] + "' (commands: fit, synth; see '" + help + "')", 2);
+      return fail(std::string("unknown command '") + argv[1] + "' (commands: fit, synth, dynamics; see '" + help + "')", 2);
     }
     return fail(std::string(e.what()) + " (see '" + help + "')", 2);
   }
