@@ -310,7 +310,7 @@ std::string base_parameter_expression(const RobotModel& model, const BaseParamet
   for (size_t j = 0; j < base.dependent.size(); ++j) {
     const double c = base.K(k, static_cast<Eigen::Index>(j));
     if (std::abs(c) <= 1e-12) continue;
-    text += (c < 0.0 ? " - " : " + ") + (std::abs(c) == 1.0 ? std::string() : number(std::abs(c), 6) + "*") +
+    text += (c < 0.0 ? " - " : " + ") + (std::abs(std::abs(c) - 1.0) < 1e-9 ? std::string() : number(std::abs(c), 6) + "*") +
             parameter_name(model, base.dependent[j]);
   }
   return text;

@@ -139,7 +139,7 @@ std::string parameter_name(const RobotModel& model, int index);
 std::string parameter_unit(const RobotModel& model, int index);
 
 /// β_k as text, "panda_link2.Izz + 0.0924*panda_link3.m - ...": its base column and the dependent
-/// parameters folded into it (coefficients of magnitude below 1e-12 left out).
+/// parameters folded into it (coefficients of magnitude below 1e-12 left out, ±1 as a sign alone).
 std::string base_parameter_expression(const RobotModel& model, const BaseParameters& base, int k);
 
 }  // namespace chasles
