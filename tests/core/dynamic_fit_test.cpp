@@ -139,9 +139,10 @@ TEST(dynamicFit, RecoversTheTrueBaseParametersWithinTheirStandardErrors) {
   const double rms_z = std::sqrt(z.squaredNorm() / static_cast<double>(z.size()));
   EXPECT_GT(rms_z, 0.3);
   EXPECT_LT(rms_z, 2.0);
-  std::printf("base parameters: max |z| %.2f (%s), RMS z %.2f; fit %.3f s (solver %.3f s, %d iterations)\n",
+  std::printf("base parameters: max |z| %.2f (%s), RMS z %.2f; %d samples fitted, condition number %.3g (%.3g with "
+              "unit columns); fit %.3f s (solver %.3f s, %d iterations)\n",
               std::abs(z[worst]), base_parameter_expression(panda(), r.base, static_cast<int>(worst)).c_str(), rms_z,
-              r.seconds, r.solver_seconds, r.iterations);
+              r.fit_samples, r.condition_number, r.condition_number_scaled, r.seconds, r.solver_seconds, r.iterations);
 }
 
 TEST(dynamicFit, PredictsHeldOutTorquesToTheNoise) {
