@@ -29,7 +29,9 @@
 //      armature a, bounded below by 0, by Levenberg-Marquardt (Ceres). One residual per torque
 //      sample, (Y π(θ) − τ) / σ_i, under a Huber loss (δ = 1.345, 95 % efficient for Gaussian
 //      noise, bounded for the rest). The torques determine only β; the other 13 n − r directions
-//      are settled by a prior holding each body's θ to the nominal body's: residuals
+//      are settled by a prior holding each body's θ to the nominal body's (one the URDF leaves on
+//      the boundary of the physical set — massless, a point mass — with a small ball added: 1 % of
+//      the mean body mass, radius ℓ, at its centre of mass): residuals
 //      w (θ − θ_nominal), the log-mass and log-radii as they are, the centre of mass and the
 //      Cholesky factor's off-diagonal in units of ℓ = 0.1 m, w = 1 — a body twice or half the
 //      size, or its centre of mass 10 cm away, costs as much as one torque sample one σ off. The

@@ -292,13 +292,16 @@ TEST(calibrateCli, HelpDescribesTheOutput) {
 // --- dynamics ----------------------------------------------------------------------------------
 
 /// The samples as the arm's driver would have sent them: robot_state_t on `channel`, encoded by
-/// lcm-gen's code, in a log written by LCM's own LogFile, stamped from an epoch time.
-void write_state_log(const std::string& path, const JointSamples& samples, const std::string& channel) {
+/// lcm-gen's code, in a log written by LCM's own LogFile, stamped from an epoch time; every
+/// `repeat_every`-th state sent twice, as a sender repeats a state it has nothing newer than.
+void write_state_log(const std::string& path, const JointSamples& samples, const std::string& channel,
+                     int repeat_every = 0) {
   lcm::LogFile log(path, "w");
   ASSERT_TRUE(log.good()) << path;
   const int n = static_cast<int>(samples.q.rows());
   const int64_t start = 1'800'000'000'000'000;  // µs since the epoch, in 2027
   std::vector<uint8_t> bytes;
+  int64_t events = 0;
   for (Eigen::Index k = 0; k < samples.t.size(); ++k) {
     robot_state_t state;
     state.utime = start + std::llround(samples.t[k] * 1e6);
@@ -310,13 +313,16 @@ void write_state_log(const std::string& path, const JointSamples& samples, const
     }
     bytes.resize(static_cast<size_t>(state.getEncodedSize()));
     ASSERT_EQ(state.encode(bytes.data(), 0, static_cast<int>(bytes.size())), static_cast<int>(bytes.size()));
-    lcm::LogEvent event;
-    event.eventnum = k;
-    event.timestamp = state.utime + 150;  // received a little after it was stamped
-    event.channel = channel;
-    event.datalen = static_cast<int32_t>(bytes.size());
-    event.data = bytes.data();
-    ASSERT_EQ(log.writeEvent(&event), 0);
+    const bool twice = repeat_every > 0 && k % repeat_every == repeat_every - 1;
+    for (int copy = 0; copy < (twice ? 2 : 1); ++copy) {
+      lcm::LogEvent event;
+      event.eventnum = events++;
+      event.timestamp = state.utime + 150 + copy;  // received a little after it was stamped
+      event.channel = channel;
+      event.datalen = static_cast<int32_t>(bytes.size());
+      event.data = bytes.data();
+      ASSERT_EQ(log.writeEvent(&event), 0);
+    }
   }
 }
 
@@ -330,7 +336,7 @@ const Robot kPandaTcp{data_path("panda.urdf"), "panda_hand_tcp"};  // testing::p
 TEST(calibrateCli, DynamicsIdentifiesTheArmFromItsLog) {
   const ScratchDir dir;
   const TrueArm truth = perturbed_panda(7);
-  write_state_log(dir / "run.lcmlog", synthetic_run(truth, 12.0, 500.0, kEffortNoise, 11), "CHASLES_STATE");
+  write_state_log(dir / "run.lcmlog", synthetic_run(truth, 12.0, 500.0, kEffortNoise, 11), "CHASLES_STATE", 100);
   const RunResult result = run({"dynamics", "--urdf", kPandaTcp.urdf, "--tip", kPandaTcp.tip, "--log", dir / "run.lcmlog",
                                 "--out", dir / "identified.urdf", "--report", dir / "identified.json"});
   ASSERT_EQ(result.exit_code, 0) << result.err;
@@ -358,6 +364,7 @@ TEST(calibrateCli, DynamicsIdentifiesTheArmFromItsLog) {
   }
   const json& samples = report.at("samples");
   EXPECT_EQ(samples.at("states"), 6000);
+  EXPECT_EQ(samples.at("repeated_states_left_out"), 60);
   EXPECT_EQ(samples.at("decimation"), 20);
   EXPECT_EQ(samples.at("held_out_blocks"), json::array({2, 7}));
   EXPECT_GT(report.at("solver").at("fit_seconds").get<double>(), 0.0);

@@ -165,8 +165,10 @@ void print_summary(const DynamicsOptions& o, const RobotModel& nominal, const Dy
   std::cout << line;
   std::snprintf(line, sizeof line, "base parameters: %d of %d (theory), condition number %.3g (%.3g with unit columns)\n",
                 r.rank, r.base.count, r.condition_number, r.condition_number_scaled);
-  std::cout << line << "held-out torque RMS   nominal -> identified\n";
-  for (int i = 0; i < nominal.dof(); ++i) {
+  std::cout << line;
+  if (r.holdout_samples == 0) std::cout << "no data held out: nothing to judge the fit on\n";
+  if (r.holdout_samples > 0) std::cout << "held-out torque RMS   nominal -> identified\n";
+  for (int i = 0; i < nominal.dof() && r.holdout_samples > 0; ++i) {
     std::snprintf(line, sizeof line, "  %-18s %9.4f -> %.4f\n", nominal.joint(i).name.c_str(), r.holdout_rms_nominal[i],
                   r.holdout_rms[i]);
     std::cout << line;

@@ -38,7 +38,9 @@ StateLog read_states(const std::string& path, const std::string& channel) {
                              " joints, where the first had " + std::to_string(log.joints));
       continue;
     }
-    if (!log.utime.empty() && state.seq <= last_seq) {
+    // The same seq is the same state sent again; a smaller one is a sender restarted, whose
+    // states are new (their times say where they belong).
+    if (!log.utime.empty() && state.seq == last_seq) {
       ++log.repeated;
       continue;
     }

@@ -16,7 +16,7 @@ struct StateLog {
   std::vector<double> position;       ///< joints per state, state after state
   std::vector<double> velocity;
   std::vector<double> effort;
-  int64_t repeated = 0;               ///< states sent again (seq not after the last one's), left out
+  int64_t repeated = 0;               ///< states sent again (the last one's seq), left out
   std::vector<std::string> problems;  ///< damage and undecodable messages, each "byte N: ...", left out
 };
 
