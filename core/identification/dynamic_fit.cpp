@@ -331,27 +331,30 @@ RobotModel identified_model(const RobotModel& nominal, const Eigen::VectorXd& pi
 // The fit
 // ---------------------------------------------------------------------------------------------
 
-DynamicFitResult identify_dynamics(const RobotModel& nominal, const JointSamples& samples,
-                                   const DynamicFitOptions& options) {
-  const Timer timer;
+namespace {
+
+// Steps 1 and 3, what every fit from a log does first: the checks, the filtering, the split.
+struct LogSplit {
+  Prepared data;
+  std::vector<int> fit, holdout;  ///< columns of data; each held-out one has its predecessor in data
+};
+
+LogSplit split_log(const RobotModel& model, const JointSamples& samples, const DynamicFitOptions& options, LogUse& use) {
   check_options(options);
-  check_samples(nominal, samples);
-  const int n = nominal.dof();
-  const ParameterLayout layout = parameter_layout(nominal);
-  const int p = layout.size();
+  check_samples(model, samples);
+  const int n = model.dof();
   const Eigen::Index N = samples.t.size();
   if (N < 4) {
     throw IdentificationError("the log holds " + std::to_string(N) +
                               " samples; a fit needs seconds of an arm moving, thousands of samples");
   }
-  DynamicFitResult result;
-  result.samples = static_cast<int>(N);
-  result.duration_s = samples.t[N - 1] - samples.t[0];
+  use.samples = static_cast<int>(N);
+  use.duration_s = samples.t[N - 1] - samples.t[0];
   const double dt = median_step(samples.t);
-  result.sample_rate_hz = 1.0 / dt;
-  if (!(options.cutoff_hz < 0.5 * result.sample_rate_hz)) {
+  use.sample_rate_hz = 1.0 / dt;
+  if (!(options.cutoff_hz < 0.5 * use.sample_rate_hz)) {
     throw IdentificationError("the cut-off " + number(options.cutoff_hz) + " Hz is not below the log's Nyquist frequency " +
-                              number(0.5 * result.sample_rate_hz) + " Hz (a sample every " + number(dt * 1e3) +
+                              number(0.5 * use.sample_rate_hz) + " Hz (a sample every " + number(dt * 1e3) +
                               " ms): choose a lower cut-off");
   }
 
@@ -360,7 +363,7 @@ DynamicFitResult identify_dynamics(const RobotModel& nominal, const JointSamples
   for (int i = 0; i < n; ++i) {
     const double range = samples.q.row(i).maxCoeff() - samples.q.row(i).minCoeff();
     if (range < options.min_range) {
-      still += (still.empty() ? "" : ", ") + ("'" + joint_name(nominal, i) + "' (range " + number(range) + ")");
+      still += (still.empty() ? "" : ", ") + ("'" + joint_name(model, i) + "' (range " + number(range) + ")");
     }
   }
   if (!still.empty()) {
@@ -369,14 +372,15 @@ DynamicFitResult identify_dynamics(const RobotModel& nominal, const JointSamples
                               " rad or m; run an excitation trajectory that moves every joint");
   }
 
-  const LowPassFilter filter = butterworth_low_pass(options.filter_order, options.cutoff_hz, result.sample_rate_hz);
-  const Prepared data = prepare(samples, filter, dt);
-  result.segments = static_cast<int>(data.segment.size()) - 1;
-  result.dropped_samples = data.dropped;
+  LogSplit split;
+  const LowPassFilter filter = butterworth_low_pass(options.filter_order, options.cutoff_hz, use.sample_rate_hz);
+  split.data = prepare(samples, filter, dt);
+  const Prepared& data = split.data;
+  use.segments = static_cast<int>(data.segment.size()) - 1;
+  use.dropped_samples = data.dropped;
   // (A hair over the quotient, so that 500 Hz over 25 Hz is 20 even when the times' rounding
   // makes the rate 499.99999 Hz.)
-  result.decimation =
-      std::max(1, static_cast<int>(std::floor(result.sample_rate_hz / (2.5 * options.cutoff_hz) + 1e-6)));
+  use.decimation = std::max(1, static_cast<int>(std::floor(use.sample_rate_hz / (2.5 * options.cutoff_hz) + 1e-6)));
 
   // Held-out blocks, H of B spread evenly: block b holds t in [t0 + b T / B, t0 + (b + 1) T / B).
   const int B = options.holdout_blocks;
@@ -385,49 +389,70 @@ DynamicFitResult identify_dynamics(const RobotModel& nominal, const JointSamples
   for (int h = 0; h < H; ++h) {
     const int b = static_cast<int>(std::floor((h + 0.5) * B / H));
     held[static_cast<size_t>(b)] = true;
-    result.holdout_blocks.push_back(b);
+    use.holdout_blocks.push_back(b);
   }
   const auto block_of = [&](double t) {
-    const double u = (t - samples.t[0]) / result.duration_s;
+    const double u = (t - samples.t[0]) / use.duration_s;
     return std::min(B - 1, static_cast<int>(std::floor(u * B)));
   };
-  std::vector<int> fit_columns, holdout_columns;
   for (size_t s = 0; s + 1 < data.segment.size(); ++s) {
     for (int c = data.segment[s]; c < data.segment[s + 1]; ++c) {
       if (held[static_cast<size_t>(block_of(data.t[c]))]) {
-        if (c > data.segment[s]) holdout_columns.push_back(c);  // its predecessor is needed
-      } else if ((c - data.segment[s]) % result.decimation == 0) {
-        fit_columns.push_back(c);
+        if (c > data.segment[s]) split.holdout.push_back(c);  // its predecessor is needed
+      } else if ((c - data.segment[s]) % use.decimation == 0) {
+        split.fit.push_back(c);
       }
     }
   }
-  result.fit_samples = static_cast<int>(fit_columns.size());
-  result.holdout_samples = static_cast<int>(holdout_columns.size());
-  result.holdout_seconds = result.holdout_samples * dt;
+  use.fit_samples = static_cast<int>(split.fit.size());
+  use.holdout_samples = static_cast<int>(split.holdout.size());
+  use.holdout_seconds = use.holdout_samples * dt;
+  return split;
+}
 
+// The log must give 3 torques per fitted parameter, and something to judge the fit on.
+void check_length(const LogUse& use, int joints, int parameters, const std::string& what,
+                  const DynamicFitOptions& options) {
+  const int rows = use.fit_samples * joints;
+  if (rows >= 3 * parameters && (use.holdout_blocks.empty() || use.holdout_samples > 0)) return;
+  const double dt = 1.0 / use.sample_rate_hz;
+  const double needed = std::ceil(3.0 * parameters / joints) * use.decimation * dt / (1.0 - options.holdout) +
+                        4.0 / options.cutoff_hz;
+  throw IdentificationError("the log is too short: " + number(use.duration_s) + " s at " + number(use.sample_rate_hz) +
+                            " Hz give " + std::to_string(use.fit_samples) + " samples to fit (" + std::to_string(rows) +
+                            " torques) for " + std::to_string(parameters) + " " + what + ", and " +
+                            std::to_string(use.holdout_samples) +
+                            " held out; the fit needs 3 torques per parameter: log at least " +
+                            number(std::max(needed, 4.0 * options.holdout_blocks * dt)) + " s" +
+                            (use.dropped_samples > 0 ? " without gaps (" + std::to_string(use.dropped_samples) +
+                                                           " samples lay between gaps too close to filter)"
+                                                     : ""));
+}
+
+}  // namespace
+
+DynamicFitResult identify_dynamics(const RobotModel& nominal, const JointSamples& samples,
+                                   const DynamicFitOptions& options) {
+  const Timer timer;
+  DynamicFitResult result;
+  const LogSplit split = split_log(nominal, samples, options, result.log);
+  const Prepared& data = split.data;
+  const std::vector<int>& fit_columns = split.fit;
+  const std::vector<int>& holdout_columns = split.holdout;
+  const int n = nominal.dof();
+  const ParameterLayout layout = parameter_layout(nominal);
+  const int p = layout.size();
   result.base = base_parameters(nominal, 100, options.seed);
   const BaseParameters& base = result.base;
   const int r = base.count;
-  const int rows = result.fit_samples * n;
-  if (rows < 3 * r || (H > 0 && result.holdout_samples == 0)) {
-    const double needed =
-        std::ceil(3.0 * r / n) * result.decimation * dt / (1.0 - options.holdout) + 4.0 / options.cutoff_hz;
-    throw IdentificationError("the log is too short: " + number(result.duration_s) + " s at " +
-                              number(result.sample_rate_hz) + " Hz give " + std::to_string(result.fit_samples) +
-                              " samples to fit (" + std::to_string(rows) + " torques) for " + std::to_string(r) +
-                              " base parameters, and " + std::to_string(result.holdout_samples) +
-                              " held out; the fit needs 3 torques per parameter: log at least " +
-                              number(std::max(needed, 4.0 * B / result.sample_rate_hz)) + " s" +
-                              (result.dropped_samples > 0 ? " without gaps (" + std::to_string(result.dropped_samples) +
-                                                                " samples lay between gaps too close to filter)"
-                                                          : ""));
-  }
+  check_length(result.log, n, r, "base parameters", options);
+  const int rows = result.log.fit_samples * n;
 
   // Step 4: the stacked regressor, Coulomb's columns filtered as τ is.
   RegressorWorkspace workspace(nominal);
   RowMajorMatrix W(rows, p);
   Eigen::VectorXd y(rows);
-  for (int s = 0; s < result.fit_samples; ++s) {
+  for (int s = 0; s < result.log.fit_samples; ++s) {
     const int c = fit_columns[static_cast<size_t>(s)];
     W.middleRows(s * n, n) = joint_torque_regressor(nominal, workspace, data.q.col(c), data.qd.col(c), data.qdd.col(c));
     for (int i = 0; i < n; ++i) W(s * n + i, layout.coulomb(i)) = data.coulomb(i, c);
@@ -441,7 +466,7 @@ DynamicFitResult identify_dynamics(const RobotModel& nominal, const JointSamples
   const auto joint_rms = [&](const Eigen::VectorXd& e) {
     Eigen::VectorXd rms = Eigen::VectorXd::Zero(n);
     for (int row = 0; row < rows; ++row) rms[row % n] += e[row] * e[row];
-    return Eigen::VectorXd((rms / static_cast<double>(result.fit_samples)).cwiseSqrt());
+    return Eigen::VectorXd((rms / static_cast<double>(result.log.fit_samples)).cwiseSqrt());
   };
   // σ_i floored, so that a joint the model fits exactly does not weigh infinitely.
   const auto floored = [](Eigen::VectorXd sigma) {
@@ -526,7 +551,7 @@ DynamicFitResult identify_dynamics(const RobotModel& nominal, const JointSamples
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
   ceres::HuberLoss huber(options.huber);
-  for (int s = 0; s < result.fit_samples; ++s) {
+  for (int s = 0; s < result.log.fit_samples; ++s) {
     for (int i = 0; i < n; ++i) {
       const int row = s * n + i;
       std::vector<double*> blocks;
@@ -623,7 +648,7 @@ DynamicFitResult identify_dynamics(const RobotModel& nominal, const JointSamples
     previous.swap(now);
     previous_column = c;
   }
-  const double count = std::max(1, result.holdout_samples);
+  const double count = std::max(1, result.log.holdout_samples);
   result.holdout_rms_nominal = (sum_nominal / count).cwiseSqrt();
   result.holdout_rms = (sum / count).cwiseSqrt();
   result.seconds = timer.seconds();

@@ -90,6 +90,20 @@ struct DynamicFitOptions {
   uint64_t seed = 1;           ///< of the random states base_parameters factors
 };
 
+/// How a fit used the log (steps 1 and 3).
+struct LogUse {
+  double sample_rate_hz = 0.0;     ///< of the log (median step)
+  double duration_s = 0.0;
+  int samples = 0;                 ///< in the log
+  int segments = 0;                ///< stretches between gaps that were used
+  int dropped_samples = 0;         ///< in segments too short to filter (under 5 / f_c s)
+  int decimation = 0;              ///< one fit row every this many samples
+  int fit_samples = 0;             ///< samples whose n torques the fit used
+  int holdout_samples = 0;         ///< samples judged on held-out data
+  double holdout_seconds = 0.0;
+  std::vector<int> holdout_blocks; ///< which of the blocks were held out
+};
+
 struct DynamicFitResult {
   BaseParameters base;             ///< the structure: which combinations β of π the torques determine
   int rank = 0;                    ///< numerical rank of the log's W_b (equals base.count, or the fit refuses)
@@ -104,16 +118,7 @@ struct DynamicFitResult {
   Eigen::VectorXd holdout_rms;          ///< n
   double condition_number = 0.0;        ///< of the stacked base regressor W_b as it is (SI units)
   double condition_number_scaled = 0.0; ///< of W_b weighted by 1/σ_i and with unit columns
-  double sample_rate_hz = 0.0;     ///< of the log (median step)
-  double duration_s = 0.0;
-  int samples = 0;                 ///< in the log
-  int segments = 0;                ///< stretches between gaps that were used
-  int dropped_samples = 0;         ///< in segments too short to filter (under 5 / f_c s)
-  int decimation = 0;              ///< one fit row every this many samples
-  int fit_samples = 0;             ///< samples whose n torques the fit used
-  int holdout_samples = 0;         ///< samples judged on held-out data
-  double holdout_seconds = 0.0;
-  std::vector<int> holdout_blocks; ///< which of the blocks were held out
+  LogUse log;                      ///< how the log was used
   int iterations = 0;
   bool converged = false;
   std::string termination;         ///< Ceres's message

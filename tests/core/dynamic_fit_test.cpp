@@ -119,9 +119,9 @@ TEST(dynamicFit, FindsTheBaseParametersTheoryCounts) {
   const DynamicFitResult& r = fit().result;
   EXPECT_EQ(r.base.count, 62);  // 43 inertial + 14 friction + 5 rotors (regressor_test.cpp)
   EXPECT_EQ(r.rank, r.base.count);
-  EXPECT_EQ(r.decimation, 20);  // 500 Hz to 2.5 × 10 Hz
-  EXPECT_EQ(r.segments, 1);
-  EXPECT_EQ(r.holdout_blocks, (std::vector<int>{2, 7}));
+  EXPECT_EQ(r.log.decimation, 20);  // 500 Hz to 2.5 × 10 Hz
+  EXPECT_EQ(r.log.segments, 1);
+  EXPECT_EQ(r.log.holdout_blocks, (std::vector<int>{2, 7}));
   EXPECT_GT(r.condition_number, r.condition_number_scaled);  // SI units spread the columns
 }
 
@@ -142,12 +142,12 @@ TEST(dynamicFit, RecoversTheTrueBaseParametersWithinTheirStandardErrors) {
   std::printf("base parameters: max |z| %.2f (%s), RMS z %.2f; %d samples fitted, condition number %.3g (%.3g with "
               "unit columns); fit %.3f s (solver %.3f s, %d iterations)\n",
               std::abs(z[worst]), base_parameter_expression(panda(), r.base, static_cast<int>(worst)).c_str(), rms_z,
-              r.fit_samples, r.condition_number, r.condition_number_scaled, r.seconds, r.solver_seconds, r.iterations);
+              r.log.fit_samples, r.condition_number, r.condition_number_scaled, r.seconds, r.solver_seconds, r.iterations);
 }
 
 TEST(dynamicFit, PredictsHeldOutTorquesToTheNoise) {
   const DynamicFitResult& r = fit().result;
-  EXPECT_NEAR(r.holdout_samples, 1200, 2);  // 2 of 10 blocks of 12 s at 500 Hz
+  EXPECT_NEAR(r.log.holdout_samples, 1200, 2);  // 2 of 10 blocks of 12 s at 500 Hz
   for (int i = 0; i < panda().dof(); ++i) {
     EXPECT_LE(r.holdout_rms[i], 1.5 * kNoise) << panda().joint(i).name;
     EXPECT_GE(r.holdout_rms_nominal[i], 10.0 * r.holdout_rms[i]) << panda().joint(i).name;

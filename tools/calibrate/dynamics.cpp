@@ -59,19 +59,19 @@ Json report_json(const DynamicsOptions& o, const RobotModel& nominal, const cli:
   report["model"] =
       "tau = Y(q, qd, qdd) pi: RNEA of the bodies (m, h = m c, I about the body frame's origin, in the frame of "
       "the link that starts each body) plus viscous * qd + coulomb * sign(qd) + armature * qdd per joint; SI units";
-  report["samples"] = {{"states", r.samples},
+  report["samples"] = {{"states", r.log.samples},
                        {"repeated_states_left_out", log.repeated},
                        {"damaged_or_undecodable_left_out", static_cast<int>(log.problems.size())},
-                       {"rate_hz", r.sample_rate_hz},
-                       {"duration_s", r.duration_s},
-                       {"segments", r.segments},
-                       {"in_segments_too_short", r.dropped_samples},
-                       {"decimation", r.decimation},
-                       {"fit", r.fit_samples},
-                       {"fit_torques", r.fit_samples * n},
-                       {"held_out", r.holdout_samples},
-                       {"held_out_s", r.holdout_seconds},
-                       {"held_out_blocks", r.holdout_blocks},
+                       {"rate_hz", r.log.sample_rate_hz},
+                       {"duration_s", r.log.duration_s},
+                       {"segments", r.log.segments},
+                       {"in_segments_too_short", r.log.dropped_samples},
+                       {"decimation", r.log.decimation},
+                       {"fit", r.log.fit_samples},
+                       {"fit_torques", r.log.fit_samples * n},
+                       {"held_out", r.log.holdout_samples},
+                       {"held_out_s", r.log.holdout_seconds},
+                       {"held_out_blocks", r.log.holdout_blocks},
                        {"blocks", o.fit.holdout_blocks},
                        {"note",
                         "the log is cut in time into 'blocks' equal blocks and 'held_out_blocks' of them are held "
@@ -128,7 +128,7 @@ Json report_json(const DynamicsOptions& o, const RobotModel& nominal, const cli:
 
   Json torques = Json::array();
   for (int i = 0; i < n; ++i) {
-    const bool held = r.holdout_samples > 0;
+    const bool held = r.log.holdout_samples > 0;
     torques.push_back({{"joint", nominal.joint(i).name},
                        {"unit", nominal.joint(i).type == JointType::Prismatic ? "N" : "N*m"},
                        {"nominal", optional_number(held, r.holdout_rms_nominal[i])},
@@ -159,16 +159,16 @@ Json report_json(const DynamicsOptions& o, const RobotModel& nominal, const cli:
 void print_summary(const DynamicsOptions& o, const RobotModel& nominal, const DynamicFitResult& r) {
   char line[160];
   std::cout << "chasles_calibrate dynamics: " << nominal.name() << " (" << nominal.base_link() << " -> "
-            << nominal.tip_link() << "), " << r.samples << " states on " << o.channel;
-  std::snprintf(line, sizeof line, " at %.0f Hz over %.1f s: %d fitted (every %d), %d held out\n", r.sample_rate_hz,
-                r.duration_s, r.fit_samples, r.decimation, r.holdout_samples);
+            << nominal.tip_link() << "), " << r.log.samples << " states on " << o.channel;
+  std::snprintf(line, sizeof line, " at %.0f Hz over %.1f s: %d fitted (every %d), %d held out\n", r.log.sample_rate_hz,
+                r.log.duration_s, r.log.fit_samples, r.log.decimation, r.log.holdout_samples);
   std::cout << line;
   std::snprintf(line, sizeof line, "base parameters: %d of %d (theory), condition number %.3g (%.3g with unit columns)\n",
                 r.rank, r.base.count, r.condition_number, r.condition_number_scaled);
   std::cout << line;
-  if (r.holdout_samples == 0) std::cout << "no data held out: nothing to judge the fit on\n";
-  if (r.holdout_samples > 0) std::cout << "held-out torque RMS   nominal -> identified\n";
-  for (int i = 0; i < nominal.dof() && r.holdout_samples > 0; ++i) {
+  if (r.log.holdout_samples == 0) std::cout << "no data held out: nothing to judge the fit on\n";
+  if (r.log.holdout_samples > 0) std::cout << "held-out torque RMS   nominal -> identified\n";
+  for (int i = 0; i < nominal.dof() && r.log.holdout_samples > 0; ++i) {
     std::snprintf(line, sizeof line, "  %-18s %9.4f -> %.4f\n", nominal.joint(i).name.c_str(), r.holdout_rms_nominal[i],
                   r.holdout_rms[i]);
     std::cout << line;
