@@ -9,9 +9,12 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
+#include <tuple>
 
 #include "chasles/core/identification/log_cholesky.hpp"
 #include "chasles/core/identification/zero_phase_filter.hpp"
+#include "chasles/core/model/inertia.hpp"
 
 namespace chasles {
 
@@ -120,6 +123,16 @@ double median_step(const Eigen::VectorXd& t) {
   return steps[steps.size() / 2];
 }
 
+// A centred torque is the mean over the two steps about t_k, τ(t_k) + dt²/6 τ̈(t_k) + O(dt⁴); once
+// filtered, τ̈ dt² is its second difference, and taking a sixth of it off leaves the instant's
+// torque (at 500 Hz the difference is 1e-3 of a fast arm's torque, a tenth of the noise's standard
+// error on a load's mass). The ends, where there is no second difference, are trimmed anyway.
+Eigen::VectorXd at_the_instant(Eigen::VectorXd x) {
+  const Eigen::VectorXd centred = x;
+  for (Eigen::Index k = 1; k + 1 < x.size(); ++k) x[k] -= (centred[k + 1] - 2.0 * centred[k] + centred[k - 1]) / 6.0;
+  return x;
+}
+
 Prepared prepare(const JointSamples& s, const LowPassFilter& filter, double dt) {
   const Eigen::Index N = s.t.size(), n = s.q.rows();
   const Eigen::Index trim = static_cast<Eigen::Index>(std::ceil(2.0 * filter.sample_rate_hz / filter.cutoff_hz));
@@ -164,8 +177,9 @@ Prepared prepare(const JointSamples& s, const LowPassFilter& filter, double dt) 
       }
       p.qd.row(i).segment(column, kept) = qd.segment(trim, kept).transpose();
       p.qdd.row(i).segment(column, kept) = central_difference(qd, dt).segment(trim, kept).transpose();
-      p.tau_filtered.row(i).segment(column, kept) = zero_phase_filter(filter, centred).segment(trim, kept).transpose();
-      p.coulomb.row(i).segment(column, kept) = zero_phase_filter(filter, sign).segment(trim, kept).transpose();
+      p.tau_filtered.row(i).segment(column, kept) =
+          at_the_instant(zero_phase_filter(filter, centred)).segment(trim, kept).transpose();
+      p.coulomb.row(i).segment(column, kept) = at_the_instant(zero_phase_filter(filter, sign)).segment(trim, kept).transpose();
     }
     column += kept;
   }
@@ -237,6 +251,33 @@ class TorqueRow final : public ceres::CostFunction {
   const double* row_;  // Y's row, 13 n entries, owned by the fit
   ParameterLayout layout_;
   int joint_;
+  double torque_, weight_;
+};
+
+// One torque sample of the payload fit: (Y_i,last body π(θ) − (τ_i − what the arm explains)) / σ_i.
+class PayloadRow final : public ceres::SizedCostFunction<1, 10> {
+ public:
+  PayloadRow(const double* coefficients, double torque, double weight)
+      : c_(coefficients), torque_(torque), weight_(weight) {}
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    double pi[10], dpi[100];
+    const bool jacobian = jacobians != nullptr && jacobians[0] != nullptr;
+    body_parameters_and_jacobian(parameters[0], pi, jacobian ? dpi : nullptr);
+    double r = -torque_;
+    for (int k = 0; k < 10; ++k) r += c_[k] * pi[k];
+    residuals[0] = weight_ * r;
+    if (jacobian) {
+      for (int l = 0; l < 10; ++l) {
+        double sum = 0.0;
+        for (int k = 0; k < 10; ++k) sum += c_[k] * dpi[10 * k + l];
+        jacobians[0][l] = weight_ * sum;
+      }
+    }
+    return true;
+  }
+
+ private:
+  const double* c_;  // the row's ten coefficients, owned by the fit
   double torque_, weight_;
 };
 
@@ -335,6 +376,7 @@ namespace {
 
 // Steps 1 and 3, what every fit from a log does first: the checks, the filtering, the split.
 struct LogSplit {
+  LowPassFilter filter;
   Prepared data;
   std::vector<int> fit, holdout;  ///< columns of data; each held-out one has its predecessor in data
 };
@@ -373,8 +415,8 @@ LogSplit split_log(const RobotModel& model, const JointSamples& samples, const D
   }
 
   LogSplit split;
-  const LowPassFilter filter = butterworth_low_pass(options.filter_order, options.cutoff_hz, use.sample_rate_hz);
-  split.data = prepare(samples, filter, dt);
+  split.filter = butterworth_low_pass(options.filter_order, options.cutoff_hz, use.sample_rate_hz);
+  split.data = prepare(samples, split.filter, dt);
   const Prepared& data = split.data;
   use.segments = static_cast<int>(data.segment.size()) - 1;
   use.dropped_samples = data.dropped;
@@ -424,9 +466,122 @@ void check_length(const LogUse& use, int joints, int parameters, const std::stri
                             std::to_string(use.holdout_samples) +
                             " held out; the fit needs 3 torques per parameter: log at least " +
                             number(std::max(needed, 4.0 * options.holdout_blocks * dt)) + " s" +
-                            (use.dropped_samples > 0 ? " without gaps (" + std::to_string(use.dropped_samples) +
-                                                           " samples lay between gaps too close to filter)"
+                            (use.dropped_samples > 0 ? ", in stretches without gaps of at least " +
+                                                           number(5.0 / options.cutoff_hz) + " s (" +
+                                                           std::to_string(use.dropped_samples) +
+                                                           " samples lay in shorter ones, too short to filter)"
                                                      : ""));
+}
+
+// Each joint's RMS of e, rows stacked sample after sample, n per sample.
+Eigen::VectorXd joint_rms(const Eigen::VectorXd& e, int n) {
+  Eigen::VectorXd rms = Eigen::VectorXd::Zero(n);
+  for (Eigen::Index row = 0; row < e.size(); ++row) rms[row % n] += e[row] * e[row];
+  return (rms / static_cast<double>(e.size() / n)).cwiseSqrt();
+}
+
+// σ_i floored, so that a joint the model fits exactly does not weigh infinitely.
+Eigen::VectorXd floored(const Eigen::VectorXd& sigma) { return sigma.cwiseMax(1e-9 + 1e-6 * sigma.maxCoeff()); }
+
+// W with each row divided by its joint's σ.
+Eigen::MatrixXd whitened(Eigen::MatrixXd W, const Eigen::VectorXd& sigma) {
+  for (Eigen::Index row = 0; row < W.rows(); ++row) W.row(row) /= sigma[row % sigma.size()];
+  return W;
+}
+
+// The filtered noise of neighbouring fit rows is correlated — they lie 1 / (2.5 f_c) apart, within
+// the filter's memory — which (W̃ᵀ W̃)⁻¹ alone ignores. For regressors that change slowly beside
+// that memory the covariance grows by κ = Σ_l a(l D) / a(0) over all integer l, a the
+// autocorrelation of what white noise on the logged torques becomes on its way to the rows (the
+// centring, the filter, the correction to the instant: their impulse response) and D the
+// decimation: 1.39 for the defaults at 500 Hz or 1 kHz. From the filter rather than the residuals,
+// whose estimate over a short log scatters more than the correction is worth.
+double correlation_inflation(const LowPassFilter& filter, int decimation) {
+  const int pad = zero_phase_padding(filter, std::numeric_limits<Eigen::Index>::max() / 4);
+  const Eigen::Index length = 4 * static_cast<Eigen::Index>(pad) + 2, middle = 2 * static_cast<Eigen::Index>(pad);
+  Eigen::VectorXd centred = Eigen::VectorXd::Zero(length);
+  centred[middle - 1] = centred[middle] = 0.5;  // ½ (x_k + x_{k+1}) of a unit impulse at `middle`
+  const Eigen::VectorXd h = at_the_instant(zero_phase_filter(filter, centred));
+  const auto a = [&](Eigen::Index lag) { return h.head(length - lag).dot(h.tail(length - lag)); };
+  double kappa = 1.0;
+  for (Eigen::Index lag = decimation; lag < length; lag += decimation) kappa += 2.0 * a(lag) / a(0);
+  return kappa;
+}
+
+// Standard errors of x in W x ≈ y, each joint's rows weighed by its σ: √diag(κ s² (W̃ᵀ W̃)⁻¹), κ the
+// inflation for correlated rows above.
+Eigen::VectorXd standard_errors(const Eigen::MatrixXd& W, const Eigen::VectorXd& y, const Eigen::VectorXd& x,
+                                const Eigen::VectorXd& sigma, double kappa) {
+  const Eigen::Index rows = W.rows(), r = W.cols();
+  const Eigen::MatrixXd Wt = whitened(W, sigma);
+  const Eigen::VectorXd e = whitened(Eigen::MatrixXd(W * x - y), sigma);
+  const double s2 = e.squaredNorm() / static_cast<double>(rows - r);
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(Wt);
+  const Eigen::MatrixXd R_inverse =
+      qr.matrixQR().topRows(r).triangularView<Eigen::Upper>().solve(Eigen::MatrixXd::Identity(r, r));
+  return (R_inverse.rowwise().squaredNorm() * kappa * s2).cwiseSqrt();
+}
+
+// The singular values of W with unit columns, from the R of its QR (those of R D⁻¹), and V.
+Eigen::JacobiSVD<Eigen::MatrixXd> unit_column_svd(const Eigen::HouseholderQR<Eigen::MatrixXd>& qr, Eigen::Index r) {
+  const Eigen::MatrixXd R = qr.matrixQR().topRows(r).triangularView<Eigen::Upper>();
+  const Eigen::VectorXd norms = R.colwise().norm().transpose();
+  return Eigen::JacobiSVD<Eigen::MatrixXd>(R * norms.cwiseMax(1e-300).cwiseInverse().asDiagonal(), Eigen::ComputeFullV);
+}
+
+// Step 7: the held-out torque RMS of two models (π_a, π_b) against the logged τ, each predicting
+// the torque applied over each step: the trapezoid ½ (τ̂_{k−1} + τ̂_k) for every smooth term, and
+// Coulomb's mean taken up to the crossing over a step where q̇ changes sign.
+std::pair<Eigen::VectorXd, Eigen::VectorXd> holdout_rms(const RobotModel& model, const Prepared& data,
+                                                        const std::vector<int>& columns, const Eigen::VectorXd& pi_a,
+                                                        const Eigen::VectorXd& pi_b) {
+  const int n = model.dof();
+  const ParameterLayout layout = parameter_layout(model);
+  RegressorWorkspace workspace(model);
+  Eigen::VectorXd sum_a = Eigen::VectorXd::Zero(n), sum_b = Eigen::VectorXd::Zero(n);
+  Eigen::VectorXd previous_a(n), previous_b(n), now_a(n), now_b(n), step(n);
+  const auto predict = [&](int c, Eigen::VectorXd& tau_a, Eigen::VectorXd& tau_b) {
+    const Eigen::MatrixXd& Y = joint_torque_regressor(model, workspace, data.q.col(c), data.qd.col(c), data.qdd.col(c));
+    tau_a.noalias() = Y * pi_a;
+    tau_b.noalias() = Y * pi_b;
+  };
+  int previous_column = -2;
+  for (const int c : columns) {
+    if (previous_column != c - 1) predict(c - 1, previous_a, previous_b);
+    predict(c, now_a, now_b);
+    for (int i = 0; i < n; ++i) {
+      const double before = data.qd(i, c - 1), after = data.qd(i, c);
+      step[i] = mean_sign(before, after) - 0.5 * (((before > 0.0) - (before < 0.0)) + ((after > 0.0) - (after < 0.0)));
+    }
+    const auto coulomb = [&](const Eigen::VectorXd& pi) {
+      return Eigen::VectorXd(pi.segment(layout.coulomb(0), n).cwiseProduct(step));
+    };
+    sum_a += (data.tau.col(c) - 0.5 * (previous_a + now_a) - coulomb(pi_a)).cwiseAbs2();
+    sum_b += (data.tau.col(c) - 0.5 * (previous_b + now_b) - coulomb(pi_b)).cwiseAbs2();
+    previous_a.swap(now_a);
+    previous_b.swap(now_b);
+    previous_column = c;
+  }
+  const double count = std::max<double>(1.0, static_cast<double>(columns.size()));
+  return {(sum_a / count).cwiseSqrt(), (sum_b / count).cwiseSqrt()};
+}
+
+ceres::Solver::Options solver_options(const DynamicFitOptions& options, int rows) {
+  ceres::Solver::Options o;
+  // Dogleg rather than Levenberg-Marquardt: the directions only the prior holds form a long,
+  // shallow, curved valley, which LM's damped steps creep along (at a tolerance of 1e-12, 117
+  // iterations on the test's Panda, against 29 for the same optimum).
+  o.trust_region_strategy_type = ceres::DOGLEG;
+  o.linear_solver_type = ceres::DENSE_QR;
+  o.max_num_iterations = options.max_iterations;
+  o.num_threads = options.threads;
+  // Stop when an iteration gains less than 1e-4 of the whitened cost ½ Σ r², which is about half
+  // the number of rows: parameters then sit within a hundredth of a standard error of the optimum.
+  o.function_tolerance = 2e-4 / rows;
+  o.parameter_tolerance = 1e-12;
+  o.gradient_tolerance = 1e-14;
+  o.logging_type = ceres::SILENT;
+  return o;
 }
 
 }  // namespace
@@ -462,34 +617,13 @@ DynamicFitResult identify_dynamics(const RobotModel& nominal, const JointSamples
   for (int k = 0; k < r; ++k) W_b.col(k) = W.col(base.independent[static_cast<size_t>(k)]);
 
   const Eigen::HouseholderQR<Eigen::MatrixXd> ols(W_b);
-  const Eigen::VectorXd beta_ols = ols.solve(y);
-  const auto joint_rms = [&](const Eigen::VectorXd& e) {
-    Eigen::VectorXd rms = Eigen::VectorXd::Zero(n);
-    for (int row = 0; row < rows; ++row) rms[row % n] += e[row] * e[row];
-    return Eigen::VectorXd((rms / static_cast<double>(result.log.fit_samples)).cwiseSqrt());
-  };
-  // σ_i floored, so that a joint the model fits exactly does not weigh infinitely.
-  const auto floored = [](Eigen::VectorXd sigma) {
-    const double floor = 1e-9 + 1e-6 * sigma.maxCoeff();
-    return Eigen::VectorXd(sigma.cwiseMax(floor));
-  };
-  Eigen::VectorXd sigma = floored(joint_rms(y - W_b * beta_ols));
-  const auto whitened = [&](const Eigen::VectorXd& s) {
-    Eigen::MatrixXd Wt = W_b;
-    for (int row = 0; row < rows; ++row) Wt.row(row) /= s[row % n];
-    return Wt;
-  };
-  Eigen::VectorXd y_w = y;
-  for (int row = 0; row < rows; ++row) y_w[row] /= sigma[row % n];
-  const Eigen::HouseholderQR<Eigen::MatrixXd> wls(whitened(sigma));
-  result.beta_wls = wls.solve(y_w);
+  const Eigen::VectorXd sigma = floored(joint_rms(y - W_b * ols.solve(y), n));
+  const Eigen::HouseholderQR<Eigen::MatrixXd> wls(whitened(W_b, sigma));
+  result.beta_wls = wls.solve(whitened(y, sigma));
 
   // Excitation: the singular values of the weighted W_b with unit columns (those of R D⁻¹).
   {
-    const Eigen::MatrixXd R = wls.matrixQR().topRows(r).triangularView<Eigen::Upper>();
-    const Eigen::VectorXd norms = R.colwise().norm().transpose();
-    const Eigen::MatrixXd R_scaled = R * norms.cwiseMax(1e-300).cwiseInverse().asDiagonal();
-    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(R_scaled, Eigen::ComputeFullV);
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd = unit_column_svd(wls, r);
     const Eigen::VectorXd& s = svd.singularValues();
     result.condition_number_scaled = s[0] / s[r - 1];
     result.rank = 0;
@@ -573,23 +707,9 @@ DynamicFitResult identify_dynamics(const RobotModel& nominal, const JointSamples
                                theta[static_cast<size_t>(i)].data());
     }
   }
-  ceres::Solver::Options solver_options;
-  // Dogleg rather than Levenberg-Marquardt: the directions only the prior holds form a long,
-  // shallow, curved valley, which LM's damped steps creep along (117 iterations on the test's
-  // Panda, against 29 for the same optimum).
-  solver_options.trust_region_strategy_type = ceres::DOGLEG;
-  solver_options.linear_solver_type = ceres::DENSE_QR;
-  solver_options.max_num_iterations = options.max_iterations;
-  solver_options.num_threads = options.threads;
-  // Stop when an iteration gains less than 1e-4 of the whitened cost ½ Σ r², which is about half
-  // the number of rows: parameters then sit within a hundredth of a standard error of the optimum.
-  solver_options.function_tolerance = 2e-4 / rows;
-  solver_options.parameter_tolerance = 1e-12;
-  solver_options.gradient_tolerance = 1e-14;
-  solver_options.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   const Timer solver_timer;
-  ceres::Solve(solver_options, &problem, &summary);
+  ceres::Solve(solver_options(options, rows), &problem, &summary);
   result.solver_seconds = solver_timer.seconds();
   result.iterations = static_cast<int>(summary.iterations.size()) - 1;
   result.converged = summary.termination_type == ceres::CONVERGENCE;
@@ -608,49 +728,139 @@ DynamicFitResult identify_dynamics(const RobotModel& nominal, const JointSamples
   result.beta = base_parameter_values(base, result.pi);
 
   // Step 6: standard errors at the fit, each joint weighed by its own residual σ.
-  result.sigma = floored(joint_rms(W_b * result.beta - y));
+  result.sigma = floored(joint_rms(W_b * result.beta - y, n));
+  result.correlation_inflation = correlation_inflation(split.filter, result.log.decimation);
+  result.beta_standard_error = standard_errors(W_b, y, result.beta, result.sigma, result.correlation_inflation);
+  std::tie(result.holdout_rms_nominal, result.holdout_rms) =
+      holdout_rms(nominal, data, holdout_columns, pi_nominal, result.pi);
+  result.seconds = timer.seconds();
+  return result;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The payload
+// ---------------------------------------------------------------------------------------------
+
+Vector10d payload_parameters(const RobotModel& model, const Payload& payload) {
+  const Transform& T = model.T_last_tip();
+  const Vector3d c = T.linear() * payload.centre + T.translation();
+  SpatialInertia G;
+  G.mass = payload.mass;
+  G.h = payload.mass * c;
+  G.I = T.linear() * payload.inertia * T.linear().transpose() +
+        payload.mass * (c.squaredNorm() * Matrix3d::Identity() - c * c.transpose());
+  return body_parameters(G);
+}
+
+Payload payload_from_parameters(const RobotModel& model, const Vector10d& pi) {
+  const SpatialInertia G = spatial_inertia(pi);
+  const Transform& T = model.T_last_tip();
+  const Vector3d c = G.mass > 0.0 ? Vector3d(G.h / G.mass) : Vector3d::Zero();
+  Payload payload;
+  payload.mass = G.mass;
+  payload.centre = T.linear().transpose() * (c - T.translation());
+  payload.inertia = T.linear().transpose() * inertia_about_centre_of_mass(G.mass, G.h, G.I) * T.linear();
+  return payload;
+}
+
+PayloadFitResult identify_payload(const RobotModel& arm, const Eigen::VectorXd& viscous, const Eigen::VectorXd& coulomb,
+                                  const JointSamples& samples, const DynamicFitOptions& options) {
+  const Timer timer;
+  const int n = arm.dof();
+  if (viscous.size() != n || coulomb.size() != n) {
+    throw ArgumentError("identify_payload: " + std::to_string(viscous.size()) + " viscous and " +
+                        std::to_string(coulomb.size()) + " Coulomb friction values for a chain of " +
+                        std::to_string(n) + " joints");
+  }
+  PayloadFitResult result;
+  const LogSplit split = split_log(arm, samples, options, result.log);
+  const Prepared& data = split.data;
+  check_length(result.log, n, 10, "payload parameters", options);
+  const ParameterLayout layout = parameter_layout(arm);
+  Eigen::VectorXd pi_arm = model_parameters(arm);
+  pi_arm.segment(layout.viscous(0), n) = viscous;
+  pi_arm.segment(layout.coulomb(0), n) = coulomb;
+
+  // The rows: what the known arm leaves of each filtered torque, against the last body's columns.
+  const int rows = result.log.fit_samples * n;
+  RegressorWorkspace workspace(arm);
+  Eigen::MatrixXd Y(n, layout.size());
+  RowMajorMatrix W(rows, 10);
+  Eigen::VectorXd y(rows);
+  for (int s = 0; s < result.log.fit_samples; ++s) {
+    const int c = split.fit[static_cast<size_t>(s)];
+    Y = joint_torque_regressor(arm, workspace, data.q.col(c), data.qd.col(c), data.qdd.col(c));
+    for (int i = 0; i < n; ++i) Y(i, layout.coulomb(i)) = data.coulomb(i, c);
+    W.middleRows(s * n, n) = Y.middleCols<10>(layout.inertial(n - 1));
+    y.segment(s * n, n) = data.tau_filtered.col(c) - Y * pi_arm;
+  }
+  const Eigen::MatrixXd W_dense = W;
+  const Eigen::HouseholderQR<Eigen::MatrixXd> ols(W_dense);
+  const Eigen::VectorXd sigma = floored(joint_rms(y - W_dense * ols.solve(y), n));
+  const Eigen::HouseholderQR<Eigen::MatrixXd> wls(whitened(W_dense, sigma));
+  result.pi_ls = wls.solve(whitened(y, sigma));
   {
-    const Eigen::MatrixXd Wt = whitened(result.sigma);
-    Eigen::VectorXd e = Wt * result.beta;
-    for (int row = 0; row < rows; ++row) e[row] -= y[row] / result.sigma[row % n];
-    const double s2 = e.squaredNorm() / (rows - r);
-    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(Wt);
-    const Eigen::MatrixXd R_inverse = qr.matrixQR()
-                                          .topRows(r)
-                                          .triangularView<Eigen::Upper>()
-                                          .solve(Eigen::MatrixXd::Identity(r, r));
-    result.beta_standard_error = (R_inverse.rowwise().squaredNorm() * s2).cwiseSqrt();
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd = unit_column_svd(wls, 10);
+    const Eigen::VectorXd& s = svd.singularValues();
+    result.condition_number = s[0] / s[9];
+    if (result.condition_number > options.max_condition) {
+      const Eigen::VectorXd v = svd.matrixV().col(9);
+      Eigen::Index worst = 0;
+      v.cwiseAbs().maxCoeff(&worst);
+      throw IdentificationError("the log does not excite the payload: its ten parameters' columns have a condition "
+                                "number of " + number(result.condition_number) + " with unit columns, above " +
+                                number(options.max_condition) + ", and its " + kInertialParameterNames[worst] +
+                                " is the least determined; run a trajectory that turns the wrist about every axis");
+    }
   }
 
-  // Step 7: the held-out torques, each model predicting the torque applied over each step.
-  Eigen::VectorXd sum_nominal = Eigen::VectorXd::Zero(n), sum = Eigen::VectorXd::Zero(n);
-  Eigen::VectorXd previous_nominal(n), previous(n);
-  int previous_column = -2;
-  const auto predict = [&](int c, Eigen::VectorXd& tau_nominal, Eigen::VectorXd& tau) {
-    const Eigen::MatrixXd& Y = joint_torque_regressor(nominal, workspace, data.q.col(c), data.qd.col(c), data.qdd.col(c));
-    tau_nominal.noalias() = Y * pi_nominal;
-    tau.noalias() = Y * result.pi;
-  };
-  Eigen::VectorXd now_nominal(n), now(n), coulomb_step(n);
-  for (const int c : holdout_columns) {
-    if (previous_column != c - 1) predict(c - 1, previous_nominal, previous);
-    predict(c, now_nominal, now);
-    // The trapezoid is right for every smooth term; Coulomb's jumps, so over a step where q̇
-    // changes sign its mean is taken up to the crossing (the regressor gave the ends' signs).
-    for (int i = 0; i < n; ++i) {
-      const double before = data.qd(i, c - 1), after = data.qd(i, c);
-      const double ends = 0.5 * (((before > 0.0) - (before < 0.0)) + ((after > 0.0) - (after < 0.0)));
-      coulomb_step[i] = result.pi[layout.coulomb(i)] * (mean_sign(before, after) - ends);
-    }
-    sum_nominal += (data.tau.col(c) - 0.5 * (previous_nominal + now_nominal)).cwiseAbs2();
-    sum += (data.tau.col(c) - 0.5 * (previous + now) - coulomb_step).cwiseAbs2();
-    previous_nominal.swap(now_nominal);
-    previous.swap(now);
-    previous_column = c;
+  // The fit from the least-squares body if it is one, else from the ball the prior holds to.
+  const double ball_mass = result.pi_ls[0] > 0.0 ? result.pi_ls[0] : 1.0;
+  Vector10d ball = Vector10d::Zero();
+  {
+    const Vector3d c = result.pi_ls[0] > 0.0 ? Vector3d(result.pi_ls.segment<3>(1) / result.pi_ls[0]) : Vector3d::Zero();
+    SpatialInertia G;
+    G.mass = ball_mass;
+    G.h = ball_mass * c;
+    G.I = (0.4 * ball_mass * 0.05 * 0.05 + ball_mass * c.squaredNorm()) * Matrix3d::Identity() -
+          ball_mass * c * c.transpose();
+    ball = body_parameters(G);
   }
-  const double count = std::max(1, result.log.holdout_samples);
-  result.holdout_rms_nominal = (sum_nominal / count).cwiseSqrt();
-  result.holdout_rms = (sum / count).cwiseSqrt();
+  const Vector10d reference = log_cholesky_from_inertia(ball);
+  Vector10d theta;
+  try {
+    theta = log_cholesky_from_inertia(result.pi_ls);
+  } catch (const ArgumentError&) {
+    theta = reference;
+  }
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  ceres::HuberLoss huber(options.huber);
+  for (int row = 0; row < rows; ++row) {
+    problem.AddResidualBlock(new PayloadRow(W.row(row).data(), y[row], 1.0 / sigma[row % n]), &huber, theta.data());
+  }
+  ceres::Matrix A = ceres::Matrix::Zero(10, 10);
+  for (int k = 0; k < 10; ++k) A(k, k) = options.prior_weight / (k < 4 ? 1.0 : options.prior_length);
+  problem.AddResidualBlock(new ceres::NormalPrior(A, ceres::Vector(reference)), nullptr, theta.data());
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver_options(options, rows), &problem, &summary);
+  result.iterations = static_cast<int>(summary.iterations.size()) - 1;
+  result.converged = summary.termination_type == ceres::CONVERGENCE;
+  result.termination = summary.message;
+  if (!summary.IsSolutionUsable()) {
+    throw IdentificationError("payload identification: the solver failed: " + summary.message);
+  }
+  result.pi = inertia_from_log_cholesky(theta);
+  result.payload = payload_from_parameters(arm, result.pi);
+  result.sigma = floored(joint_rms(W_dense * result.pi - y, n));
+  result.correlation_inflation = correlation_inflation(split.filter, result.log.decimation);
+  result.standard_error = standard_errors(W_dense, y, result.pi, result.sigma, result.correlation_inflation);
+  result.mass_standard_error = result.standard_error[0];
+
+  Eigen::VectorXd pi_with = pi_arm;
+  pi_with.segment<10>(layout.inertial(n - 1)) += result.pi;
+  std::tie(result.holdout_rms_without, result.holdout_rms) = holdout_rms(arm, data, split.holdout, pi_arm, pi_with);
   result.seconds = timer.seconds();
   return result;
 }

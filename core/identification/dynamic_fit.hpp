@@ -44,8 +44,10 @@
 //      and the armature of a joint whose rotor folds into a body (the first two of an arm whose
 //      first axis is vertical) is settled by that body's prior.
 //   6. Standard errors of β from the weighted least-squares covariance at the fit, σ_i estimated
-//      from its residuals: Cov β = s² (W̃_bᵀ W̃_b)⁻¹ (the bounds and the physical constraint are not
-//      in it; where they bind the error is smaller).
+//      from its residuals: Cov β = κ s² (W̃_bᵀ W̃_b)⁻¹, with κ = 1.39 (the defaults) for rows
+//      1 / (2.5 f_c) apart sharing filtered noise: the long-run variance of white noise on the
+//      logged torques passed through the centring and the filter, over its variance (the bounds and
+//      the physical constraint are not in it; where they bind the error is smaller).
 //   7. Held out: the torque RMS of the nominal and the identified model against the logged τ, each
 //      predicting the torque applied over the step, ½ (τ̂(t_{k−1}) + τ̂(t_k)) — but for Coulomb
 //      friction, whose mean over a step where q̇ changes sign is taken up to the crossing (q̇
@@ -57,6 +59,7 @@
 #include <vector>
 
 #include "chasles/core/identification/base_parameters.hpp"
+#include "chasles/core/model/payload.hpp"
 
 namespace chasles {
 
@@ -113,6 +116,7 @@ struct DynamicFitResult {
   Eigen::VectorXd beta_wls;        ///< r: the weighted least-squares solution (not constrained)
   Eigen::VectorXd beta;            ///< r: base.projection π
   Eigen::VectorXd beta_standard_error;  ///< r
+  double correlation_inflation = 1.0;   ///< κ, by which the rows' correlated noise grows the covariance
   Eigen::VectorXd sigma;           ///< n: residual RMS of each joint at the fit, N·m (filtered torques)
   Eigen::VectorXd holdout_rms_nominal;  ///< n: N·m, against the logged torques
   Eigen::VectorXd holdout_rms;          ///< n
@@ -133,6 +137,44 @@ struct DynamicFitResult {
 /// Allocates: offline.
 DynamicFitResult identify_dynamics(const RobotModel& nominal, const JointSamples& samples,
                                    const DynamicFitOptions& options = {});
+
+/// A payload fitted with the arm known (issue [Q], item 4): what the tip carries, in the form
+/// `chasles payload` and payload_t give it, and how well it explains the torques.
+struct PayloadFitResult {
+  LogUse log;
+  Payload payload;                  ///< mass, centre of mass and inertia about it, tip frame
+  Vector10d pi = Vector10d::Zero();  ///< the payload's ten parameters in the last body's frame (regressor.hpp)
+  Vector10d pi_ls = Vector10d::Zero();  ///< the weighted least-squares solution (not constrained)
+  Vector10d standard_error = Vector10d::Zero();  ///< of pi, from the least-squares covariance at the fit
+  double mass_standard_error = 0.0;  ///< kg (pi's first)
+  double correlation_inflation = 1.0;  ///< κ, as DynamicFitResult's
+  Eigen::VectorXd sigma;             ///< n: residual RMS of each joint at the fit (filtered torques)
+  Eigen::VectorXd holdout_rms_without;  ///< n: the arm alone, against the logged torques
+  Eigen::VectorXd holdout_rms;          ///< n: the arm with the payload
+  double condition_number = 0.0;     ///< of the payload's ten columns, weighted, unit columns
+  int iterations = 0;
+  bool converged = false;
+  std::string termination;
+  double seconds = 0.0;
+};
+
+/// The load at the tip from a log of the arm moving with it, the arm itself known: `arm` (its
+/// bodies and armature, identified_model of an identify_dynamics) and its joint friction
+/// (`viscous`, `coulomb`, one per joint; zeros for none). The same steps as identify_dynamics,
+/// with the torques the known arm explains taken off and the ten parameters of one more body on
+/// the last fitted: least squares, then Ceres over its log-Cholesky θ under the Huber loss, with
+/// the same weak prior, here towards a ball of the least-squares mass (or 1 kg) at its centre of
+/// mass, radius 5 cm — the data determine all ten, the prior only keeps a light load off the
+/// boundary of the physical set. Throws IdentificationError as identify_dynamics does (too short
+/// below 3 torques per parameter; not exciting when the payload's columns, weighted and with unit
+/// columns, have a condition number above max_condition), ArgumentError for friction of the wrong
+/// size.
+PayloadFitResult identify_payload(const RobotModel& arm, const Eigen::VectorXd& viscous, const Eigen::VectorXd& coulomb,
+                                  const JointSamples& samples, const DynamicFitOptions& options = {});
+
+/// The ten parameters of a payload in the last body's frame (regressor.hpp's order), and back.
+Vector10d payload_parameters(const RobotModel& model, const Payload& payload);
+Payload payload_from_parameters(const RobotModel& model, const Vector10d& pi);
 
 /// The nominal model with the identified bodies and armature of π (13 n; its friction has no place
 /// in a RobotModel). Throws ModelError for a body that is not physical.

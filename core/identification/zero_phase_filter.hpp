@@ -48,8 +48,11 @@ int zero_phase_padding(const LowPassFilter& filter, Eigen::Index length);
 /// Throws ArgumentError for fewer than 2 samples.
 Eigen::VectorXd zero_phase_filter(const LowPassFilter& filter, const Eigen::Ref<const Eigen::VectorXd>& x);
 
-/// dx/dt of uniformly sampled x by central differences, (x[k+1] − x[k−1]) / 2 dt, and the
-/// second-order one-sided differences at the ends; all second-order accurate. Needs 3 samples.
+/// dx/dt of uniformly sampled x by central differences: the five-point (x[k−2] − 8 x[k−1] +
+/// 8 x[k+1] − x[k+2]) / 12 dt, fourth-order accurate — the three-point one's error, dt²/6 x⃛, would
+/// be 2e-4 rad/s² on an arm's q̈ at 500 Hz, torques of a standard error on a fitted load — and
+/// the three-point and one-sided second-order differences in the two samples at either end,
+/// which a fit leaves out. Needs 3 samples.
 Eigen::VectorXd central_difference(const Eigen::Ref<const Eigen::VectorXd>& x, double dt);
 
 }  // namespace chasles
