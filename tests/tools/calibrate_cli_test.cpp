@@ -18,6 +18,7 @@
 #include "chasles/core/identification/dynamic_fit.hpp"
 #include "chasles/core/kinematics/kinematics.hpp"
 #include "chasles/core/lie/se3.hpp"
+#include "chasles/core/model/payload.hpp"
 #include "chasles/core/model/urdf.hpp"
 #include "support/arm.hpp"
 #include "support/identification_run.hpp"
@@ -382,6 +383,40 @@ TEST(calibrateCli, DynamicsIdentifiesTheArmFromItsLog) {
     pi[layout.coulomb(i)] = parameters.at(layout.coulomb(i)).at("identified").get<double>();
   }
   EXPECT_TRUE(matrices_near_relative(base_parameter_values(structure, pi), beta, 1e-9));
+}
+
+// The arm identified from one log, then a 1.2 kg load on it from another, on the identified URDF:
+// the payload is what `chasles payload` would send, found to within grams and millimetres.
+TEST(calibrateCli, PayloadOnTheIdentifiedArm) {
+  const ScratchDir dir;
+  const TrueArm truth = perturbed_panda(7);
+  write_state_log(dir / "run.lcmlog", synthetic_run(truth, 12.0, 500.0, kEffortNoise, 11), "CHASLES_STATE");
+  ASSERT_EQ(run({"dynamics", "--urdf", kPandaTcp.urdf, "--tip", kPandaTcp.tip, "--log", dir / "run.lcmlog", "--out",
+                 dir / "identified.urdf", "--report", dir / "identified.json"})
+                .exit_code,
+            0);
+  Payload box;
+  box.mass = 1.2;
+  box.centre = Vector3d(0.02, -0.01, 0.08);
+  box.inertia = Vector3d(0.0023, 0.0026, 0.001).asDiagonal();
+  const TrueArm carrying{with_payload(truth.model, box), truth.viscous, truth.coulomb};
+  write_state_log(dir / "box.lcmlog", synthetic_run(carrying, 6.0, 500.0, kEffortNoise, 13), "CHASLES_STATE");
+  const RunResult result = run({"payload", "--urdf", dir / "identified.urdf", "--tip", kPandaTcp.tip, "--log",
+                                dir / "box.lcmlog", "--out", dir / "box.json"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("send it: chasles payload --mass 1.2"), std::string::npos) << result.out;
+  const json out = read_json(dir / "box.json");
+  EXPECT_NEAR(out.at("mass").get<double>(), box.mass, 0.01);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(out.at("centre_of_mass").at(k).get<double>(), box.centre[k], 2e-3);
+  EXPECT_EQ(out.at("command").get<std::string>().rfind("chasles payload --mass ", 0), 0u);
+  // The identified URDF's friction came back from its <dynamics>.
+  const json report = read_json(dir / "identified.json");
+  for (int i = 0; i < 7; ++i) {
+    EXPECT_EQ(out.at("arm").at("viscous").at(i), report.at("parameters").at(70 + i).at("identified"));
+  }
+  for (const json& joint : out.at("held_out_torque_rms")) {
+    EXPECT_LE(joint.at("with_payload").get<double>(), 1.5 * kEffortNoise) << joint.at("joint");
+  }
 }
 
 // A log the fit cannot use: exit 1, one line naming what, and nothing written.

@@ -1,12 +1,16 @@
 // chasles_calibrate dynamics: an LCM log of the arm moving in, its identified URDF and a JSON report
 // out, a summary on stdout (chasles::identification's identify_dynamics, calibration's
-// identified_urdf).
+// identified_urdf). chasles_calibrate payload: a log of the arm moving with a load in, the arm
+// known, the load `chasles payload` sends out (identify_payload).
+#include <cmath>
 #include <cstdio>
+#include <initializer_list>
 #include <iostream>
 
 #include "chasles/core/calibration/urdf_writer.hpp"
 #include "chasles/core/identification/dynamic_fit.hpp"
 #include "chasles/core/model/urdf.hpp"
+#include "chasles/tools/cli/messages.hpp"
 #include "chasles/tools/cli/state_log.hpp"
 #include "chasles/tools/error_line.hpp"
 #include "commands.hpp"
@@ -178,19 +182,34 @@ void print_summary(const DynamicsOptions& o, const RobotModel& nominal, const Dy
   std::cout << line << "wrote " << o.out << " and " << o.report << "\n";
 }
 
-void run_dynamics(const DynamicsOptions& o) {
+// The URDF's model and the log's states, checked against each other.
+struct Inputs {
+  std::string xml;
+  RobotModel model;
+  cli::StateLog log;
+};
+
+Inputs read_inputs(const DynamicsOptions& o) {
   UrdfOptions urdf_options;
   urdf_options.tip_link = o.tip;
-  const std::string xml = read_text_file(o.urdf, "URDF");
-  const RobotModel nominal = load_urdf_string(xml, urdf_options, o.urdf);
-  tools::warn("chasles_calibrate", o.urdf, nominal.warnings());
-  const cli::StateLog log = cli::read_states(o.log, o.channel);
-  if (log.joints != nominal.dof()) {
+  std::string xml = read_text_file(o.urdf, "URDF");
+  RobotModel model = load_urdf_string(xml, urdf_options, o.urdf);
+  tools::warn("chasles_calibrate", o.urdf, model.warnings());
+  cli::StateLog log = cli::read_states(o.log, o.channel);
+  if (log.joints != model.dof()) {
     throw InputError(o.log + ": the states on " + o.channel + " carry " + std::to_string(log.joints) +
-                     " joints; the chain of " + o.urdf + " from '" + nominal.base_link() + "' to '" +
-                     nominal.tip_link() + "' has " + std::to_string(nominal.dof()) + " (another robot, or another tip?)");
+                     " joints; the chain of " + o.urdf + " from '" + model.base_link() + "' to '" +
+                     model.tip_link() + "' has " + std::to_string(model.dof()) + " (another robot, or another tip?)");
   }
   tools::warn("chasles_calibrate", o.log, log.problems);
+  return {std::move(xml), std::move(model), std::move(log)};
+}
+
+void run_dynamics(const DynamicsOptions& o) {
+  const Inputs in = read_inputs(o);
+  const std::string& xml = in.xml;
+  const RobotModel& nominal = in.model;
+  const cli::StateLog& log = in.log;
   const DynamicFitResult result = identify_dynamics(nominal, samples_of(log), o.fit);
   const ParameterLayout layout = parameter_layout(nominal);
   const std::string urdf_text =
@@ -201,7 +220,110 @@ void run_dynamics(const DynamicsOptions& o) {
   print_summary(o, nominal, result);
 }
 
+// ---- payload ----
+
+std::string list(std::initializer_list<double> values) {
+  std::string text;
+  for (const double v : values) text += (text.empty() ? "" : ",") + cli::number_text(v);
+  return text;
+}
+
+void run_payload(const DynamicsOptions& o) {
+  const Inputs in = read_inputs(o);
+  Eigen::VectorXd viscous, coulomb;
+  read_joint_friction(in.xml, in.model, viscous, coulomb);
+  const PayloadFitResult r = identify_payload(in.model, viscous, coulomb, samples_of(in.log), o.fit);
+  const Payload& p = r.payload;
+  const std::string command = "chasles payload --mass " + cli::number_text(p.mass) + " --com " +
+                              list({p.centre.x(), p.centre.y(), p.centre.z()}) + " --inertia " +
+                              list({p.inertia(0, 0), p.inertia(1, 1), p.inertia(2, 2), p.inertia(0, 1),
+                                    p.inertia(0, 2), p.inertia(1, 2)});
+  Json out;
+  out["tool"] = std::string("chasles_calibrate ") + CHASLES_VERSION;
+  out["mass"] = p.mass;
+  out["centre_of_mass"] = cli::vector_json(p.centre);
+  out["inertia"] = cli::rows_json(p.inertia);
+  out["frame"] = "the tip frame of the chain '" + in.model.base_link() + "' -> '" + in.model.tip_link() +
+                 "'; inertia about the centre of mass, as payload_t and chasles payload take them";
+  out["command"] = command;
+  out["mass_standard_error"] = r.mass_standard_error;
+  Json parameters = Json::array();
+  for (int k = 0; k < 10; ++k) {
+    parameters.push_back({{"name", kInertialParameterNames[k]},
+                          {"identified", r.pi[k]},
+                          {"least_squares", r.pi_ls[k]},
+                          {"standard_error", r.standard_error[k]}});
+  }
+  out["parameters_in_last_body_frame"] = parameters;
+  out["condition_number_scaled"] = r.condition_number;
+  Json torques = Json::array();
+  for (int i = 0; i < in.model.dof(); ++i) {
+    const bool held = r.log.holdout_samples > 0;
+    torques.push_back({{"joint", in.model.joint(i).name},
+                       {"without_payload", optional_number(held, r.holdout_rms_without[i])},
+                       {"with_payload", optional_number(held, r.holdout_rms[i])},
+                       {"fit_sigma", r.sigma[i]}});
+  }
+  out["held_out_torque_rms"] = torques;
+  out["arm"] = {{"urdf", o.urdf},
+                {"friction", "from each joint's <dynamics damping friction> (0 where absent)"},
+                {"viscous", cli::vector_json(viscous)},
+                {"coulomb", cli::vector_json(coulomb)}};
+  out["samples"] = {{"log", o.log},   {"channel", o.channel}, {"states", r.log.samples},
+                    {"rate_hz", r.log.sample_rate_hz}, {"fit", r.log.fit_samples}, {"held_out", r.log.holdout_samples}};
+  out["solver"] = {{"converged", r.converged}, {"iterations", r.iterations}, {"fit_seconds", r.seconds}};
+  write_files_atomically({{o.out, cli::dump(out, true) + "\n"}});
+  char line[200];
+  std::snprintf(line, sizeof line, "payload: %.4g kg (standard error %.2g), centre of mass (%.4g, %.4g, %.4g) m in '%s'\n",
+                p.mass, r.mass_standard_error, p.centre.x(), p.centre.y(), p.centre.z(), in.model.tip_link().c_str());
+  std::cout << line;
+  if (r.log.holdout_samples > 0) {
+    double without = 0.0, with = 0.0;
+    for (int i = 0; i < in.model.dof(); ++i) {
+      without += r.holdout_rms_without[i] * r.holdout_rms_without[i];
+      with += r.holdout_rms[i] * r.holdout_rms[i];
+    }
+    std::snprintf(line, sizeof line, "held-out torque RMS over the joints: %.4f without it -> %.4f with it\n",
+                  std::sqrt(without / in.model.dof()), std::sqrt(with / in.model.dof()));
+    std::cout << line;
+  }
+  std::cout << "send it: " << command << "\nwrote " << o.out << "\n";
+}
+
 }  // namespace
+
+Command register_payload(CLI::App& app) {
+  auto options = std::make_shared<DynamicsOptions>();
+  DynamicsOptions& o = *options;
+  CLI::App* command = app.add_subcommand(
+      "payload", "Identify the load at the tip from a log of the arm moving with it, the arm known; write what "
+                 "`chasles payload` sends");
+  command->add_option("--urdf", o.urdf, "The arm's URDF, as identified (chasles_calibrate dynamics): bodies, rotors, "
+                                        "<dynamics> friction")
+      ->required()
+      ->type_name("FILE");
+  command->add_option("--tip", o.tip, "Link that ends the chain, where the load is held")->type_name("LINK");
+  command->add_option("--log", o.log, "LCM log of the arm moving with the load")->required()->type_name("LOG");
+  command->add_option("--state-channel", o.channel, "The channel of its chasles.robot_state_t messages")
+      ->type_name("CHANNEL")
+      ->capture_default_str();
+  command->add_option("--holdout", o.fit.holdout, "Fraction of the log held out, in whole blocks, to judge the fit")
+      ->check(CLI::Range(0.0, 0.5))
+      ->capture_default_str();
+  command->add_option("--cutoff", o.fit.cutoff_hz, "Cut-off of the zero-phase low-pass on velocity and torque (Hz)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  command->add_option("--out", o.out, "JSON to write: the payload (mass, centre_of_mass, inertia, as payload_t), the "
+                                      "chasles payload command, standard errors, held-out torques")
+      ->required()
+      ->type_name("FILE");
+  command->footer(
+      "The arm's torques are taken off the logged ones and the ten parameters of one more body on the last are "
+      "fitted (least squares, then physically consistent under a Huber loss), as `dynamics` fits the arm.\n"
+      "Example:\n"
+      "  chasles_calibrate payload --urdf identified.urdf --tip panda_hand --log with_box.lcmlog --out box.json");
+  return {command, [options]() { run_payload(*options); }};
+}
 
 Command register_dynamics(CLI::App& app) {
   auto options = std::make_shared<DynamicsOptions>();

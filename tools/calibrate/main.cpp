@@ -2,6 +2,7 @@
 //   fit       a dataset of joint positions and tracker measurements → a corrected URDF and a report
 //   synth     a synthetic dataset from a perturbed copy of the robot, to test and to rehearse with
 //   dynamics  an LCM log of the arm moving → its identified inertias, friction and rotors in its URDF
+//   payload   an LCM log of the arm moving with a load → the load, as `chasles payload` sends it
 // Errors: one line "chasles_calibrate: ..." on stderr and nothing written; exit 2 for a usage error,
 // 1 for bad input (URDF, dataset, too few rows, a file that cannot be written).
 #include <iostream>
@@ -33,8 +34,10 @@ int main(int argc, char** argv) {
       "      --out corrected.urdf --report report.json\n"
       "  chasles_calibrate dynamics --urdf panda.urdf --tip panda_hand --log run.lcmlog --out identified.urdf \\\n"
       "      --report identified.json\n"
+      "  chasles_calibrate payload --urdf identified.urdf --tip panda_hand --log with_box.lcmlog --out box.json\n"
       "Run 'chasles_calibrate COMMAND --help' for a command's input and output.");
-  const std::vector<Command> commands = {register_fit(app), register_synth(app), register_dynamics(app)};
+  const std::vector<Command> commands = {register_fit(app), register_synth(app), register_dynamics(app),
+                                         register_payload(app)};
 
   try {
     app.parse(argc, argv);
@@ -44,7 +47,7 @@ int main(int argc, char** argv) {
     std::string help = "chasles_calibrate --help";
     for (const CLI::App* sub : app.get_subcommands()) help = "chasles_calibrate " + sub->get_name() + " --help";
     if (app.get_subcommands().empty() && argc > 1 && argv[1][0] != '-') {
-      return fail(std::string("unknown command '") + argv[1] + "' (commands: fit, synth, dynamics; see '" + help + "')", 2);
+      return fail(std::string("unknown command '") + argv[1] + "' (commands: fit, synth, dynamics, payload; see '" + help + "')", 2);
     }
     return fail(std::string(e.what()) + " (see '" + help + "')", 2);
   }
