@@ -273,8 +273,8 @@ std::string identified_urdf(const std::string& original_xml, const RobotModel& i
       char masses[80];
       std::snprintf(masses, sizeof masses, "%.4g kg, no more than the %.4g kg", identified.body_inertia(i).mass,
                     identified.body_inertia(i).mass - G.mass);
-      throw CalibrationError(source + ": the identified body moved by joint '" + identified.joint(i).name + "' weighs " +
-                             masses + " of the links riding on it in the URDF (" + list +
+      throw CalibrationError(source + ": the identified body moved by joint '" + identified.joint(i).name +
+                             "' weighs " + masses + " of the links riding on it in the URDF (" + list +
                              "): their <inertial>s are not what the arm carries; correct them, or remove them to "
                              "leave the whole body on '" + name + "'");
     }
@@ -339,12 +339,13 @@ std::string identified_urdf(const std::string& original_xml, const RobotModel& i
         ratio = 1.0;
         gear->SetAttribute("value", "1");
       }
-      child_element(a, "drake:rotor_inertia")->SetAttribute("value", shortest_number(armature / (ratio * ratio)).c_str());
+      const std::string rotor = shortest_number(armature / (ratio * ratio));
+      child_element(a, "drake:rotor_inertia")->SetAttribute("value", rotor.c_str());
     } else if (armature > 0.0) {
       const std::string name = joint + "_rotor";
       if (transmission_names.count(name)) {
-        throw CalibrationError(source + ": a transmission named '" + name + "' exists already, without a rotor for joint '" +
-                               joint + "'");
+        throw CalibrationError(source + ": a transmission named '" + name +
+                               "' exists already, without a rotor for joint '" + joint + "'");
       }
       if (robot->Attribute("xmlns:drake") == nullptr) robot->SetAttribute("xmlns:drake", "http://drake.mit.edu");
       tinyxml2::XMLElement* transmission = doc.NewElement("transmission");
@@ -355,8 +356,9 @@ std::string identified_urdf(const std::string& original_xml, const RobotModel& i
       motor->SetAttribute("name", (joint + "_motor").c_str());
       motor->InsertNewChildElement("drake:gear_ratio")->SetAttribute("value", "1");
       motor->InsertNewChildElement("drake:rotor_inertia")->SetAttribute("value", shortest_number(armature).c_str());
-      robot->InsertEndChild(doc.NewComment(
-          comment_safe(" chasles_calibrate dynamics: the identified armature of '" + joint + "' (gear ratio 1) ").c_str()));
+      const std::string note_text =
+          " chasles_calibrate dynamics: the identified armature of '" + joint + "' (gear ratio 1) ";
+      robot->InsertEndChild(doc.NewComment(comment_safe(note_text).c_str()));
       robot->InsertEndChild(transmission);
     }
   }

@@ -179,7 +179,8 @@ Prepared prepare(const JointSamples& s, const LowPassFilter& filter, double dt) 
       p.qdd.row(i).segment(column, kept) = central_difference(qd, dt).segment(trim, kept).transpose();
       p.tau_filtered.row(i).segment(column, kept) =
           at_the_instant(zero_phase_filter(filter, centred)).segment(trim, kept).transpose();
-      p.coulomb.row(i).segment(column, kept) = at_the_instant(zero_phase_filter(filter, sign)).segment(trim, kept).transpose();
+      p.coulomb.row(i).segment(column, kept) =
+          at_the_instant(zero_phase_filter(filter, sign)).segment(trim, kept).transpose();
     }
     column += kept;
   }
@@ -351,7 +352,8 @@ std::string base_parameter_expression(const RobotModel& model, const BaseParamet
   for (size_t j = 0; j < base.dependent.size(); ++j) {
     const double c = base.K(k, static_cast<Eigen::Index>(j));
     if (std::abs(c) <= 1e-12) continue;
-    text += (c < 0.0 ? " - " : " + ") + (std::abs(std::abs(c) - 1.0) < 1e-9 ? std::string() : number(std::abs(c), 6) + "*") +
+    const std::string coefficient = std::abs(std::abs(c) - 1.0) < 1e-9 ? "" : number(std::abs(c), 6) + "*";
+    text += (c < 0.0 ? " - " : " + ") + coefficient +
             parameter_name(model, base.dependent[j]);
   }
   return text;
@@ -381,7 +383,8 @@ struct LogSplit {
   std::vector<int> fit, holdout;  ///< columns of data; each held-out one has its predecessor in data
 };
 
-LogSplit split_log(const RobotModel& model, const JointSamples& samples, const DynamicFitOptions& options, LogUse& use) {
+LogSplit split_log(const RobotModel& model, const JointSamples& samples, const DynamicFitOptions& options,
+                   LogUse& use) {
   check_options(options);
   check_samples(model, samples);
   const int n = model.dof();
@@ -395,9 +398,9 @@ LogSplit split_log(const RobotModel& model, const JointSamples& samples, const D
   const double dt = median_step(samples.t);
   use.sample_rate_hz = 1.0 / dt;
   if (!(options.cutoff_hz < 0.5 * use.sample_rate_hz)) {
-    throw IdentificationError("the cut-off " + number(options.cutoff_hz) + " Hz is not below the log's Nyquist frequency " +
-                              number(0.5 * use.sample_rate_hz) + " Hz (a sample every " + number(dt * 1e3) +
-                              " ms): choose a lower cut-off");
+    throw IdentificationError("the cut-off " + number(options.cutoff_hz) +
+                              " Hz is not below the log's Nyquist frequency " + number(0.5 * use.sample_rate_hz) +
+                              " Hz (a sample every " + number(dt * 1e3) + " ms): choose a lower cut-off");
   }
 
   // Every joint must move, or the torques say nothing of what it carries.
@@ -677,8 +680,8 @@ DynamicFitResult identify_dynamics(const RobotModel& nominal, const JointSamples
     } catch (const ArgumentError&) {
       theta[static_cast<size_t>(i)] = nominal_theta[static_cast<size_t>(i)];
     }
-    phi[static_cast<size_t>(i)] << std::max(0.0, pi_start[layout.viscous(i)]), std::max(0.0, pi_start[layout.coulomb(i)]),
-        std::max(0.0, pi_start[layout.armature(i)]);
+    phi[static_cast<size_t>(i)] << std::max(0.0, pi_start[layout.viscous(i)]),
+        std::max(0.0, pi_start[layout.coulomb(i)]), std::max(0.0, pi_start[layout.armature(i)]);
   }
 
   ceres::Problem::Options problem_options;
@@ -818,7 +821,8 @@ PayloadFitResult identify_payload(const RobotModel& arm, const Eigen::VectorXd& 
   const double ball_mass = result.pi_ls[0] > 0.0 ? result.pi_ls[0] : 1.0;
   Vector10d ball = Vector10d::Zero();
   {
-    const Vector3d c = result.pi_ls[0] > 0.0 ? Vector3d(result.pi_ls.segment<3>(1) / result.pi_ls[0]) : Vector3d::Zero();
+    const Vector3d c =
+        result.pi_ls[0] > 0.0 ? Vector3d(result.pi_ls.segment<3>(1) / result.pi_ls[0]) : Vector3d::Zero();
     SpatialInertia G;
     G.mass = ball_mass;
     G.h = ball_mass * c;

@@ -88,7 +88,9 @@ Eigen::VectorXd central_difference(const Eigen::Ref<const Eigen::VectorXd>& x, d
   const Eigen::Index n = x.size();
   if (n < 3) throw ArgumentError("central difference: " + std::to_string(n) + " samples; it needs at least 3");
   Eigen::VectorXd dx(n);
-  for (Eigen::Index k = 2; k + 2 < n; ++k) dx[k] = (x[k - 2] - 8.0 * x[k - 1] + 8.0 * x[k + 1] - x[k + 2]) / (12.0 * dt);
+  for (Eigen::Index k = 2; k + 2 < n; ++k) {
+    dx[k] = (x[k - 2] - 8.0 * x[k - 1] + 8.0 * x[k + 1] - x[k + 2]) / (12.0 * dt);
+  }
   dx[1] = (x[2] - x[0]) / (2.0 * dt);
   dx[n - 2] = (x[n - 1] - x[n - 3]) / (2.0 * dt);
   dx[0] = (-3.0 * x[0] + 4.0 * x[1] - x[2]) / (2.0 * dt);

@@ -492,15 +492,18 @@ TEST(identifiedUrdf, AModelsOwnParametersLoadBackAsTheSameModel) {
   for (const char* robot : {"panda", "iiwa14", "ur5"}) {
     const std::string xml = testing::read_file(testing::data_path(std::string(robot) + ".urdf"));
     UrdfOptions options;
-    options.tip_link = std::string(robot) == "iiwa14" ? "iiwa_link_ee" : std::string(robot) == "ur5" ? "tool0" : "panda_hand";
+    const std::string name = robot;
+    options.tip_link = name == "iiwa14" ? "iiwa_link_ee" : name == "ur5" ? "tool0" : "panda_hand";
     const RobotModel nominal = load_urdf_string(xml, options, robot);
     const Eigen::VectorXd zero = Eigen::VectorXd::Zero(nominal.dof());
     const RobotModel loaded = load_identified(identified_urdf(xml, nominal, zero, zero), nominal);
     ASSERT_EQ(loaded.dof(), nominal.dof());
     for (int i = 0; i < nominal.dof(); ++i) {
-      EXPECT_TRUE(testing::matrices_near_relative(loaded.inertia(i), nominal.inertia(i), 1e-12)) << robot << " body " << i;
+      EXPECT_TRUE(testing::matrices_near_relative(loaded.inertia(i), nominal.inertia(i), 1e-12))
+          << robot << " body " << i;
       EXPECT_NEAR(loaded.armature()[i], nominal.armature()[i], 1e-12 * std::max(1.0, nominal.armature()[i])) << robot;
-      EXPECT_TRUE(testing::matrices_near(loaded.joint(i).T_parent_joint.matrix(), nominal.joint(i).T_parent_joint.matrix(), 0.0));
+      EXPECT_TRUE(testing::matrices_near(loaded.joint(i).T_parent_joint.matrix(),
+                                         nominal.joint(i).T_parent_joint.matrix(), 0.0));
     }
   }
 }

@@ -146,7 +146,8 @@ TEST(dynamicFit, RecoversTheTrueBaseParametersWithinTheirStandardErrors) {
   std::printf("base parameters: max |z| %.2f (%s), RMS z %.2f; %d samples fitted, condition number %.3g (%.3g with "
               "unit columns); fit %.3f s (solver %.3f s, %d iterations)\n",
               std::abs(z[worst]), base_parameter_expression(panda(), r.base, static_cast<int>(worst)).c_str(), rms_z,
-              r.log.fit_samples, r.condition_number, r.condition_number_scaled, r.seconds, r.solver_seconds, r.iterations);
+              r.log.fit_samples, r.condition_number, r.condition_number_scaled, r.seconds, r.solver_seconds,
+              r.iterations);
 }
 
 TEST(dynamicFit, PredictsHeldOutTorquesToTheNoise) {

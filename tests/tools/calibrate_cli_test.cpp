@@ -338,8 +338,9 @@ TEST(calibrateCli, DynamicsIdentifiesTheArmFromItsLog) {
   const ScratchDir dir;
   const TrueArm truth = perturbed_panda(7);
   write_state_log(dir / "run.lcmlog", synthetic_run(truth, 12.0, 500.0, kEffortNoise, 11), "CHASLES_STATE", 100);
-  const RunResult result = run({"dynamics", "--urdf", kPandaTcp.urdf, "--tip", kPandaTcp.tip, "--log", dir / "run.lcmlog",
-                                "--out", dir / "identified.urdf", "--report", dir / "identified.json"});
+  const RunResult result = run({"dynamics", "--urdf", kPandaTcp.urdf, "--tip", kPandaTcp.tip, "--log",
+                                dir / "run.lcmlog", "--out", dir / "identified.urdf", "--report",
+                                dir / "identified.json"});
   ASSERT_EQ(result.exit_code, 0) << result.err;
   EXPECT_EQ(result.err, "");
   EXPECT_NE(result.out.find("base parameters: 62 of 62 (theory)"), std::string::npos) << result.out;
@@ -447,7 +448,8 @@ TEST(calibrateCli, DynamicsRefusesALogItCannotUse) {
   }
   const RunResult help = run({"dynamics", "--help"});
   EXPECT_EQ(help.exit_code, 0);
-  for (const char* text : {"--state-channel", "--cutoff", "--holdout", "drake:rotor_inertia", "Example", "atomically"}) {
+  for (const char* text :
+       {"--state-channel", "--cutoff", "--holdout", "drake:rotor_inertia", "Example", "atomically"}) {
     EXPECT_NE(help.out.find(text), std::string::npos) << text;
   }
 }

@@ -167,8 +167,9 @@ void print_summary(const DynamicsOptions& o, const RobotModel& nominal, const Dy
   std::snprintf(line, sizeof line, " at %.0f Hz over %.1f s: %d fitted (every %d), %d held out\n", r.log.sample_rate_hz,
                 r.log.duration_s, r.log.fit_samples, r.log.decimation, r.log.holdout_samples);
   std::cout << line;
-  std::snprintf(line, sizeof line, "base parameters: %d of %d (theory), condition number %.3g (%.3g with unit columns)\n",
-                r.rank, r.base.count, r.condition_number, r.condition_number_scaled);
+  std::snprintf(line, sizeof line,
+                "base parameters: %d of %d (theory), condition number %.3g (%.3g with unit columns)\n", r.rank,
+                r.base.count, r.condition_number, r.condition_number_scaled);
   std::cout << line;
   if (r.log.holdout_samples == 0) std::cout << "no data held out: nothing to judge the fit on\n";
   if (r.log.holdout_samples > 0) std::cout << "held-out torque RMS   nominal -> identified\n";
@@ -274,8 +275,9 @@ void run_payload(const DynamicsOptions& o) {
   out["solver"] = {{"converged", r.converged}, {"iterations", r.iterations}, {"fit_seconds", r.seconds}};
   write_files_atomically({{o.out, cli::dump(out, true) + "\n"}});
   char line[200];
-  std::snprintf(line, sizeof line, "payload: %.4g kg (standard error %.2g), centre of mass (%.4g, %.4g, %.4g) m in '%s'\n",
-                p.mass, r.mass_standard_error, p.centre.x(), p.centre.y(), p.centre.z(), in.model.tip_link().c_str());
+  std::snprintf(line, sizeof line,
+                "payload: %.4g kg (standard error %.2g), centre of mass (%.4g, %.4g, %.4g) m in '%s'\n", p.mass,
+                r.mass_standard_error, p.centre.x(), p.centre.y(), p.centre.z(), in.model.tip_link().c_str());
   std::cout << line;
   if (r.log.holdout_samples > 0) {
     double without = 0.0, with = 0.0;
@@ -330,7 +332,9 @@ Command register_dynamics(CLI::App& app) {
   DynamicsOptions& o = *options;
   CLI::App* command = app.add_subcommand(
       "dynamics", "Identify the arm's inertias, friction and rotors from a log of it moving; write them into its URDF");
-  command->add_option("--urdf", o.urdf, "Robot description (URDF file): the nominal model")->required()->type_name("FILE");
+  command->add_option("--urdf", o.urdf, "Robot description (URDF file): the nominal model")
+      ->required()
+      ->type_name("FILE");
   command->add_option("--tip", o.tip, "Link that ends the chain; needed with several leaves")->type_name("LINK");
   command->add_option("--log", o.log, "LCM log of the arm moving (lcm-logger's), with its states")
       ->required()

@@ -8,7 +8,9 @@ namespace chasles::cli {
 
 std::string channel_list(const std::map<std::string, int64_t>& counts) {
   std::string text;
-  for (const auto& [channel, count] : counts) text += (text.empty() ? "" : ", ") + channel + " " + std::to_string(count);
+  for (const auto& [channel, count] : counts) {
+    text += (text.empty() ? "" : ", ") + channel + " " + std::to_string(count);
+  }
   return text.empty() ? "none" : text;
 }
 
@@ -26,7 +28,9 @@ StateLog read_states(const std::string& path, const std::string& channel) {
     const std::string why = decode_checked(event.data.data(), event.data.size(), state);
     if (!why.empty()) {
       const MessageType type = message_type(event.data.data(), event.data.size());
-      if (type != MessageType::State && type != MessageType::Unknown && other_type.empty()) other_type = type_name(type);
+      if (type != MessageType::State && type != MessageType::Unknown && other_type.empty()) {
+        other_type = type_name(type);
+      }
       log.problems.push_back("byte " + std::to_string(event.offset) + ": event #" + std::to_string(event.number) +
                              " on " + channel + " is " + (why.rfind("not a", 0) == 0 ? "" : "a message ") + why);
       continue;
