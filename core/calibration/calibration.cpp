@@ -118,14 +118,14 @@ Transform predict_marker(const RobotModel& corrected, const KinematicCorrections
 
 // --- parameters ---------------------------------------------------------------------------------
 
-std::string ParameterLayout::name(const RobotModel& model, int index) const {
+std::string CalibrationLayout::name(const RobotModel& model, int index) const {
   if (index < 6 * n) return model.joint(index / 6).name + ".origin." + kComponent[index % 6];
   if (index < 7 * n) return model.joint(index - 6 * n).name + ".offset";
   if (index < 7 * n + 6) return std::string("base.") + kComponent[index - 7 * n];
   return std::string("tool.") + kComponent[index - 7 * n - 6];
 }
 
-const char* ParameterLayout::unit(const RobotModel& model, int index) const {
+const char* CalibrationLayout::unit(const RobotModel& model, int index) const {
   if (index >= 6 * n && index < 7 * n) {
     return model.joint(index - 6 * n).type == JointType::Prismatic ? "m" : "rad";
   }
@@ -275,7 +275,7 @@ Eigen::MatrixXd stacked_jacobian(const MeasurementModel& model, const std::vecto
 /// The order in which parameters are offered a free place: the base and tool (always meaningful
 /// to a user), the joint zero offsets (what an encoder gets wrong), then the joint origins from the
 /// tip down, so that a redundancy between neighbours fixes the upstream joint's component.
-std::vector<int> preference_order(const ParameterLayout& layout) {
+std::vector<int> preference_order(const CalibrationLayout& layout) {
   std::vector<int> order;
   for (int k = 0; k < 6; ++k) order.push_back(layout.base(k));
   for (int k = 0; k < 6; ++k) order.push_back(layout.tool(k));
@@ -297,7 +297,7 @@ double smallest_singular_value(const Eigen::MatrixXd& R, const std::vector<int>&
 Identifiability analyse_identifiability(const MeasurementModel& model, const std::vector<Measurement>& rows,
                                         const Eigen::VectorXd& x, bool use_orientation, double tolerance) {
   const RobotModel& robot = model.nominal();
-  const ParameterLayout& layout = model.layout();
+  const CalibrationLayout& layout = model.layout();
   const int p = layout.size();
   if (!(tolerance > 0.0 && tolerance < 1.0)) throw CalibrationError("the rank tolerance must be in (0, 1)");
   const int m = residual_count(rows, use_orientation);
@@ -621,7 +621,7 @@ CalibrationResult calibrate(const RobotModel& nominal, const std::vector<Measure
 
   CalibrationResult result;
   result.layout.n = nominal.dof();
-  const ParameterLayout& layout = result.layout;
+  const CalibrationLayout& layout = result.layout;
   const int p = layout.size();
   result.pose_data = any_orientation(fit, use_orientation);
   const int m = residual_count(fit, use_orientation);

@@ -11,7 +11,7 @@
 // δξ_i a body twist (ω, v) in joint frame i (local PoE, Lynch & Park §4.1; Chen, Yang & Lo's local
 // frame representation), δθ_i the joint zero offset (the arm is really at q_i + δθ_i when its
 // encoder reads q_i), T_tracker_base = B₀ e^[β] and T_tip_marker = K₀ e^[τ] about the references
-// B₀, K₀ the fit starts from. The parameter vector x (ParameterLayout) stacks
+// B₀, K₀ the fit starts from. The parameter vector x (CalibrationLayout) stacks
 // δξ_1 … δξ_n, δθ_1 … δθ_n, β, τ: 7n + 12 numbers, of which only 4R + 2P + 6 (pose data) or
 // 4R + 2P + 3 (position data) are identifiable — see analyse_identifiability().
 //
@@ -70,7 +70,7 @@ Transform predict_marker(const RobotModel& corrected, const KinematicCorrections
                          const JointVector& q);
 
 /// Where each parameter lives in x.
-struct ParameterLayout {
+struct CalibrationLayout {
   int n = 0;  ///< joints
   int size() const { return 7 * n + 12; }
   int origin(int joint, int k) const { return 6 * joint + k; }  ///< k: 0-2 ω, 3-5 v
@@ -91,7 +91,7 @@ class MeasurementModel {
                    double sigma_position, double sigma_rotation);
 
   const RobotModel& nominal() const { return nominal_; }
-  const ParameterLayout& layout() const { return layout_; }
+  const CalibrationLayout& layout() const { return layout_; }
   int num_parameters() const { return layout_.size(); }
   const Transform& reference_base() const { return B0_; }
   const Transform& reference_tool() const { return K0_; }
@@ -116,7 +116,7 @@ class MeasurementModel {
 
  private:
   const RobotModel& nominal_;
-  ParameterLayout layout_;
+  CalibrationLayout layout_;
   Transform B0_, K0_;
   double sigma_p_, sigma_r_;
   std::vector<Vector6d> A_;
@@ -208,7 +208,7 @@ struct ResidualStats {
 };
 
 struct CalibrationResult {
-  ParameterLayout layout;
+  CalibrationLayout layout;
   KinematicCorrections before;  ///< the nominal robot with the best base and tool for it
   KinematicCorrections after;   ///< the calibrated model
   Eigen::VectorXd x;            ///< estimates about `before`'s base and tool (fixed ones 0)

@@ -15,6 +15,7 @@
 #include "chasles/core/calibration/dataset.hpp"
 #include "chasles/core/calibration/urdf_writer.hpp"
 
+#include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/lie/se3.hpp"
 #include "chasles/core/model/urdf.hpp"
 #include "support/process.hpp"
@@ -190,7 +191,7 @@ TEST(calibration, RedundanciesAreExplained) {
   const std::vector<Measurement> rows = measure(truth, 60, 6, 0.0, 0.0, false);
   const MeasurementModel model(nominal, truth.T_tracker_base, truth.T_tip_marker, 1e-4, 1e-3);
   const Identifiability id = analyse_identifiability(model, rows, Eigen::VectorXd::Zero(model.num_parameters()), true, 1e-6);
-  const ParameterLayout& layout = model.layout();
+  const CalibrationLayout& layout = model.layout();
   auto fixed = [&](int index) -> const FixedParameter* {
     for (const FixedParameter& f : id.fixed) {
       if (f.index == index) return &f;
@@ -458,6 +459,110 @@ TEST(calibrationUrdf, CorrectedUrdfCarriesTheCalibration) {
     EXPECT_EQ(notes, static_cast<size_t>(nominal.dof() - 1)) << robot;
     // Calibrating the corrected file again needs another marker name.
     EXPECT_THROW(corrected_urdf(corrected, loaded_tip, c), CalibrationError);
+  }
+}
+
+// --- the identified URDF -------------------------------------------------------------------------
+
+RobotModel load_identified(const std::string& xml, const RobotModel& like) {
+  UrdfOptions options;
+  options.tip_link = like.tip_link();
+  return load_urdf_string(xml, options, "identified");
+}
+
+/// The model with every body's mass distribution scaled by 0.9–1.1 and carried by a small rigid
+/// motion (G ← s [Ad_X]ᵀ G [Ad_X]: a congruence, so every body stays physical), and armature.
+RobotModel perturbed_bodies(const RobotModel& nominal, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  ChainDescription d = nominal.description();
+  for (Matrix6d& G : d.inertia) {
+    Vector6d xi;
+    for (int k = 0; k < 6; ++k) xi[k] = normal(rng) * (k < 3 ? 0.2 : 0.02);
+    const Matrix6d Ad = adjoint(exp6(xi));
+    G = (0.9 + 0.2 * unit(rng)) * Ad.transpose() * G * Ad;
+  }
+  Eigen::VectorXd armature(nominal.dof());
+  for (int i = 0; i < nominal.dof(); ++i) armature[i] = 0.05 + 0.2 * unit(rng);
+  return with_armature(RobotModel(std::move(d)), armature);
+}
+
+TEST(identifiedUrdf, AModelsOwnParametersLoadBackAsTheSameModel) {
+  for (const char* robot : {"panda", "iiwa14", "ur5"}) {
+    const std::string xml = testing::read_file(testing::data_path(std::string(robot) + ".urdf"));
+    UrdfOptions options;
+    const std::string name = robot;
+    options.tip_link = name == "iiwa14" ? "iiwa_link_ee" : name == "ur5" ? "tool0" : "panda_hand";
+    const RobotModel nominal = load_urdf_string(xml, options, robot);
+    const Eigen::VectorXd zero = Eigen::VectorXd::Zero(nominal.dof());
+    const RobotModel loaded = load_identified(identified_urdf(xml, nominal, zero, zero), nominal);
+    ASSERT_EQ(loaded.dof(), nominal.dof());
+    for (int i = 0; i < nominal.dof(); ++i) {
+      EXPECT_TRUE(testing::matrices_near_relative(loaded.inertia(i), nominal.inertia(i), 1e-12))
+          << robot << " body " << i;
+      EXPECT_NEAR(loaded.armature()[i], nominal.armature()[i], 1e-12 * std::max(1.0, nominal.armature()[i])) << robot;
+      EXPECT_TRUE(testing::matrices_near(loaded.joint(i).T_parent_joint.matrix(),
+                                         nominal.joint(i).T_parent_joint.matrix(), 0.0));
+    }
+  }
+}
+
+TEST(identifiedUrdf, APerturbedModelLoadsBackWithItsDynamicsAndFriction) {
+  const std::string xml = testing::read_file(testing::data_path("panda.urdf"));
+  const RobotModel nominal = load("panda");
+  const RobotModel identified = perturbed_bodies(nominal, 61);
+  Eigen::VectorXd viscous(7), coulomb(7);
+  viscous << 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7;
+  coulomb << 1.5, 1.4, 1.3, 1.2, 1.1, 1.0, 0.9;
+  const std::string text = identified_urdf(xml, identified, viscous, coulomb, "a test");
+  const RobotModel loaded = load_identified(text, nominal);
+
+  // The dynamics, armature included, of the model that was written.
+  std::mt19937_64 rng(62);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  Data expected_data(identified), loaded_data(loaded);
+  for (int k = 0; k < 20; ++k) {
+    const Eigen::VectorXd q = random_q(nominal, rng);
+    Eigen::VectorXd qd(7), qdd(7);
+    for (int i = 0; i < 7; ++i) qd[i] = normal(rng), qdd[i] = normal(rng);
+    const Eigen::VectorXd expected = inverse_dynamics(identified, expected_data, q, qd, qdd);
+    EXPECT_TRUE(testing::matrices_near_relative(inverse_dynamics(loaded, loaded_data, q, qd, qdd), expected, 1e-9));
+  }
+  // Friction where URDF keeps it, the rotors as Drake's, the riders as they were.
+  const urdf::ModelInterfaceSharedPtr parsed = urdf::parseURDF(text);
+  ASSERT_TRUE(parsed);
+  for (int i = 0; i < 7; ++i) {
+    const urdf::JointConstSharedPtr joint = parsed->getJoint(nominal.joint(i).name);
+    ASSERT_TRUE(joint && joint->dynamics);
+    EXPECT_EQ(joint->dynamics->damping, viscous[i]);
+    EXPECT_EQ(joint->dynamics->friction, coulomb[i]);
+    EXPECT_NE(text.find("name=\"" + nominal.joint(i).name + "_rotor\""), std::string::npos);
+  }
+  EXPECT_EQ(parsed->getLink("panda_hand")->inertial->mass, 0.73);
+  EXPECT_EQ(parsed->getLink("panda_leftfinger")->inertial->mass, 0.015);
+  EXPECT_NE(text.find("xmlns:drake=\"http://drake.mit.edu\""), std::string::npos);
+  EXPECT_NE(text.find("a test"), std::string::npos);
+  // Each changed element keeps its original beside it: seven bodies, seven <dynamics>.
+  size_t notes = 0;
+  for (size_t at = text.find("; was <"); at != std::string::npos; at = text.find("; was <", at + 1)) ++notes;
+  EXPECT_EQ(notes, 14u);
+}
+
+TEST(identifiedUrdf, ABodyLighterThanItsRidersIsRefusedNamingThem) {
+  const std::string xml = testing::read_file(testing::data_path("panda.urdf"));
+  const RobotModel nominal = load("panda");
+  ChainDescription d = nominal.description();
+  d.inertia[6] *= 0.3;  // 0.45 kg, against the hand's 0.73 and the fingers' 0.03
+  const RobotModel light(std::move(d));
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(7);
+  try {
+    identified_urdf(xml, light, zero, zero);
+    FAIL() << "no CalibrationError";
+  } catch (const CalibrationError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("the identified body moved by joint 'panda_joint7' weighs"), std::string::npos) << what;
+    EXPECT_NE(what.find("'panda_hand', 'panda_leftfinger', 'panda_rightfinger'"), std::string::npos) << what;
   }
 }
 

@@ -13,9 +13,16 @@
 #include <string>
 #include <vector>
 
+#include <chasles/robot_state_t.hpp>
+#include <lcm/lcm-cpp.hpp>
+
+#include "chasles/core/identification/dynamic_fit.hpp"
 #include "chasles/core/kinematics/kinematics.hpp"
 #include "chasles/core/lie/se3.hpp"
+#include "chasles/core/model/payload.hpp"
 #include "chasles/core/model/urdf.hpp"
+#include "support/arm.hpp"
+#include "support/identification_run.hpp"
 #include "support/process.hpp"
 #include "support/reference.hpp"
 
@@ -413,6 +420,170 @@ TEST(calibrateCli, HelpDescribesTheOutput) {
   const RunResult synth = run({"synth", "--help"});
   EXPECT_EQ(synth.exit_code, 0);
   EXPECT_NE(synth.out.find("--truth"), std::string::npos);
+}
+
+// --- dynamics ----------------------------------------------------------------------------------
+
+/// The samples as the arm's driver would have sent them: robot_state_t on `channel`, encoded by
+/// lcm-gen's code, in a log written by LCM's own LogFile, stamped from an epoch time; every
+/// `repeat_every`-th state sent twice, as a sender repeats a state it has nothing newer than.
+void write_state_log(const std::string& path, const JointSamples& samples, const std::string& channel,
+                     int repeat_every = 0) {
+  lcm::LogFile log(path, "w");
+  ASSERT_TRUE(log.good()) << path;
+  const int n = static_cast<int>(samples.q.rows());
+  const int64_t start = 1'800'000'000'000'000;  // µs since the epoch, in 2027
+  std::vector<uint8_t> bytes;
+  int64_t events = 0;
+  for (Eigen::Index k = 0; k < samples.t.size(); ++k) {
+    robot_state_t state;
+    state.utime = start + std::llround(samples.t[k] * 1e6);
+    state.seq = k;
+    state.num_joints = n;
+    for (const auto& [field, values] : {std::pair{&state.position, &samples.q}, std::pair{&state.velocity, &samples.qd},
+                                        std::pair{&state.effort, &samples.tau}}) {
+      field->assign(values->col(k).data(), values->col(k).data() + n);
+    }
+    bytes.resize(static_cast<size_t>(state.getEncodedSize()));
+    ASSERT_EQ(state.encode(bytes.data(), 0, static_cast<int>(bytes.size())), static_cast<int>(bytes.size()));
+    const bool twice = repeat_every > 0 && k % repeat_every == repeat_every - 1;
+    for (int copy = 0; copy < (twice ? 2 : 1); ++copy) {
+      lcm::LogEvent event;
+      event.eventnum = events++;
+      event.timestamp = state.utime + 150 + copy;  // received a little after it was stamped
+      event.channel = channel;
+      event.datalen = static_cast<int32_t>(bytes.size());
+      event.data = bytes.data();
+      ASSERT_EQ(log.writeEvent(&event), 0);
+    }
+  }
+}
+
+constexpr double kEffortNoise = 0.05;  // N·m
+
+const Robot kPandaTcp{data_path("panda.urdf"), "panda_hand_tcp"};  // testing::panda()'s chain
+
+// The perturbed Panda of tests/support/identification_run, 12 s at 500 Hz, logged as its driver
+// would: the command identifies it, the report's base parameters match the truth's within their
+// standard errors, the held-out torques shrink to the noise, and the URDF carries the report.
+TEST(calibrateCli, DynamicsIdentifiesTheArmFromItsLog) {
+  const ScratchDir dir;
+  const TrueArm truth = perturbed_panda(7);
+  write_state_log(dir / "run.lcmlog", synthetic_run(truth, 12.0, 500.0, kEffortNoise, 11), "CHASLES_STATE", 100);
+  const RunResult result = run({"dynamics", "--urdf", kPandaTcp.urdf, "--tip", kPandaTcp.tip, "--log",
+                                dir / "run.lcmlog", "--out", dir / "identified.urdf", "--report",
+                                dir / "identified.json"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_EQ(result.err, "");
+  EXPECT_NE(result.out.find("base parameters: 62 of 62 (theory)"), std::string::npos) << result.out;
+  const json report = read_json(dir / "identified.json");
+
+  const json& base = report.at("base_parameters");
+  EXPECT_EQ(base.at("count"), 62);
+  EXPECT_EQ(base.at("data_rank"), 62);
+  EXPECT_EQ(base.at("inertial"), 43);
+  const BaseParameters structure = base_parameters(panda(), 100, 1);
+  const Eigen::VectorXd beta_true = base_parameter_values(structure, truth.parameters());
+  Eigen::VectorXd beta(62);
+  for (int k = 0; k < 62; ++k) {
+    const json& c = base.at("combinations").at(k);
+    EXPECT_EQ(c.at("expression"), base_parameter_expression(panda(), structure, k));
+    beta[k] = c.at("identified").get<double>();
+    EXPECT_LT(std::abs(beta[k] - beta_true[k]), 4.0 * c.at("standard_error").get<double>()) << c.at("expression");
+  }
+  for (const json& joint : report.at("held_out_torque_rms")) {
+    const double before = joint.at("nominal").get<double>(), after = joint.at("identified").get<double>();
+    EXPECT_LE(after, 1.5 * kEffortNoise) << joint.at("joint");
+    EXPECT_GE(before, 10.0 * after) << joint.at("joint");
+  }
+  const json& samples = report.at("samples");
+  EXPECT_EQ(samples.at("states"), 6000);
+  EXPECT_EQ(samples.at("repeated_states_left_out"), 60);
+  EXPECT_EQ(samples.at("decimation"), 20);
+  EXPECT_EQ(samples.at("held_out_blocks"), json::array({2, 7}));
+  EXPECT_GT(report.at("solver").at("fit_seconds").get<double>(), 0.0);
+
+  // The identified URDF, loaded by chasles's loader, is the report's model: its bodies and rotors
+  // with the report's friction give the report's base parameters.
+  const RobotModel loaded = load_to(dir / "identified.urdf", kPandaTcp.tip);
+  Eigen::VectorXd pi = model_parameters(loaded);
+  const json& parameters = report.at("parameters");
+  ASSERT_EQ(parameters.size(), 91u);
+  const ParameterLayout layout = parameter_layout(loaded);
+  for (int i = 0; i < 7; ++i) {
+    EXPECT_EQ(parameters.at(layout.viscous(i)).at("name"), panda().joint(i).name + ".viscous");
+    pi[layout.viscous(i)] = parameters.at(layout.viscous(i)).at("identified").get<double>();
+    pi[layout.coulomb(i)] = parameters.at(layout.coulomb(i)).at("identified").get<double>();
+  }
+  EXPECT_TRUE(matrices_near_relative(base_parameter_values(structure, pi), beta, 1e-9));
+}
+
+// The arm identified from one log, then a 1.2 kg load on it from another, on the identified URDF:
+// the payload is what `chasles payload` would send, found to within grams and millimetres.
+TEST(calibrateCli, PayloadOnTheIdentifiedArm) {
+  const ScratchDir dir;
+  const TrueArm truth = perturbed_panda(7);
+  write_state_log(dir / "run.lcmlog", synthetic_run(truth, 12.0, 500.0, kEffortNoise, 11), "CHASLES_STATE");
+  ASSERT_EQ(run({"dynamics", "--urdf", kPandaTcp.urdf, "--tip", kPandaTcp.tip, "--log", dir / "run.lcmlog", "--out",
+                 dir / "identified.urdf", "--report", dir / "identified.json"})
+                .exit_code,
+            0);
+  Payload box;
+  box.mass = 1.2;
+  box.centre = Vector3d(0.02, -0.01, 0.08);
+  box.inertia = Vector3d(0.0023, 0.0026, 0.001).asDiagonal();
+  const TrueArm carrying{with_payload(truth.model, box), truth.viscous, truth.coulomb};
+  write_state_log(dir / "box.lcmlog", synthetic_run(carrying, 6.0, 500.0, kEffortNoise, 13), "CHASLES_STATE");
+  const RunResult result = run({"payload", "--urdf", dir / "identified.urdf", "--tip", kPandaTcp.tip, "--log",
+                                dir / "box.lcmlog", "--out", dir / "box.json"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("send it: chasles payload --mass 1.2"), std::string::npos) << result.out;
+  const json out = read_json(dir / "box.json");
+  EXPECT_NEAR(out.at("mass").get<double>(), box.mass, 0.01);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(out.at("centre_of_mass").at(k).get<double>(), box.centre[k], 2e-3);
+  EXPECT_EQ(out.at("command").get<std::string>().rfind("chasles payload --mass ", 0), 0u);
+  // The identified URDF's friction came back from its <dynamics>.
+  const json report = read_json(dir / "identified.json");
+  for (int i = 0; i < 7; ++i) {
+    EXPECT_EQ(out.at("arm").at("viscous").at(i), report.at("parameters").at(70 + i).at("identified"));
+  }
+  for (const json& joint : out.at("held_out_torque_rms")) {
+    EXPECT_LE(joint.at("with_payload").get<double>(), 1.5 * kEffortNoise) << joint.at("joint");
+  }
+}
+
+// A log the fit cannot use: exit 1, one line naming what, and nothing written.
+TEST(calibrateCli, DynamicsRefusesALogItCannotUse) {
+  const ScratchDir dir;
+  const TrueArm truth = perturbed_panda(7);
+  write_state_log(dir / "other.lcmlog", synthetic_run(truth, 3.0, 500.0, kEffortNoise, 11), "PANDA_STATE");
+  write_state_log(dir / "short.lcmlog", synthetic_run(truth, 1.0, 500.0, kEffortNoise, 11), "CHASLES_STATE");
+  write_state_log(dir / "still.lcmlog", synthetic_run(truth, 12.0, 500.0, kEffortNoise, 11, 4), "CHASLES_STATE");
+  struct Case {
+    Robot robot;
+    std::string log, fragment;
+  };
+  const std::vector<Case> cases = {
+      {kPandaTcp, "other.lcmlog", "other.lcmlog: no messages on CHASLES_STATE (channels in the log: PANDA_STATE 1500)"},
+      {kUr5, "short.lcmlog", "the states on CHASLES_STATE carry 7 joints; the chain of " + kUr5.urdf +
+                                 " from 'world' to 'tool0' has 6"},
+      {kPandaTcp, "short.lcmlog", "the log is too short: 0.998 s at 500 Hz"},
+      {kPandaTcp, "still.lcmlog", "the log does not excite the arm: joints that barely move: 'panda_joint5'"},
+      {kPandaTcp, "missing.lcmlog", "missing.lcmlog: cannot open the log"},
+  };
+  for (const Case& c : cases) {
+    expect_one_error_line(run({"dynamics", "--urdf", c.robot.urdf, "--tip", c.robot.tip, "--log", dir / c.log, "--out",
+                               dir / "identified.urdf", "--report", dir / "identified.json"}),
+                          1, c.fragment);
+    EXPECT_FALSE(exists(dir / "identified.urdf"));
+    EXPECT_FALSE(exists(dir / "identified.json"));
+  }
+  const RunResult help = run({"dynamics", "--help"});
+  EXPECT_EQ(help.exit_code, 0);
+  for (const char* text :
+       {"--state-channel", "--cutoff", "--holdout", "drake:rotor_inertia", "Example", "atomically"}) {
+    EXPECT_NE(help.out.find(text), std::string::npos) << text;
+  }
 }
 
 }  // namespace

@@ -61,7 +61,7 @@ std::vector<int> lines_of(const std::vector<Measurement>& rows, const std::vecto
 
 Json report_json(const FitOptions& o, const RobotModel& nominal, const std::vector<Measurement>& fit,
                  const std::vector<Measurement>& holdout, const CalibrationResult& r, int changed_joints) {
-  const ParameterLayout& layout = r.layout;
+  const CalibrationLayout& layout = r.layout;
   Json report;
   report["tool"] = std::string("chasles_calibrate ") + CHASLES_VERSION;
   report["robot"] = nominal.name();

@@ -25,6 +25,7 @@
 
 #include "chasles/tools/cli/lcm_log.hpp"
 #include "chasles/tools/cli/messages.hpp"
+#include "chasles/tools/cli/state_log.hpp"
 #include "command.hpp"
 
 extern char** environ;
@@ -125,12 +126,6 @@ class AtomicFile {
 // ---------------------------------------------------------------------------------------------
 // export
 // ---------------------------------------------------------------------------------------------
-
-std::string channel_list(const std::map<std::string, int64_t>& counts) {
-  std::string text;
-  for (const auto& [channel, count] : counts) text += (text.empty() ? "" : ", ") + channel + " " + std::to_string(count);
-  return text.empty() ? "none" : text;
-}
 
 Json run_export(const LogOptions& options) {
   const std::optional<JointInfo> joints = load_joints(options);

@@ -1,0 +1,193 @@
+// Dynamic identification in the whole loop, in simulated time (world.hpp): an arm whose plant hides
+// a model error — every body's inertial parameters perturbed by up to ±20 %, friction on every
+// joint, 0.05 N·m of noise on the efforts it reports — runs an optimised excitation trajectory
+// (identification/excitation.hpp) as a joint_trajectory_t under the controller, which knows only
+// the URDF; the states it reports are identified (identification/dynamic_fit.hpp) and the
+// identified model is put back in the controller. Judged against the issue's targets:
+//   - held-out torque RMS ≤ 1.5 × the injected noise on every joint, and ≥ 10 × below the URDF's;
+//   - with the identified model, the computed-torque tracking error over a move ≥ 5 × smaller, and
+//     the free-motion floor of τ̂_ext ≥ 5 × lower.
+// The identification's inputs are the controller's own states as the bus carried them (q, q̇ and
+// the effort, noise and all), not the plant's truth.
+#include <gtest/gtest.h>
+
+#include <chasles/joint_trajectory_t.hpp>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "chasles/controller/limits.hpp"
+#include "chasles/core/identification/dynamic_fit.hpp"
+#include "chasles/core/identification/excitation.hpp"
+#include "world.hpp"
+
+namespace chasles::faults {
+namespace {
+
+using Eigen::VectorXd;
+constexpr double kNoise = 0.05;  // N·m, the effort noise the issue names
+
+double rms(const VectorXd& v) { return std::sqrt(v.squaredNorm() / static_cast<double>(v.size())); }
+
+// The plant's hidden error: inertias off by up to ±20 % (seed 7), viscous and Coulomb friction on
+// every joint (on top of the damping D = 0.5 the controller knows), noise on the reported efforts.
+plant::SimulationOptions hidden_error(int n) {
+  plant::SimulationOptions p;
+  p.environment.perturbation = plant::InertiaPerturbation{0.2, 7};
+  p.environment.friction.viscous = VectorXd::LinSpaced(n, 0.3, 0.1);
+  p.environment.friction.coulomb = VectorXd::LinSpaced(n, 0.4, 0.15);
+  p.faults.effort_noise = plant::EffortNoise{kNoise, 3};
+  return p;
+}
+
+controller::DaemonOptions controller_for(const RobotModel& model, const VectorXd& damping) {
+  controller::DaemonOptions o;
+  o.control = controller::Config::critically_damped(model.dof(), 20.0);
+  o.control.damping = damping;
+  o.status_hz = 100.0;
+  return o;
+}
+
+// The series as the controller takes it: `points` waypoints with positions, velocities and
+// accelerations, the last exactly at rest at the start (as chasles_calibrate excite writes them).
+joint_trajectory_t trajectory_message(const RobotModel& model, const FourierTrajectory& series, int points) {
+  const int n = model.dof();
+  joint_trajectory_t t{};
+  t.id = 1;
+  t.num_joints = n;
+  t.num_points = t.num_velocities = t.num_accelerations = points;
+  for (const Joint& joint : model.joints()) t.joint_names.push_back(joint.name);
+  VectorXd q(n), qd(n), qdd(n), qddd(n);
+  for (int k = 0; k < points; ++k) {
+    const double time = series.duration() * (k + 1) / points;
+    sample_fourier(series, time, q, qd, qdd, qddd);
+    if (k == points - 1) q = series.start, qd.setZero(), qdd.setZero();
+    t.time_from_start.push_back(time);
+    t.positions.emplace_back(q.data(), q.data() + n);
+    t.velocities.emplace_back(qd.data(), qd.data() + n);
+    t.accelerations.emplace_back(qdd.data(), qdd.data() + n);
+  }
+  t.path_tolerance.assign(size_t(n), 0.0);
+  t.goal_tolerance.assign(size_t(n), 0.0);
+  t.goal_time_tolerance = 0.0;
+  t.time_scaling = false;
+  return t;
+}
+
+// The states heard, one column each, times from their utime.
+JointSamples samples_of(const std::vector<robot_state_t>& states, int n) {
+  JointSamples s;
+  const auto N = static_cast<Eigen::Index>(states.size());
+  s.t.resize(N), s.q.resize(n, N), s.qd.resize(n, N), s.tau.resize(n, N);
+  for (Eigen::Index k = 0; k < N; ++k) {
+    const robot_state_t& m = states[size_t(k)];
+    s.t(k) = 1e-6 * static_cast<double>(m.utime - states.front().utime);
+    s.q.col(k) = vector_of(m.position);
+    s.qd.col(k) = vector_of(m.velocity);
+    s.tau.col(k) = vector_of(m.effort);
+  }
+  return s;
+}
+
+struct Tracking {
+  double error_rms = 0.0;    ///< rad, the controller's error over the move, every joint and tick
+  double tau_ext_rms = 0.0;  ///< N·m, τ̂_ext over the same ticks: nothing touches the arm
+};
+
+// A JOINT move out and back from `start` against the plant with its hidden error, the controller
+// given `model` and `damping`.
+Tracking track(const RobotModel& nominal, const RobotModel& model, const VectorXd& damping, const VectorXd& start) {
+  const int n = nominal.dof();
+  World world(nominal);
+  world.start_plant(start, hidden_error(n));
+  world.add_controller(controller_for(model, damping), World::kMs / 2, &model);
+  world.run_for(0.5);
+  VectorXd goal = start;
+  for (int i = 0; i < n; ++i) goal(i) += (i % 2 == 0 ? 0.4 : -0.3);
+  const controller::Controller& c = world.controller().controller();
+  double error_sq = 0.0, tau_sq = 0.0;
+  int64_t ticks = 0;
+  for (const VectorXd* to : {&goal, &start}) {
+    world.send_joint_target(*to, 1.5);
+    world.run_until(
+        [&] {
+          error_sq += c.error().squaredNorm();
+          tau_sq += c.contact().tau_ext.squaredNorm();
+          ++ticks;
+          return false;
+        },
+        2.0);
+  }
+  EXPECT_EQ(c.faults(), 0);
+  EXPECT_EQ(c.reflexes(), 0) << c.reflex_reason();
+  const double count = static_cast<double>(ticks * n);
+  return {std::sqrt(error_sq / count), std::sqrt(tau_sq / count)};
+}
+
+class Identification : public ::testing::TestWithParam<const char*> {
+ protected:
+  const RobotModel& model() const { return std::string(GetParam()) == "panda" ? panda() : ur5(); }
+};
+
+TEST_P(Identification, AnArmsOwnLogIdentifiesItsHiddenModelError) {
+  const RobotModel& nominal = model();
+  const int n = nominal.dof();
+
+  // The excitation, within the controller's own limits, from the middle of the joints' ranges.
+  const controller::MotionLimits limits(nominal, controller::LimitConfig{});
+  ExcitationLimits bounds;
+  bounds.lower = limits.lower, bounds.upper = limits.upper, bounds.velocity = limits.velocity;
+  bounds.acceleration = limits.acceleration, bounds.jerk = limits.jerk;
+  VectorXd start(n);
+  for (int i = 0; i < n; ++i) start(i) = std::isfinite(limits.lower(i)) ? 0.5 * (limits.lower(i) + limits.upper(i)) : 0.0;
+  ExcitationOptions excitation;
+  excitation.periods = 3;  // 30 s
+  excitation.samples = 50;
+  excitation.iterations = 60;
+  const BaseParameters base = base_parameters(nominal, 50, 1);
+  const ExcitationResult designed = optimize_excitation(nominal, base, bounds, start, excitation);
+
+  // The run: the plant starts where the excitation does; the controller knows the URDF and D.
+  const VectorXd damping = VectorXd::Constant(n, 0.5);
+  World world(nominal);
+  world.start_plant(start, hidden_error(n));
+  world.add_controller(controller_for(nominal, damping));
+  ASSERT_TRUE(world.run_until([&] { return world.recorder().status_is(controller_status_t::HOLDING); }, 1.0));
+  world.recorder().keep_states();
+  world.recorder().publish("TRAJECTORY", trajectory_message(nominal, designed.trajectory, 1000));
+  world.run_for(designed.trajectory.duration() + 0.5);
+  const controller::Controller& c = world.controller().controller();
+  ASSERT_EQ(c.trajectory().outcome, controller::TrajectoryProgress::kSucceeded) << c.last_rejection();
+
+  const DynamicFitResult fit = identify_dynamics(nominal, samples_of(world.recorder().states(), n));
+  std::printf("[ identification ] %s: cond(W_b) %.1f (designed %.1f), %d base parameters; held-out torque RMS, "
+              "N·m: URDF %.3f -> identified %.4f (noise %.2f); fit %.2f s\n",
+              GetParam(), fit.condition_number_scaled, designed.scaled_condition_number, fit.base.count,
+              rms(fit.holdout_rms_nominal), rms(fit.holdout_rms), kNoise, fit.seconds);
+  for (int i = 0; i < n; ++i) {
+    EXPECT_LE(fit.holdout_rms(i), 1.5 * kNoise) << nominal.joint(i).name;
+  }
+  EXPECT_GE(rms(fit.holdout_rms_nominal), 10.0 * rms(fit.holdout_rms));
+
+  // The identified model back in the controller, its viscous friction as the damping it feeds
+  // forward (a RobotModel has no friction), against the same plant.
+  const RobotModel identified = identified_model(nominal, fit.pi);
+  const ParameterLayout layout = parameter_layout(nominal);
+  VectorXd identified_damping(n);
+  for (int i = 0; i < n; ++i) identified_damping(i) = fit.pi(layout.viscous(i));
+  const Tracking before = track(nominal, nominal, damping, start);
+  const Tracking after = track(nominal, identified, identified_damping, start);
+  std::printf("[ identification ] %s: computed-torque tracking RMS %.3e -> %.3e rad (%.1fx); free-motion "
+              "|tau_ext| RMS %.3f -> %.4f N*m (%.1fx)\n",
+              GetParam(), before.error_rms, after.error_rms, before.error_rms / after.error_rms, before.tau_ext_rms,
+              after.tau_ext_rms, before.tau_ext_rms / after.tau_ext_rms);
+  EXPECT_GE(before.error_rms, 5.0 * after.error_rms);
+  EXPECT_GE(before.tau_ext_rms, 5.0 * after.tau_ext_rms);
+}
+
+INSTANTIATE_TEST_SUITE_P(Arms, Identification, ::testing::Values("panda", "ur5"),
+                         [](const ::testing::TestParamInfo<const char*>& info) { return std::string(info.param); });
+
+}  // namespace
+}  // namespace chasles::faults
