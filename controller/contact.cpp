@@ -109,10 +109,10 @@ ContactConfig filled(ContactConfig config, const RobotModel& model) {
 }  // namespace
 
 ContactMonitor::ContactMonitor(const RobotModel& model, const ContactConfig& config, const Eigen::VectorXd& damping,
-                               double period)
+                               double period, const Eigen::VectorXd& coulomb)
     : model_(&model),
       config_(filled(config, model)),
-      observer_(model, config_.observer_gain, damping),
+      observer_(model, config_.observer_gain, damping, coulomb),
       estimate_(model.dof()),
       allowance_(Eigen::VectorXd::Zero(model.dof())),
       history_q_(Eigen::MatrixXd::Zero(model.dof(), static_cast<Eigen::Index>(std::ceil(kHistorySeconds / period)))),

@@ -57,10 +57,11 @@ struct ContactEstimate {
 
 class ContactMonitor {
  public:
-  /// `damping` is the known viscous joint damping (empty: none); `period` the state's nominal
-  /// period, s (it sizes the recent path kept for the retract reflex). Keeps a reference to the
-  /// model. Throws ArgumentError (a bad config) or ObserverError.
-  ContactMonitor(const RobotModel& model, const ContactConfig& config, const Eigen::VectorXd& damping, double period);
+  /// `damping` and `coulomb` are the known viscous and Coulomb joint friction (each empty: none);
+  /// `period` the state's nominal period, s (it sizes the recent path kept for the retract reflex).
+  /// Keeps a reference to the model. Throws ArgumentError (a bad config) or ObserverError.
+  ContactMonitor(const RobotModel& model, const ContactConfig& config, const Eigen::VectorXd& damping, double period,
+                 const Eigen::VectorXd& coulomb = {});
 
   /// Takes a state — `data` holding the terms at its (q, q̇) (compute_tick_terms), `effort` the
   /// torque applied over the interval that ended at it — `dt` seconds after the previous state

@@ -151,6 +151,7 @@ void Config::validate(int dof) const {
   limits.validate(dof);
   jog.validate();
   if (damping.size() != 0) check_gains(damping, "damping");
+  if (coulomb.size() != 0) check_gains(coulomb, "Coulomb friction");
 }
 
 Controller::Controller(const RobotModel& model, const Config& config)
@@ -184,7 +185,7 @@ Controller::Controller(const RobotModel& model, const Config& config)
       otg_(model.dof()),
       jogger_(model, config_.jog),
       jog_(model.dof()),
-      contact_(model, config_.contact, config_.damping, config_.period),
+      contact_(model, config_.contact, config_.damping, config_.period, config_.coulomb),
       retract_goal_(Eigen::VectorXd::Zero(model.dof())),
       request_(model.dof()),
       state_period_(config_.period) {
@@ -977,6 +978,7 @@ void Controller::apply_law(int64_t now_ns) {
     allowance_.setZero();
   }
   if (config_.damping.size() != 0) tau_ += config_.damping.cwiseProduct(ref_.qd);
+  add_coulomb_friction(config_.coulomb, ref_.qd, tau_);
   if (switch_pending_) {
     switch_offset_ = tau_prev_ - tau_;
     switch_pending_ = false;

@@ -43,6 +43,11 @@ struct Config {
   /// torque that feeds it forward, and the contact observer counts it as the model's.
   /// Empty or zero: none.
   Eigen::VectorXd damping;
+  /// The joints' Coulomb friction f_c (N·m or N), if known (chasles_calibrate dynamics identifies
+  /// it): the law adds f_c tanh(q̇_d / v_c) — the reference's velocity, so the feedforward never
+  /// chatters — and the observer counts f_c tanh(q̇ / v_c) as the model's (v_c = kCoulombVelocity,
+  /// contact/observer.hpp). Empty: none.
+  Eigen::VectorXd coulomb;
   /// Contact and collision thresholds, the observer's gains and the reflex.
   ContactConfig contact;
   /// Acceleration and jerk limits (the URDF gives position and velocity), the position margin

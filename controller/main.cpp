@@ -79,6 +79,7 @@ struct Flags {
   double rate = 0.0, stale_ms = 0.0, torque_ramp_ms = 50.0, omega = 20.0;
   std::string kp, kd;
   std::string damping;
+  std::string coulomb;
   // Contact: per-joint lists as text until the joint count is known; empty: the defaults.
   std::string observer_gain, contact_torque, collision_torque;
   chasles::controller::ContactConfig contact;
@@ -210,6 +211,9 @@ int main(int argc, char** argv) {
   app.add_option("--kd", flags.kd, "velocity gains K_d, 1/s: one number or one per joint (default 2ω)");
   app.add_option("--damping", flags.damping,
                  "the joints' viscous damping, N·m·s/rad: one number or one per joint; fed forward as D q̇_d");
+  app.add_option("--coulomb", flags.coulomb,
+                 "the joints' Coulomb friction f_c, N·m (chasles_calibrate dynamics identifies it): one number or "
+                 "one per joint; fed forward as f_c tanh(q̇_d / 0.05 rad/s), and the contact observer counts it");
   app.add_option("--omega", flags.omega, "natural frequency ω of the default gains, rad/s (default 20)")
       ->check(CLI::PositiveNumber);
   app.add_option("--config", flags.config,
@@ -376,6 +380,7 @@ int main(int argc, char** argv) {
     if (!flags.kp.empty()) options.control.kp = gains(flags.kp, n, "--kp");
     if (!flags.kd.empty()) options.control.kd = gains(flags.kd, n, "--kd");
     if (!flags.damping.empty()) options.control.damping = gains(flags.damping, n, "--damping");
+    if (!flags.coulomb.empty()) options.control.coulomb = gains(flags.coulomb, n, "--coulomb");
     const double status_period = chasles::controller::nominal_status_period(options.protocol);
     options.control.period = flags.rate > 0.0 ? 1.0 / flags.rate : status_period > 0.0 ? status_period : 1e-3;
     options.control.stale_ns = flags.stale_ms > 0.0 ? static_cast<int64_t>(flags.stale_ms * 1e6)

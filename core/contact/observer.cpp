@@ -8,8 +8,13 @@
 
 namespace chasles {
 
-MomentumObserver::MomentumObserver(const RobotModel& model, const Eigen::VectorXd& gain, const Eigen::VectorXd& damping)
-    : gain_(gain), damping_(damping) {
+void add_coulomb_friction(const Eigen::VectorXd& coulomb, const Eigen::VectorXd& qd, Eigen::VectorXd& tau) {
+  for (Eigen::Index i = 0; i < coulomb.size(); ++i) tau(i) += coulomb(i) * std::tanh(qd(i) / kCoulombVelocity);
+}
+
+MomentumObserver::MomentumObserver(const RobotModel& model, const Eigen::VectorXd& gain, const Eigen::VectorXd& damping,
+                                   const Eigen::VectorXd& coulomb)
+    : gain_(gain), damping_(damping), coulomb_(coulomb) {
   const int n = model.dof();
   if (gain_.size() != n) {
     throw ObserverError("the observer has " + std::to_string(gain_.size()) + " gains; the arm has " + std::to_string(n) +
@@ -22,11 +27,15 @@ MomentumObserver::MomentumObserver(const RobotModel& model, const Eigen::VectorX
   if (damping_.size() != n || !damping_.allFinite() || (damping_.array() < 0.0).any()) {
     throw ObserverError("the observer's joint damping must be one finite, non-negative value per joint");
   }
+  if (coulomb_.size() != 0 && (coulomb_.size() != n || !coulomb_.allFinite() || (coulomb_.array() < 0.0).any())) {
+    throw ObserverError("the observer's Coulomb friction must be one finite, non-negative value per joint");
+  }
   for (Eigen::VectorXd* v : {&r_, &p_prev_, &gamma_, &gamma_prev_, &mean_}) v->setZero(n);
 }
 
 void MomentumObserver::momentum_balance(const Data& data, const JointVector& qd, Eigen::VectorXd& gamma) const {
   gamma = data.ct_qd - data.g - damping_.cwiseProduct(qd);
+  for (Eigen::Index i = 0; i < coulomb_.size(); ++i) gamma(i) -= coulomb_(i) * std::tanh(qd(i) / kCoulombVelocity);
 }
 
 void MomentumObserver::reset(const Data& data, const JointVector& qd) {

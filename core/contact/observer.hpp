@@ -32,11 +32,22 @@ class ObserverError : public Error {
 /// The momentum observer of one arm: allocates nothing after construction. It owns no Data: each
 /// sample's p = M q̇, Cᵀq̇ and g come from the caller's, computed at that sample by
 /// compute_tick_terms (a controller's tick) or momentum_terms.
+/// The velocity, rad/s (m/s), below which known Coulomb friction f_c is taken as f_c tanh(q̇ / v_c)
+/// rather than f_c sign(q̇): the observer's and the law's, so that the joint at rest (where static
+/// friction is anything in ±f_c) and a reference through zero velocity see no step.
+constexpr double kCoulombVelocity = 0.05;
+
+/// f_c ∘ tanh(q̇ / kCoulombVelocity) added to `tau` (nothing for an empty f_c). Allocates nothing.
+void add_coulomb_friction(const Eigen::VectorXd& coulomb, const Eigen::VectorXd& qd, Eigen::VectorXd& tau);
+
 class MomentumObserver {
  public:
   /// `gain` is K_O, 1/s, one per joint of `model` (the bandwidth of the estimate); `damping` the
-  /// model's known viscous joint damping D, N·m·s/rad or N·s/m (empty: none). Throws ObserverError.
-  MomentumObserver(const RobotModel& model, const Eigen::VectorXd& gain, const Eigen::VectorXd& damping = {});
+  /// model's known viscous joint damping D, N·m·s/rad or N·s/m, and `coulomb` its known Coulomb
+  /// friction f_c, N·m or N (each empty: none; identified by chasles_calibrate dynamics). Throws
+  /// ObserverError.
+  MomentumObserver(const RobotModel& model, const Eigen::VectorXd& gain, const Eigen::VectorXd& damping = {},
+                   const Eigen::VectorXd& coulomb = {});
 
   /// Starts (again) from the sample in `data` (p, Cᵀq̇ and g at (q, q̇)) with r = 0: the first
   /// update() integrates from here.
@@ -53,10 +64,10 @@ class MomentumObserver {
   const Eigen::VectorXd& gain() const { return gain_; }
 
  private:
-  // γ = Cᵀq̇ − g − D q̇ at the sample in data.
+  // γ = Cᵀq̇ − g − D q̇ − f_c tanh(q̇ / v_c) at the sample in data.
   void momentum_balance(const Data& data, const JointVector& qd, Eigen::VectorXd& gamma) const;
 
-  Eigen::VectorXd gain_, damping_;
+  Eigen::VectorXd gain_, damping_, coulomb_;
   Eigen::VectorXd r_, p_prev_, gamma_, gamma_prev_, mean_;
   bool started_ = false;
 };

@@ -83,6 +83,7 @@ void Recorder::on_state(const robot_state_t& m) {
   state_arrivals_.push_back(clock_.now_ns());
   positions_[size_t(m.seq) % kPositions] = {m.seq, vector_of(m.position)};
   state_ = m;
+  if (keep_states_) states_.push_back(m);
 }
 
 void Recorder::on_command(HeardCommand c) {

@@ -91,6 +91,10 @@ class Recorder {
   /// Arrival times of the valid states heard, ns.
   const std::vector<int64_t>& state_arrivals() const { return state_arrivals_; }
   const std::optional<robot_state_t>& state() const { return state_; }
+  /// Every valid state heard from now on, in order (off by default: a ten-minute run would keep
+  /// hundreds of megabytes).
+  void keep_states() { keep_states_ = true; }
+  const std::vector<robot_state_t>& states() const { return states_; }
   const std::optional<controller_status_t>& status() const { return status_; }
   bool status_is(int8_t mode) const { return status_ && status_->state == mode; }
   /// Commands heard after the index'th message.
@@ -115,6 +119,8 @@ class Recorder {
   std::vector<std::pair<int64_t, Eigen::VectorXd>> positions_;  // by seq modulo its size
   std::vector<int64_t> state_arrivals_;
   std::optional<robot_state_t> state_;
+  bool keep_states_ = false;
+  std::vector<robot_state_t> states_;
   std::optional<controller_status_t> status_;
   std::vector<HeardStatus> statuses_;
   std::vector<HeardCommand> commands_;
