@@ -321,6 +321,42 @@ TEST_F(ControllerTest, TheTorqueRateLimitKeepsTheLawsDirection) {
   EXPECT_LT((taken.cwiseAbs() - step).cwiseAbs().minCoeff(), 1e-12) << "the most limited joint at it";
 }
 
+// Known Coulomb friction is fed forward on the reference's velocity, f_c tanh(q̇_d / v_c): two
+// controllers, told of it and not, differ by exactly that on every tick of a move (the rate limit
+// off: this is about the law).
+TEST_F(ControllerTest, KnownCoulombFrictionIsFedForwardOnTheReferencesVelocity) {
+  config_.torque_ramp = 1e-9;
+  // The states here are the reference itself, not an arm's response to the torque: no reflex.
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  auto& contact = config_.contact;
+  contact.contact_torque = contact.collision_torque = VectorXd::Constant(7, kInf);
+  contact.contact_force = contact.collision_force = contact.contact_moment = contact.collision_moment = kInf;
+  Controller without(model_, config_);
+  config_.coulomb = VectorXd::LinSpaced(7, 0.6, 0.2);
+  Controller with(model_, config_);
+  VectorXd goal = bent_pose();
+  goal(0) += 0.3, goal(2) -= 0.2, goal(5) += 0.1;
+  ASSERT_TRUE(with.tick(0, fresh(0)));
+  ASSERT_TRUE(without.tick(0, fresh(0)));
+  ASSERT_TRUE(with.set_target(joint_target(goal, 1.0), 0));
+  ASSERT_TRUE(without.set_target(joint_target(goal, 1.0), 0));
+  double worst = 0.0, largest = 0.0;
+  for (int k = 1; k <= 500; ++k) {
+    state_.seq = k + 1;
+    ASSERT_TRUE(with.tick(k * kMs, fresh(k * kMs)));
+    ASSERT_TRUE(without.tick(k * kMs, fresh(k * kMs)));
+    const VectorXd fed = config_.coulomb.array() * (with.reference().qd.array() / kCoulombVelocity).tanh();
+    worst = std::max(worst, (with.torque() - without.torque() - fed).cwiseAbs().maxCoeff());
+    largest = std::max(largest, fed.cwiseAbs().maxCoeff());
+    state_.q = with.reference().q;  // the arm follows exactly
+    state_.qd = with.reference().qd;
+  }
+  EXPECT_GT(largest, 0.5) << "the reference must have moved";
+  EXPECT_LT(worst, 1e-12);
+  config_.coulomb = VectorXd::Constant(7, -0.1);
+  EXPECT_THROW(Controller(model_, config_), ArgumentError);
+}
+
 TEST_F(ControllerTest, RefusesBadTargetsAndKeepsTheCurrentOne) {
   Controller controller(model_, config_);
   ASSERT_TRUE(controller.tick(0, fresh(0)));

@@ -139,6 +139,41 @@ TEST_P(Contact, ResidualFollowsTheFirstOrderLagOfTheExternalTorque) {
   EXPECT_LT((observer.external_torque() - tau_ext).cwiseAbs().maxCoeff(), tolerance);
 }
 
+// Known Coulomb friction is the model's: an observer that is not told of f_c reads the friction
+// torque as external (−f_c tanh(q̇ / v_c), against the motion), one told of it does not; they differ
+// by the lag of f_c tanh(q̇ / v_c) by the same trapezoid — the recursion written out here, sample by
+// sample, on an arbitrary motion.
+TEST_P(Contact, KnownCoulombFrictionIsTheModels) {
+  std::mt19937_64 rng(13);
+  Eigen::VectorXd q, qd;
+  random_state(rng, q, qd);
+  const Eigen::VectorXd gain = Eigen::VectorXd::Constant(n(), 40.0);
+  const Eigen::VectorXd coulomb = Eigen::VectorXd::LinSpaced(n(), 0.5, 0.1);
+  MomentumObserver with(*model_, gain, {}, coulomb), without(*model_, gain);
+  with.reset(sample(q, qd), qd);
+  without.reset(sample(q, qd), qd);
+  const auto friction = [&](const Eigen::VectorXd& v) {
+    return Eigen::VectorXd(coulomb.array() * (v.array() / kCoulombVelocity).tanh());
+  };
+  Eigen::VectorXd expected = Eigen::VectorXd::Zero(n()), f_before = friction(qd);
+  const Eigen::VectorXd tau = Eigen::VectorXd::LinSpaced(n(), -2.0, 3.0);
+  const double dt = 1e-3, a = std::exp(-40.0 * dt);
+  double worst = 0.0;
+  for (int k = 0; k < 200; ++k) {
+    q += dt * qd;
+    qd = 0.3 * Eigen::VectorXd::LinSpaced(n(), 1.0, -1.0) * std::sin(0.05 * k);  // through zero and back
+    with.update(sample(q, qd), qd, tau, dt);
+    without.update(sample(q, qd), qd, tau, dt);
+    const Eigen::VectorXd f = friction(qd);
+    expected = a * expected + (1.0 - a) * 0.5 * (f_before + f);
+    f_before = f;
+    worst = std::max(worst, (with.external_torque() - without.external_torque() - expected).cwiseAbs().maxCoeff());
+  }
+  EXPECT_GT(expected.cwiseAbs().maxCoeff(), 0.1) << "the friction must have been felt";
+  EXPECT_LT(worst, 1e-12);
+  EXPECT_THROW(MomentumObserver(*model_, gain, {}, -coulomb), ObserverError);
+}
+
 // A constant wrench at the tip of an arm held still: the residual converges to J_bᵀ F and the tip
 // wrench recovers F (in the tip frame and base-aligned) where the joints can feel it.
 TEST_P(Contact, TipWrenchRecoversThePushOnAnArmAtRest) {
