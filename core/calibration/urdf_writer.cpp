@@ -78,6 +78,17 @@ std::vector<std::string> riders(const std::string& link, const std::multimap<std
   return found;
 }
 
+// The document's <robot>, parsed into `doc`; CalibrationError naming `source` when there is none.
+tinyxml2::XMLElement* parsed_robot(tinyxml2::XMLDocument& doc, const std::string& xml, const std::string& source) {
+  if (doc.Parse(xml.c_str(), xml.size()) != tinyxml2::XML_SUCCESS) {
+    throw CalibrationError(source + ": malformed XML at line " + std::to_string(doc.ErrorLineNum()) + ": " +
+                           doc.ErrorName());
+  }
+  tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
+  if (robot == nullptr) throw CalibrationError(source + ": no <robot> element");
+  return robot;
+}
+
 }  // namespace
 
 Matrix3d rotation_from_rpy(const Vector3d& rpy) {
@@ -103,12 +114,7 @@ std::string corrected_urdf(const std::string& original_xml, const RobotModel& no
                            const KinematicCorrections& corrections, const CorrectedUrdfOptions& options) {
   const std::string& source = nominal.description().source;
   tinyxml2::XMLDocument doc;
-  if (doc.Parse(original_xml.c_str(), original_xml.size()) != tinyxml2::XML_SUCCESS) {
-    throw CalibrationError(source + ": malformed XML at line " + std::to_string(doc.ErrorLineNum()) + ": " +
-                           doc.ErrorName());
-  }
-  tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
-  if (robot == nullptr) throw CalibrationError(source + ": no <robot> element");
+  tinyxml2::XMLElement* robot = parsed_robot(doc, original_xml, source);
   std::map<std::string, tinyxml2::XMLElement*> joints, links;
   for (auto* e = robot->FirstChildElement("joint"); e != nullptr; e = e->NextSiblingElement("joint")) {
     if (const char* name = e->Attribute("name")) joints[name] = e;
@@ -204,12 +210,7 @@ std::string identified_urdf(const std::string& original_xml, const RobotModel& i
                            std::to_string(n) + " joints");
   }
   tinyxml2::XMLDocument doc;
-  if (doc.Parse(original_xml.c_str(), original_xml.size()) != tinyxml2::XML_SUCCESS) {
-    throw CalibrationError(source + ": malformed XML at line " + std::to_string(doc.ErrorLineNum()) + ": " +
-                           doc.ErrorName());
-  }
-  tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
-  if (robot == nullptr) throw CalibrationError(source + ": no <robot> element");
+  tinyxml2::XMLElement* robot = parsed_robot(doc, original_xml, source);
   std::map<std::string, tinyxml2::XMLElement*> joints, links;
   std::multimap<std::string, tinyxml2::XMLElement*> children;  // parent link → its joints
   for (auto* e = robot->FirstChildElement("joint"); e != nullptr; e = e->NextSiblingElement("joint")) {

@@ -292,6 +292,19 @@ void run_payload(const DynamicsOptions& o) {
   std::cout << "send it: " << command << "\nwrote " << o.out << "\n";
 }
 
+// What both commands read of the log and how they filter and judge it.
+void add_log_options(CLI::App& command, std::string& channel, DynamicFitOptions& fit) {
+  command.add_option("--state-channel", channel, "The channel of its chasles.robot_state_t messages")
+      ->type_name("CHANNEL")
+      ->capture_default_str();
+  command.add_option("--holdout", fit.holdout, "Fraction of the log held out, in whole blocks, to judge the fit")
+      ->check(CLI::Range(0.0, 0.5))
+      ->capture_default_str();
+  command.add_option("--cutoff", fit.cutoff_hz, "Cut-off of the zero-phase low-pass on velocity and torque (Hz)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+}
+
 }  // namespace
 
 Command register_payload(CLI::App& app) {
@@ -306,15 +319,7 @@ Command register_payload(CLI::App& app) {
       ->type_name("FILE");
   command->add_option("--tip", o.tip, "Link that ends the chain, where the load is held")->type_name("LINK");
   command->add_option("--log", o.log, "LCM log of the arm moving with the load")->required()->type_name("LOG");
-  command->add_option("--state-channel", o.channel, "The channel of its chasles.robot_state_t messages")
-      ->type_name("CHANNEL")
-      ->capture_default_str();
-  command->add_option("--holdout", o.fit.holdout, "Fraction of the log held out, in whole blocks, to judge the fit")
-      ->check(CLI::Range(0.0, 0.5))
-      ->capture_default_str();
-  command->add_option("--cutoff", o.fit.cutoff_hz, "Cut-off of the zero-phase low-pass on velocity and torque (Hz)")
-      ->check(CLI::PositiveNumber)
-      ->capture_default_str();
+  add_log_options(*command, o.channel, o.fit);
   command->add_option("--out", o.out, "JSON to write: the payload (mass, centre_of_mass, inertia, as payload_t), the "
                                       "chasles payload command, standard errors, held-out torques")
       ->required()
@@ -339,15 +344,7 @@ Command register_dynamics(CLI::App& app) {
   command->add_option("--log", o.log, "LCM log of the arm moving (lcm-logger's), with its states")
       ->required()
       ->type_name("LOG");
-  command->add_option("--state-channel", o.channel, "The channel of its chasles.robot_state_t messages")
-      ->type_name("CHANNEL")
-      ->capture_default_str();
-  command->add_option("--holdout", o.fit.holdout, "Fraction of the log held out, in whole blocks, to judge the fit")
-      ->check(CLI::Range(0.0, 0.5))
-      ->capture_default_str();
-  command->add_option("--cutoff", o.fit.cutoff_hz, "Cut-off of the zero-phase low-pass on velocity and torque (Hz)")
-      ->check(CLI::PositiveNumber)
-      ->capture_default_str();
+  add_log_options(*command, o.channel, o.fit);
   command->add_option("--out", o.out, "Identified URDF to write")->required()->type_name("FILE");
   command->add_option("--report", o.report, "JSON report to write")->required()->type_name("FILE");
   command->footer(
