@@ -306,17 +306,7 @@ TEST_P(Compliance, EverySwitchBetweenTheFourLawsMidMotionStaysWithinTheRateLimit
   EXPECT_EQ(c.rejected_modes(), 0) << c.mode_rejection();
 }
 
-// Every wire in the Release build. Under the sanitizers (which look for memory errors, not for the
-// protocols' semantics, and run the loop several times slower) chasles's at 1 kHz and the iiwa
-// driver's at 200 Hz.
-#ifdef CHASLES_SANITIZED
-INSTANTIATE_TEST_SUITE_P(Wires, Compliance,
-                         ::testing::Values(Wire{controller::Protocol::kChasles, 1000.0},
-                                           Wire{controller::Protocol::kDrakeIiwa, 200.0}),
-                         wire_name);
-#else
-INSTANTIATE_TEST_SUITE_P(Wires, Compliance, ::testing::ValuesIn(every_wire()), wire_name);
-#endif
+INSTANTIATE_TEST_SUITE_P(Wires, Compliance, ::testing::ValuesIn(wires_to_run()), wire_name);
 
 }  // namespace
 }  // namespace chasles::faults

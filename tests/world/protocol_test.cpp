@@ -220,7 +220,7 @@ TEST_P(Protocols, AWronglySizedOrMalformedStatusIsRefusedCountedAndFaults) {
       << world.controller().controller().fault_reason();
 }
 
-INSTANTIATE_TEST_SUITE_P(Wires, Protocols, ::testing::ValuesIn(every_wire()), wire_name);
+INSTANTIATE_TEST_SUITE_P(Wires, Protocols, ::testing::ValuesIn(wires_to_run()), wire_name);
 
 }  // namespace
 }  // namespace chasles::faults
