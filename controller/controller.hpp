@@ -17,6 +17,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <vector>
 
 #include "chasles/controller/cartesian.hpp"
 #include "chasles/controller/contact.hpp"
@@ -283,6 +284,8 @@ class Controller {
   void hold_at(const Eigen::VectorXd& q);
   void observe(const JointState& state);
   void track_period(double dt);
+  const Eigen::VectorXd& torque_across(const JointState& state, double dt);
+  int command_in_force(int64_t at_ns) const;
   /// Starts the reflex: the configured one for a collision (contact_'s reason), else a stop.
   void start_reflex(int64_t now_ns, const char* limit_reason = nullptr);
   /// The shortest duration from `requested` up whose quintic from ref_ to goal stays within the
@@ -383,6 +386,13 @@ class Controller {
   char mode_rejection_[192] = {};
   int64_t faults_ = 0, stale_ticks_ = 0, rejected_targets_ = 0, rejected_modes_ = 0;
   double state_period_;
+  // The commands of the last kSentCommands ticks and when they were sent: the observer's torque
+  // across states that were lost (torque_across).
+  static constexpr int kSentCommands = 16;
+  Eigen::MatrixXd sent_torque_;
+  std::vector<int64_t> sent_ns_;
+  int sent_next_ = 0;
+  Eigen::VectorXd gap_torque_;
   double quoted_period_ = 0.0;  // the state period period_warning_ was formatted with
   int64_t period_intervals_ = 0;
   bool period_mismatch_ = false;

@@ -2,7 +2,7 @@
 # Builds chasles and runs every test with ctest. Installs missing Debian packages first.
 #
 #   tools/test.sh                 Release build in build/, warnings are errors; then the fuzz stage:
-#                                 every libFuzzer target (tests/fuzz) for 10 s, built with clang,
+#                                 every libFuzzer target (tests/fuzz) for 6 s, built with clang,
 #                                 ASan and UBSan in build-fuzz/ (tools/fuzz.sh --ctest)
 #   tools/test.sh --sanitize      ASan + UBSan build of the in-process suites in build-sanitize/: the
 #                                 libraries, the controller's logic, the messages, the fuzz replays,
@@ -45,5 +45,5 @@ stage "configure ($build)" cmake -S "$root" -B "$build" -G Ninja "${options[@]}"
 stage "build ($build)" cmake --build "$build" -j 2
 stage "ctest ($build)" ctest --test-dir "$build" --output-on-failure -j 2 "$@"
 if [ $fuzz -eq 1 ]; then
-  stage "fuzz stage" "$root/tools/fuzz.sh" --ctest 10
+  stage "fuzz stage" "$root/tools/fuzz.sh" --ctest 6
 fi
