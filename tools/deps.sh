@@ -13,6 +13,10 @@ chasles_packages_build=(
   iproute2 util-linux python3
 )
 
+# The Python package (tools/python, built by tools/test.sh): Debian's CPython with its headers and
+# venv; the pinned PyPI packages go into the venv tools/python.sh makes.
+chasles_packages_python=(python3-dev python3-venv)
+
 # `chasles log plot` (the demo's figures): gnuplot with its pngcairo terminal, and a font.
 chasles_packages_plots=(gnuplot-nox fonts-dejavu-core)
 

@@ -16,7 +16,7 @@ set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 source "$root/tools/deps.sh"
 start=$SECONDS
-chasles_install_missing "${chasles_packages_build[@]}" "${chasles_packages_monitor[@]}"
+chasles_install_missing "${chasles_packages_build[@]}" "${chasles_packages_monitor[@]}" "${chasles_packages_python[@]}"
 echo "test.sh: packages took $((SECONDS - start)) s" >&2
 
 build="$root/build"
@@ -33,6 +33,12 @@ if [ "${1:-}" = "--sanitize" ]; then
            "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" -DCHASLES_BUILD_TOOLS=OFF)
 fi
 [ $# -eq 0 ] || fuzz=0
+# The Python package and its tests, in the Release stage only (an extension module under ASan needs
+# the runtime preloaded into the interpreter; the C++ it binds is sanitized by the other suites).
+if [ "$build" = "$root/build" ]; then
+  python=$("$root/tools/python.sh" "$build/venv")
+  options+=(-DCHASLES_PYTHON=ON "-DPython_EXECUTABLE=$python")
+fi
 
 # Each stage says how long it took, so CI's time can be read stage by stage.
 stage() {
