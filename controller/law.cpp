@@ -76,6 +76,7 @@ LawWorkspace::LawWorkspace(int n)
       null_torque(Eigen::VectorXd::Zero(n)),
       damping(Eigen::VectorXd::Zero(n)),
       apparent_inertia(Eigen::VectorXd::Zero(n)),
+      inverse_column(Eigen::VectorXd::Zero(n)),
       spring(Eigen::VectorXd::Zero(n)) {}
 
 constexpr double kMaxDampingPerPeriod = 1.0;  // D T / m, see joint_impedance
@@ -190,10 +191,10 @@ void joint_impedance(const RobotModel& /*model*/, const Data& data, LawWorkspace
     if (work.period > 0.0) {
       work.M_llt.compute(data.M);
       for (int i = 0; i < K.size(); ++i) {
-        work.null_torque.setZero();
-        work.null_torque(i) = 1.0;
-        work.M_llt.solveInPlace(work.null_torque);
-        work.apparent_inertia(i) = 1.0 / work.null_torque(i);
+        work.inverse_column.setZero();
+        work.inverse_column(i) = 1.0;
+        work.M_llt.solveInPlace(work.inverse_column);
+        work.apparent_inertia(i) = 1.0 / work.inverse_column(i);
       }
       // Alone, a joint of inertia m damped by D under a torque held for T has its speed scaled by
       // 1 − D T / m each period: D T / m ≤ 1 keeps that in [0, 1), no sign flip. With the others

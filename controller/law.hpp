@@ -102,6 +102,7 @@ struct LawWorkspace {
   Eigen::VectorXd null_torque;
   Eigen::VectorXd damping;  ///< the joint impedance's D at the last call
   Eigen::VectorXd apparent_inertia;  ///< 1 / (M⁻¹)_ii: joint i's inertia with the others free
+  Eigen::VectorXd inverse_column;    ///< column i of M⁻¹, on the way to apparent_inertia(i)
   /// The loop's period, s: the joint impedance's damping from a ratio is bounded by what a loop of
   /// this period renders (0: unbounded).
   double period = 0.0;

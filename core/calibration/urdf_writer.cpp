@@ -50,6 +50,19 @@ void comment_before(tinyxml2::XMLElement* element, const std::string& text) {
   }
 }
 
+/// `parent`'s child `name` (made when there is none), with a comment before it saying why it was
+/// replaced and what it was.
+tinyxml2::XMLElement* replaced_child(tinyxml2::XMLElement* parent, const char* name, const std::string& why) {
+  tinyxml2::XMLElement* child = parent->FirstChildElement(name);
+  if (child == nullptr) {
+    child = parent->InsertNewChildElement(name);
+    comment_before(child, why + "; the " + parent->Name() + " had no <" + name + ">");
+  } else {
+    comment_before(child, why + "; was " + element_text(child));
+  }
+  return child;
+}
+
 tinyxml2::XMLElement* child_element(tinyxml2::XMLElement* parent, const char* name) {
   tinyxml2::XMLElement* child = parent->FirstChildElement(name);
   return child != nullptr ? child : parent->InsertNewChildElement(name);
@@ -162,12 +175,7 @@ std::string corrected_urdf(const std::string& original_xml, const RobotModel& no
       was = std::string("xyz=\"") + (xyz ? xyz : "0 0 0") + "\" rpy=\"" + (rpy ? rpy : "0 0 0") + "\"";
     }
     set_origin(origin, corrected);
-    tinyxml2::XMLComment* note = doc.NewComment(comment_safe(" chasles_calibrate: origin was " + was + " ").c_str());
-    if (origin->PreviousSibling() != nullptr) {
-      element->InsertAfterChild(origin->PreviousSibling(), note);
-    } else {
-      element->InsertFirstChild(note);
-    }
+    comment_before(origin, "chasles_calibrate: origin was " + was);
   }
 
   // The marker: a fixed joint from the tip, then an empty link.
@@ -282,14 +290,8 @@ std::string identified_urdf(const std::string& original_xml, const RobotModel& i
     const Vector3d c = G.h / G.mass;
     const Matrix3d I_c = G.I - G.mass * (c.squaredNorm() * Matrix3d::Identity() - c * c.transpose());
     tinyxml2::XMLElement* link = links.at(name);
-    tinyxml2::XMLElement* inertial = link->FirstChildElement("inertial");
-    if (inertial == nullptr) {
-      inertial = link->InsertNewChildElement("inertial");
-      comment_before(inertial, "chasles_calibrate dynamics: identified body; the link had no <inertial>");
-    } else {
-      comment_before(inertial, "chasles_calibrate dynamics: identified body; was " + element_text(inertial));
-      inertial->DeleteChildren();
-    }
+    tinyxml2::XMLElement* inertial = replaced_child(link, "inertial", "chasles_calibrate dynamics: identified body");
+    inertial->DeleteChildren();
     tinyxml2::XMLElement* origin = inertial->InsertNewChildElement("origin");
     origin->SetAttribute("xyz", triple(c).c_str());
     origin->SetAttribute("rpy", "0 0 0");
@@ -302,13 +304,8 @@ std::string identified_urdf(const std::string& original_xml, const RobotModel& i
 
   for (int i = 0; i < n; ++i) {
     tinyxml2::XMLElement* joint = joints.at(identified.joint(i).name);
-    tinyxml2::XMLElement* dynamics = joint->FirstChildElement("dynamics");
-    if (dynamics == nullptr) {
-      dynamics = joint->InsertNewChildElement("dynamics");
-      comment_before(dynamics, "chasles_calibrate dynamics: identified friction; the joint had no <dynamics>");
-    } else {
-      comment_before(dynamics, "chasles_calibrate dynamics: identified friction; was " + element_text(dynamics));
-    }
+    tinyxml2::XMLElement* dynamics =
+        replaced_child(joint, "dynamics", "chasles_calibrate dynamics: identified friction");
     dynamics->SetAttribute("damping", shortest_number(viscous[i]).c_str());
     dynamics->SetAttribute("friction", shortest_number(coulomb[i]).c_str());
   }

@@ -10,6 +10,10 @@
 
 #include "chasles/tools/cli/json_io.hpp"
 
+namespace chasles {
+class RobotModel;
+}
+
 namespace chasles::calibrate_cli {
 
 using cli::InputError;
@@ -30,6 +34,9 @@ Command register_payload(CLI::App& app);
 /// directory, is flushed to disk (fsync), and only when all are written are they renamed into
 /// place (an atomic replace each) and the directories synced. Throws InputError naming the path.
 void write_files_atomically(const std::vector<std::pair<std::string, std::string>>& files);
+
+/// A report's first fields: the tool that wrote it, and the arm (name, URDF, base and tip link).
+Json report_header(const RobotModel& nominal, const std::string& urdf);
 
 /// The whole content of a text file; InputError naming it and `what` otherwise.
 std::string read_text_file(const std::string& path, const std::string& what);

@@ -52,12 +52,7 @@ Json report_json(const DynamicsOptions& o, const RobotModel& nominal, const cli:
   const int n = nominal.dof();
   const ParameterLayout layout = parameter_layout(nominal);
   const BaseParameters& base = r.base;
-  Json report;
-  report["tool"] = std::string("chasles_calibrate ") + CHASLES_VERSION;
-  report["robot"] = nominal.name();
-  report["urdf"] = o.urdf;
-  report["base_link"] = nominal.base_link();
-  report["tip_link"] = nominal.tip_link();
+  Json report = report_header(nominal, o.urdf);
   report["log"] = o.log;
   report["channel"] = o.channel;
   report["model"] =

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "chasles/core/model/model.hpp"
 #include "commands.hpp"
 
 namespace chasles::calibrate_cli {
@@ -94,6 +95,16 @@ std::string read_text_file(const std::string& path, const std::string& what) {
   text << file.rdbuf();
   if (file.bad()) throw InputError(path + ": cannot read the " + what);
   return text.str();
+}
+
+Json report_header(const RobotModel& nominal, const std::string& urdf) {
+  Json header;
+  header["tool"] = std::string("chasles_calibrate ") + CHASLES_VERSION;
+  header["robot"] = nominal.name();
+  header["urdf"] = urdf;
+  header["base_link"] = nominal.base_link();
+  header["tip_link"] = nominal.tip_link();
+  return header;
 }
 
 }  // namespace chasles::calibrate_cli

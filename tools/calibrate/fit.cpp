@@ -62,12 +62,7 @@ std::vector<int> lines_of(const std::vector<Measurement>& rows, const std::vecto
 Json report_json(const FitOptions& o, const RobotModel& nominal, const std::vector<Measurement>& fit,
                  const std::vector<Measurement>& holdout, const CalibrationResult& r, int changed_joints) {
   const CalibrationLayout& layout = r.layout;
-  Json report;
-  report["tool"] = std::string("chasles_calibrate ") + CHASLES_VERSION;
-  report["robot"] = nominal.name();
-  report["urdf"] = o.urdf;
-  report["base_link"] = nominal.base_link();
-  report["tip_link"] = nominal.tip_link();
+  Json report = report_header(nominal, o.urdf);
   report["data"] = o.data;
   report["measurements"] = r.pose_data ? "pose" : "position";
   report["model"] =
