@@ -125,9 +125,6 @@ Array to_array(const Eigen::MatrixBase<Derived>& m) {
   return a;
 }
 
-/// A 4×4 argument as a Transform, checked as a rigid transform (ArgumentError otherwise).
-Transform read_transform(nb::handle object, const char* name);
-
 /// A (rows, cols) argument as a column-major matrix (ArgumentError for another shape or NaN).
 Eigen::MatrixXd read_matrix(nb::handle object, const char* name, Eigen::Index rows, Eigen::Index cols);
 

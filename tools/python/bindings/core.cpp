@@ -19,7 +19,6 @@
 #include "chasles/core/calibration/calibration.hpp"
 #include "chasles/core/contact/observer.hpp"
 #include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/ik/ik.hpp"
 #include "chasles/core/kinematics/kinematics.hpp"
 #include "chasles/core/model/urdf.hpp"
 
@@ -68,16 +67,6 @@ Eigen::VectorXd read_vector(nb::handle object, const char* name, Eigen::Index si
   }
   check_finite(a, name);
   return Eigen::Map<const Eigen::VectorXd>(a.data, size);
-}
-
-Transform read_transform(nb::handle object, const char* name) {
-  const InArray a = read_array(object, name);
-  if (a.ndim != 2 || a.shape[0] != 4 || a.shape[1] != 4) {
-    throw ArgumentError(std::string(name) + " has shape " + shape_text(a) + ", expected (4, 4)");
-  }
-  const Matrix4d T = Eigen::Map<const Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(a.data);
-  check_rigid_transform(T, name);
-  return Transform(T.topLeftCorner<3, 3>(), T.topRightCorner<3, 1>());
 }
 
 namespace {
