@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import itertools
 import json
+import os
 
 import numpy as np
 
@@ -55,7 +56,8 @@ def main() -> None:
     results = [solver.solve(T, q_seed) for T in targets]
 
     times = np.array([r.time_us for r in results])
-    with open(args.out, "w") as out:
+    partial = args.out + ".partial"  # written whole, then renamed: no half-written report at OUT.json
+    with open(partial, "w") as out:
         json.dump({
             "tip": model.tip,
             "targets": [{
@@ -63,6 +65,7 @@ def main() -> None:
                 "pos_err": r.pos_err, "rot_err": r.rot_err, "restarts": r.restarts, "time_us": r.time_us,
             } for T, q, r in zip(targets, q_made, results)],
         }, out)
+    os.replace(partial, args.out)
     print(json.dumps({
         "targets": len(results),
         "success_rate": sum(r.converged for r in results) / len(results),

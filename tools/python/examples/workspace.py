@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 
 import matplotlib
 
@@ -39,8 +40,10 @@ def plot(points: np.ndarray, title: str, path: str) -> None:
         axes.set_ylabel(labels[1])
         axes.set_aspect("equal")
     figure.suptitle(title)
-    figure.savefig(path, dpi=80)
+    partial = path + ".partial.png"  # written whole, then renamed: no half-written plot at `path`
+    figure.savefig(partial, dpi=80)
     plt.close(figure)
+    os.replace(partial, path)
 
 
 def main() -> None:
