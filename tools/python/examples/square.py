@@ -86,7 +86,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--lcm-url", default=None, help="LCM URL (default: $LCM_DEFAULT_URL, else LCM's)")
     parser.add_argument("--prefix", default="CHASLES_", help="the controller's channel prefix")
-    parser.add_argument("--side", type=float, default=0.1, help="the square's side, m")
+    parser.add_argument("--side", type=float, default=0.08, help="the square's side, m")
     parser.add_argument("--seconds", type=float, default=1.0, help="time for each side, s")
     parser.add_argument("--log", default="square.lcmlog", help="the LCM log to write")
     parser.add_argument("--png", default="square.png", help="the plot to write")
