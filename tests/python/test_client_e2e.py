@@ -3,7 +3,8 @@ the test's network namespace): a JOINT move and a CARTESIAN move end at their go
 what the client itself heard, with the C++ daemon tests' lockstep tolerances (1e-3 rad; 1 mm and
 1 mrad); a target outside the Panda's joint limits is refused by the controller and counted. The run
 is logged by lcm-logger and read back with read_log: the targets exactly as sent, the arm at each
-goal in the logged states and statuses."""
+goal in the logged states and statuses (not the refusal's count: the logger, another process, may
+be stopped before it writes the status the client heard it in)."""
 import math
 
 import numpy as np
@@ -67,4 +68,3 @@ def test_joint_and_cartesian_moves_reach_their_goals_and_a_bad_target_is_refused
     assert np.abs(states["position"][between] - goal_q).max(axis=1).min() < JOINT_TOLERANCE
     after = (statuses["utime"] > cartesian_utime) & (statuses["utime"] < bad_utime)
     assert np.linalg.norm(statuses["tip_position"][after] - goal_p, axis=1).min() < POSITION_TOLERANCE
-    assert statuses["rejected_messages"][-1] == rejected + 1

@@ -3,6 +3,7 @@ on LCM's in-process memq:// provider and decoded with the generated classes), th
 the generated Python classes against the C++ ones, the receive side (latest values, the states
 iterator's drop policy, waits that time out), every refusal, and the log reader on a file written
 here."""
+import dataclasses
 import math
 import os
 import pathlib
@@ -20,6 +21,8 @@ from chasles.client import (
     Arm,
     InvalidCommand,
     JointSetpoint,
+    State,
+    Status,
     TipSetpoint,
     now_us,
     quaternion_from_rotation,
@@ -42,17 +45,20 @@ NQ = 7
 
 
 @pytest.fixture
-def arm():
-    with Arm(url="memq://", prefix="T_", nq=NQ) as arm:
-        yield arm
+def heard():
+    """Every message the arm's LCM carries on T_*, as (channel, bytes), in order."""
+    return queue.Queue()
 
 
 @pytest.fixture
-def heard(arm):
-    """Every message published on the arm's LCM, as (channel, bytes), in order."""
-    out = queue.Queue()
-    subscription = arm._lcm.subscribe("T_.*", lambda channel, data: out.put((channel, data)))
-    yield out
+def arm(heard):
+    """A started client on LCM's in-process memq://, with `heard` subscribed before its receive
+    thread starts and unsubscribed after it stops (LCM's Python subscribe and unsubscribe must
+    not race the thread's handle)."""
+    arm = Arm(url="memq://", prefix="T_", nq=NQ)
+    subscription = arm._lcm.subscribe("T_.*", lambda channel, data: heard.put((channel, data)))
+    with arm:
+        yield arm
     arm._lcm.unsubscribe(subscription)
 
 
@@ -296,6 +302,11 @@ def test_latest_state_callbacks_and_the_iterator_drop_the_oldest(arm):
     assert [next(stream).seq for _ in range(3)] == [2, 3, 4] and stream.dropped == 2
     with pytest.raises(TimeoutError, match="no robot state on T_STATE within 0.5 s"):
         next(stream)
+
+
+def test_status_has_every_field_of_the_message_and_state_every_array():
+    assert [f.name for f in dataclasses.fields(Status)] == list(controller_status_t.__slots__)
+    assert [f.name for f in dataclasses.fields(State)] == [s for s in robot_state_t.__slots__ if s != "num_joints"]
 
 
 def test_waits_time_out_naming_what_was_awaited(arm):
