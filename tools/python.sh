@@ -10,7 +10,7 @@
 # one) is made anew. Nothing is installed by hand, and nothing outside the venv.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-venv=${1:-$root/build/venv}
+venv=$(realpath -m "${1:-$root/build/venv}")
 requirements=$root/tools/python/requirements.txt
 python=$venv/bin/python
 stamp=$venv/chasles-requirements.sha256
