@@ -39,6 +39,7 @@ from typing import Callable, Iterator, Optional, Sequence, Union
 import lcm
 import numpy as np
 
+from chasles._core import ArgumentError, Error
 from chasles.lcmtypes import (
     arm_target_t,
     control_mode_t,
@@ -98,11 +99,12 @@ STATES = {
 }
 
 
-class InvalidCommand(ValueError):
-    """A command refused before anything was sent; the message says which input and why."""
+class InvalidCommand(ArgumentError):
+    """A command refused before anything was sent; the message says which input and why. A
+    :class:`chasles.ArgumentError`, hence a :class:`chasles.Error` and a ``ValueError``."""
 
 
-class ArmError(RuntimeError):
+class ArmError(Error):
     """The arm did not do what was awaited: base of TargetRefused and ArmFault."""
 
 

@@ -21,6 +21,7 @@ from typing import Iterable, Optional
 import numpy as np
 
 from chasles import lcmtypes
+from chasles._core import Error
 
 #: LCM's log format: each event is this sync word, then the event number, its timestamp (µs),
 #: the channel's and the data's lengths (all big-endian), the channel name and the message.
@@ -35,8 +36,9 @@ TYPES = {
 }
 
 
-class LogError(ValueError):
-    """A log that cannot be read: the message names the file, the byte offset and what is wrong."""
+class LogError(Error, ValueError):
+    """A log that cannot be read: the message names the file, the byte offset and what is wrong. A
+    :class:`chasles.Error` and a ``ValueError``."""
 
 
 class Log(dict):
