@@ -3,7 +3,6 @@
 // law's output, and law_problem's refusals. The Controller's side of them is law_controller_test's.
 #include <gtest/gtest.h>
 
-#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
 #include <algorithm>
@@ -143,10 +142,9 @@ TEST(LawModalDamping, DampsEveryGeneralizedEigenmodeByZeta) {
   for (int trial = 0; trial < 40; ++trial) {
     const Matrix6d Lambda = random_spd(rng, 4.0);
     const Matrix6d K = random_spd(rng, 900.0);
-    const Eigen::GeneralizedSelfAdjointEigenSolver<Matrix6d> modes(K, Lambda);  // K v = σ Λ v
-    ASSERT_EQ(modes.info(), Eigen::Success);
-    const Matrix6d V = modes.eigenvectors();
-    const Vector6d sigma = modes.eigenvalues();
+    const test::Eigen6 modes = test::generalized_symmetric_eigen(K, Lambda);  // K v = σ Λ v
+    const Matrix6d V = modes.vectors;
+    const Vector6d sigma = modes.values;
     const Matrix6d modal_mass = V.transpose() * Lambda * V;
     for (double zeta : {1.0, 0.3, 1.7}) {
       SCOPED_TRACE("trial " + std::to_string(trial) + ", zeta " + std::to_string(zeta));
@@ -158,10 +156,8 @@ TEST(LawModalDamping, DampsEveryGeneralizedEigenmodeByZeta) {
       EXPECT_TRUE(matrices_near(modal, expected, 1e-9 * expected.cwiseAbs().maxCoeff()));
       // The same D as the matrix geometric mean, 2ζ Λ^½ (Λ^-½ K Λ^-½)^½ Λ^½, by symmetric square
       // roots instead of a Cholesky factor.
-      const Eigen::SelfAdjointEigenSolver<Matrix6d> root_of_Lambda(Lambda);
-      const Matrix6d S = root_of_Lambda.operatorSqrt(), S_inv = root_of_Lambda.operatorInverseSqrt();
-      const Eigen::SelfAdjointEigenSolver<Matrix6d> inner(S_inv * K * S_inv);
-      const Matrix6d mean = 2.0 * zeta * S * inner.operatorSqrt() * S;
+      const Matrix6d S = test::symmetric_sqrt(Lambda), S_inv = test::symmetric_inverse_sqrt(Lambda);
+      const Matrix6d mean = 2.0 * zeta * S * test::symmetric_sqrt(S_inv * K * S_inv) * S;
       EXPECT_TRUE(matrices_near(D, mean, 1e-9 * mean.cwiseAbs().maxCoeff()));
     }
   }
@@ -265,9 +261,9 @@ TEST(LawCartesianImpedance, TheNullspaceTorqueNeverAcceleratesFrameC) {
   const VectorXd q = pose_of(model);
   const MatrixXd M = mass_of(model, q);
   const Matrix6Xd J_c = frame_jacobian(model, q, s.T_tip_frame);
-  const MatrixXd Jc_Minv = J_c * M.inverse();
-  const Matrix6d Lambda = (Jc_Minv * J_c.transpose()).inverse();
-  ASSERT_LT(Eigen::SelfAdjointEigenSolver<Matrix6d>(Lambda).eigenvalues().maxCoeff(), kMaxCartesianInertia)
+  const MatrixXd Jc_Minv = J_c * test::matrix_inverse(M);
+  const Matrix6d Lambda = test::matrix_inverse(Jc_Minv * J_c.transpose());
+  ASSERT_LT(test::symmetric_eigen(Lambda).values.maxCoeff(), kMaxCartesianInertia)
       << "a regular pose: the inertia bound must not act";
   for (const VectorXd& qd : {VectorXd(VectorXd::Zero(n)), seeded(n, 5, -0.4, 0.4)}) {
     Reference ref(n);
@@ -342,10 +338,10 @@ TEST(LawCartesianImpedance, StaysBoundedNearAndAtTheUr5WristSingularity) {
     cartesian_impedance(model, data, data_ref, work, s, ref, q, qd, tau);
     ASSERT_TRUE(tau.allFinite());
 
-    const Eigen::SelfAdjointEigenSolver<Matrix6d> inertia(work.Lambda);
-    EXPECT_NEAR(inertia.eigenvalues().maxCoeff(), kMaxCartesianInertia, 1e-9 * kMaxCartesianInertia)
+    const Vector6d inertia = test::symmetric_eigen(work.Lambda).values;
+    EXPECT_NEAR(inertia.maxCoeff(), kMaxCartesianInertia, 1e-9 * kMaxCartesianInertia)
         << "the lost direction's inertia is clamped";
-    EXPECT_GT(inertia.eigenvalues().minCoeff(), 0.0);
+    EXPECT_GT(inertia.minCoeff(), 0.0);
 
     const Vector6d xi = log6(inverse(tip_pose(model, q)) * tip_pose(model, q_d));
     const Vector6d xi_dot = -(J_c * qd);  // q̇_d = 0
@@ -356,7 +352,7 @@ TEST(LawCartesianImpedance, StaysBoundedNearAndAtTheUr5WristSingularity) {
     const double J_norm = svd.singularValues()(0), K_norm = spectral_norm(s.cartesian_stiffness);
     const double bound = (J_c.transpose() * (s.cartesian_stiffness * xi)).norm() +
                          J_norm * 2.0 * s.damping_ratio * std::sqrt(kMaxCartesianInertia * K_norm) * xi_dot.norm() +
-                         tau_0.norm() + J_norm * kMaxCartesianInertia * (J_c * M.inverse() * tau_0).norm();
+                         tau_0.norm() + J_norm * kMaxCartesianInertia * (J_c * test::matrix_inverse(M) * tau_0).norm();
     const double law_part = (tau - bias_of(model, q, qd)).norm();
     EXPECT_LE(law_part, bound);
     EXPECT_TRUE(matrices_near(work.xi, xi, 1e-12));
@@ -448,7 +444,7 @@ TEST(LawJointImpedance, IsStiffnessDampingFeedforwardAndBias) {
     // A loop of period T renders a joint's damping up to m_i / T, m_i = 1 / (M⁻¹)_ii the inertia
     // it feels with the others free: at 100 Hz that bounds some joints of each arm.
     work.period = 0.01;
-    const VectorXd bound = M.inverse().diagonal().cwiseInverse() / work.period;
+    const VectorXd bound = test::matrix_inverse(M).diagonal().cwiseInverse() / work.period;
     const VectorXd D_bounded = D.cwiseMin(bound);
     ASSERT_GT((D - D_bounded).maxCoeff(), 0.0) << "the bound must bind somewhere";
     joint_impedance(*model, data, work, s, ref, q, qd, tau);
