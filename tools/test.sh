@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Builds chasles and runs every test with ctest. Installs missing Debian packages first.
 #
-#   tools/test.sh                 Release build in build/, warnings are errors; then the fuzz stage:
+#   tools/test.sh                 Release build in build/, warnings are errors, with the Python
+#                                 package (its venv build/venv from tools/python.sh, its pytest
+#                                 suites in ctest as python.*); then the fuzz stage:
 #                                 every libFuzzer target (tests/fuzz) for 6 s, built with clang,
 #                                 ASan and UBSan in build-fuzz/ (tools/fuzz.sh --ctest)
 #   tools/test.sh --sanitize      ASan + UBSan build of the in-process suites in build-sanitize/: the
