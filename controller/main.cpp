@@ -62,6 +62,17 @@ Eigen::VectorXd gains(const std::string& text, int n, const std::string& name, b
   return Eigen::Map<Eigen::VectorXd>(values.data(), n);
 }
 
+/// "a,b,c" with each entry as %g prints it.
+std::string number_text(const Eigen::VectorXd& v) {
+  std::string text;
+  char entry[32];
+  for (Eigen::Index i = 0; i < v.size(); ++i) {
+    std::snprintf(entry, sizeof entry, "%g", v[i]);
+    text += (i ? "," : "") + std::string(entry);
+  }
+  return text;
+}
+
 std::string gains_text(const Json& value, const std::string& name) {
   if (value.is_number()) return std::to_string(value.get<double>());
   if (!value.is_array()) throw std::invalid_argument(name + ": expected a number or a list of numbers");
@@ -80,6 +91,7 @@ struct Flags {
   std::string kp, kd;
   std::string damping;
   std::string coulomb;
+  bool friction_from_urdf = false;
   // Contact: per-joint lists as text until the joint count is known; empty: the defaults.
   std::string observer_gain, contact_torque, collision_torque;
   chasles::controller::ContactConfig contact;
@@ -214,6 +226,9 @@ int main(int argc, char** argv) {
   app.add_option("--coulomb", flags.coulomb,
                  "the joints' Coulomb friction f_c, N·m (chasles_calibrate dynamics identifies it): one number or "
                  "one per joint; fed forward as f_c tanh(q̇_d / 0.05 rad/s), and the contact observer counts it");
+  app.add_flag("--friction-from-urdf", flags.friction_from_urdf,
+               "the joints' viscous damping and Coulomb friction from the URDF's <dynamics damping friction> (what "
+               "chasles_calibrate dynamics writes into an identified URDF); --damping and --coulomb override them");
   app.add_option("--omega", flags.omega, "natural frequency ω of the default gains, rad/s (default 20)")
       ->check(CLI::PositiveNumber);
   app.add_option("--config", flags.config,
@@ -379,6 +394,15 @@ int main(int argc, char** argv) {
     options.control = chasles::controller::Config::critically_damped(n, flags.omega);
     if (!flags.kp.empty()) options.control.kp = gains(flags.kp, n, "--kp");
     if (!flags.kd.empty()) options.control.kd = gains(flags.kd, n, "--kd");
+    if (flags.friction_from_urdf) {
+      std::ifstream file(flags.robot);
+      const std::string xml((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+      const chasles::JointFriction friction = chasles::joint_friction_from_urdf(xml, model);
+      options.control.damping = friction.viscous;
+      options.control.coulomb = friction.coulomb;
+      std::fprintf(stderr, "chasles_controller: joint friction from %s: damping %s N·m·s/rad, Coulomb %s N·m\n",
+                   flags.robot.c_str(), number_text(friction.viscous).c_str(), number_text(friction.coulomb).c_str());
+    }
     if (!flags.damping.empty()) options.control.damping = gains(flags.damping, n, "--damping");
     if (!flags.coulomb.empty()) options.control.coulomb = gains(flags.coulomb, n, "--coulomb");
     const double status_period = chasles::controller::nominal_status_period(options.protocol);

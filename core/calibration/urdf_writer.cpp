@@ -375,32 +375,4 @@ std::string identified_urdf(const std::string& original_xml, const RobotModel& i
   return std::string(printer.CStr(), static_cast<size_t>(printer.CStrSize() > 0 ? printer.CStrSize() - 1 : 0));
 }
 
-void read_joint_friction(const std::string& xml, const RobotModel& model, Eigen::VectorXd& viscous,
-                         Eigen::VectorXd& coulomb) {
-  const std::string& source = model.description().source;
-  tinyxml2::XMLDocument doc;
-  if (doc.Parse(xml.c_str(), xml.size()) != tinyxml2::XML_SUCCESS || doc.FirstChildElement("robot") == nullptr) {
-    throw CalibrationError(source + ": malformed XML at line " + std::to_string(doc.ErrorLineNum()));
-  }
-  viscous = Eigen::VectorXd::Zero(model.dof());
-  coulomb = Eigen::VectorXd::Zero(model.dof());
-  for (auto* e = doc.FirstChildElement("robot")->FirstChildElement("joint"); e != nullptr;
-       e = e->NextSiblingElement("joint")) {
-    const char* name = e->Attribute("name");
-    const int i = name != nullptr ? model.joint_index(name) : -1;
-    const tinyxml2::XMLElement* dynamics = e->FirstChildElement("dynamics");
-    if (i < 0 || dynamics == nullptr) continue;
-    for (const auto& [attribute, value] : {std::pair{"damping", &viscous[i]}, std::pair{"friction", &coulomb[i]}}) {
-      const char* text = dynamics->Attribute(attribute);
-      if (text == nullptr) continue;
-      char* end = nullptr;
-      *value = std::strtod(text, &end);
-      if (end == text || *end != '\0' || !std::isfinite(*value) || *value < 0.0) {
-        throw CalibrationError(source + ": joint '" + name + "': <dynamics " + attribute + "=\"" + text +
-                               "\"> is not a finite number >= 0");
-      }
-    }
-  }
-}
-
 }  // namespace chasles

@@ -57,12 +57,6 @@ std::string identified_urdf(const std::string& original_xml, const RobotModel& i
                             const Eigen::VectorXd& viscous, const Eigen::VectorXd& coulomb,
                             const std::string& note = "");
 
-/// Each movable chain joint's <dynamics damping friction>, as identified_urdf writes them: viscous
-/// (damping) and Coulomb (friction) friction, 0 where absent. Throws CalibrationError when the XML
-/// does not parse or a value is not a finite number ≥ 0 (naming the joint).
-void read_joint_friction(const std::string& xml, const RobotModel& model, Eigen::VectorXd& viscous,
-                         Eigen::VectorXd& coulomb);
-
 /// URDF's roll-pitch-yaw of R = Rz(yaw) Ry(pitch) Rx(roll), exact to round-off everywhere,
 /// gimbal lock included (there roll is kept and yaw takes the rest).
 Vector3d rpy_from_rotation(const Matrix3d& R);

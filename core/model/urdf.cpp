@@ -396,4 +396,32 @@ RobotModel load_urdf_string(const std::string& xml, const UrdfOptions& options, 
   return RobotModel(std::move(d));
 }
 
+JointFriction joint_friction_from_urdf(const std::string& xml, const RobotModel& model) {
+  const std::string& source = model.description().source;
+  tinyxml2::XMLDocument doc;
+  if (doc.Parse(xml.c_str(), xml.size()) != tinyxml2::XML_SUCCESS || doc.FirstChildElement("robot") == nullptr) {
+    throw ModelError(source + ": malformed XML at line " + std::to_string(doc.ErrorLineNum()));
+  }
+  JointFriction friction{Eigen::VectorXd::Zero(model.dof()), Eigen::VectorXd::Zero(model.dof())};
+  for (auto* e = doc.FirstChildElement("robot")->FirstChildElement("joint"); e != nullptr;
+       e = e->NextSiblingElement("joint")) {
+    const char* name = e->Attribute("name");
+    const int i = name != nullptr ? model.joint_index(name) : -1;
+    const tinyxml2::XMLElement* dynamics = e->FirstChildElement("dynamics");
+    if (i < 0 || dynamics == nullptr) continue;
+    for (const auto& [attribute, value] :
+         {std::pair{"damping", &friction.viscous[i]}, std::pair{"friction", &friction.coulomb[i]}}) {
+      const char* text = dynamics->Attribute(attribute);
+      if (text == nullptr) continue;
+      char* end = nullptr;
+      *value = std::strtod(text, &end);
+      if (end == text || *end != '\0' || !std::isfinite(*value) || *value < 0.0) {
+        throw ModelError(source + ": joint '" + name + "': <dynamics " + attribute + "=\"" + text +
+                         "\"> is not a finite number >= 0");
+      }
+    }
+  }
+  return friction;
+}
+
 }  // namespace chasles

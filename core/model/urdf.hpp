@@ -1,6 +1,7 @@
 // Building a RobotModel from URDF (via urdfdom).
 #pragma once
 
+#include <Eigen/Core>
 #include <string>
 
 #include "chasles/core/model/model.hpp"
@@ -28,5 +29,19 @@ RobotModel load_urdf_file(const std::string& path, const UrdfOptions& options = 
 /// The same from URDF text; `source` names it in error messages.
 RobotModel load_urdf_string(const std::string& xml, const UrdfOptions& options = {},
                             const std::string& source = "<urdf string>");
+
+/// The joints' friction a URDF states in <dynamics damping friction>: viscous damping (N·m·s/rad
+/// or N·s/m) and Coulomb friction (N·m or N), one entry per movable chain joint of `model`, 0 where
+/// the joint states none. What chasles_calibrate dynamics writes into an identified URDF, and what
+/// the controller feeds forward with --friction-from-urdf.
+struct JointFriction {
+  Eigen::VectorXd viscous;
+  Eigen::VectorXd coulomb;
+};
+
+/// The friction of `model`'s joints in the URDF text `xml` (the one `model` was loaded from).
+/// Throws ModelError naming the model's source, and the joint, for XML that does not parse or a
+/// value that is not a finite number ≥ 0.
+JointFriction joint_friction_from_urdf(const std::string& xml, const RobotModel& model);
 
 }  // namespace chasles

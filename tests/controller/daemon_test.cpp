@@ -392,6 +392,36 @@ TEST(daemon, RefusesAnArmatureListOfTheWrongLength) {
   }
 }
 
+// --friction-from-urdf feeds forward the joints' <dynamics damping friction> (the Panda's URDF
+// states damping 0.003 and friction 0 on each joint), said at start; a value that is no friction
+// stops the controller before it starts, naming the file and the joint.
+TEST(daemon, TakesTheJointsFrictionFromTheUrdfWhenAsked) {
+  {
+    ChildProcess controller({CHASLES_CONTROLLER, "--robot", data_path("panda.urdf"), "--tip", "panda_hand",
+                             "--friction-from-urdf", "--lcm-url", kLcmUrl});
+    ASSERT_TRUE(controller.catches(SIGTERM, 10.0)) << controller.stderr_text();
+    EXPECT_EQ(controller.stop(SIGTERM), 0);
+    const std::string err = controller.stderr_text();
+    EXPECT_NE(err.find("chasles_controller: joint friction from " + data_path("panda.urdf") +
+                       ": damping 0.003,0.003,0.003,0.003,0.003,0.003,0.003 N·m·s/rad, Coulomb 0,0,0,0,0,0,0 N·m"),
+              std::string::npos)
+        << err;
+  }
+  std::ifstream file(data_path("panda.urdf"));
+  std::string xml((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  const size_t third = xml.find("damping=\"0.003\"", xml.find("name=\"panda_joint3\""));
+  ASSERT_NE(third, std::string::npos);
+  const testing::TempFile urdf("negative_friction.urdf", xml.replace(third, 15, "damping=\"-1\""));
+  ChildProcess controller({CHASLES_CONTROLLER, "--robot", urdf.path, "--tip", "panda_hand", "--friction-from-urdf",
+                           "--lcm-url", kLcmUrl});
+  EXPECT_EQ(controller.wait(), 1);
+  const std::string err = controller.stderr_text();
+  EXPECT_NE(err.find("chasles_controller: " + urdf.path +
+                     ": joint 'panda_joint3': <dynamics damping=\"-1\"> is not a finite number >= 0"),
+            std::string::npos)
+      << err;
+}
+
 // The whole send path of a tick — control law, encoding, the send on UDP multicast — allocates
 // nothing.
 TEST(daemon, TickAndPublishAllocateNothing) {

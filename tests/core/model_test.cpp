@@ -425,5 +425,42 @@ TEST(Model, MassZeroFramesLoad) {
   EXPECT_EQ(load_urdf_file(testing::data_path("ur5.urdf"), options).dof(), 6);
 }
 
+// The Panda's URDF states damping="0.003" friction="0.0" on each of its joints (franka_description's
+// values), the fingers' included; the arm's seven are the chain's.
+TEST(JointFriction, ReadFromEachChainJointsDynamics) {
+  std::ifstream file(testing::data_path("panda.urdf"));
+  const std::string xml((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  UrdfOptions options;
+  options.tip_link = "panda_hand";
+  const RobotModel model = load_urdf_string(xml, options, "panda.urdf");
+  const JointFriction friction = joint_friction_from_urdf(xml, model);
+  EXPECT_EQ(friction.viscous, Eigen::VectorXd::Constant(7, 0.003));
+  EXPECT_EQ(friction.coulomb, Eigen::VectorXd::Zero(7));
+
+  // A joint that states none has none; a value that is no friction is refused, naming the joint.
+  const std::string tag = "damping=\"0.003\" friction=\"0.0\"";
+  std::string edited = xml;
+  const size_t third = [&] {
+    size_t at = edited.find("name=\"panda_joint3\"");
+    return edited.find(tag, at);
+  }();
+  ASSERT_NE(third, std::string::npos);
+  EXPECT_EQ(joint_friction_from_urdf(edited.replace(third, tag.size(), "damping=\"0.5\""), model).viscous[2], 0.5);
+  EXPECT_EQ(joint_friction_from_urdf(edited, model).coulomb[2], 0.0);
+  for (const auto& [bad, value] : {std::pair{"damping=\"-0.1\"", "-0.1"}, std::pair{"damping=\"nan\"", "nan"},
+                                   std::pair{"damping=\"2 N\"", "2 N"}}) {
+    std::string refused = xml;
+    refused.replace(third, tag.size(), bad);
+    try {
+      joint_friction_from_urdf(refused, model);
+      ADD_FAILURE() << bad << " was taken";
+    } catch (const ModelError& e) {
+      EXPECT_EQ(std::string(e.what()), std::string("panda.urdf: joint 'panda_joint3': <dynamics damping=\"") + value +
+                                           "\"> is not a finite number >= 0");
+    }
+  }
+  EXPECT_THROW(joint_friction_from_urdf("<robot><joint", model), ModelError);
+}
+
 }  // namespace
 }  // namespace chasles

@@ -226,8 +226,9 @@ std::string list(std::initializer_list<double> values) {
 
 void run_payload(const DynamicsOptions& o) {
   const Inputs in = read_inputs(o);
-  Eigen::VectorXd viscous, coulomb;
-  read_joint_friction(in.xml, in.model, viscous, coulomb);
+  const JointFriction friction = joint_friction_from_urdf(in.xml, in.model);
+  const Eigen::VectorXd& viscous = friction.viscous;
+  const Eigen::VectorXd& coulomb = friction.coulomb;
   const PayloadFitResult r = identify_payload(in.model, viscous, coulomb, samples_of(in.log), o.fit);
   const Payload& p = r.payload;
   const std::string command = "chasles payload --mass " + cli::number_text(p.mass) + " --com " +
