@@ -395,9 +395,7 @@ int main(int argc, char** argv) {
     if (!flags.kp.empty()) options.control.kp = gains(flags.kp, n, "--kp");
     if (!flags.kd.empty()) options.control.kd = gains(flags.kd, n, "--kd");
     if (flags.friction_from_urdf) {
-      std::ifstream file(flags.robot);
-      const std::string xml((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
-      const chasles::JointFriction friction = chasles::joint_friction_from_urdf(xml, model);
+      const chasles::JointFriction friction = chasles::joint_friction_from_urdf_file(flags.robot, model);
       options.control.damping = friction.viscous;
       options.control.coulomb = friction.coulomb;
       std::fprintf(stderr, "chasles_controller: joint friction from %s: damping %s N·m·s/rad, Coulomb %s N·m\n",

@@ -424,4 +424,8 @@ JointFriction joint_friction_from_urdf(const std::string& xml, const RobotModel&
   return friction;
 }
 
+JointFriction joint_friction_from_urdf_file(const std::string& path, const RobotModel& model) {
+  return joint_friction_from_urdf(read_file(path), model);
+}
+
 }  // namespace chasles

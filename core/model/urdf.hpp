@@ -44,4 +44,8 @@ struct JointFriction {
 /// value that is not a finite number ≥ 0.
 JointFriction joint_friction_from_urdf(const std::string& xml, const RobotModel& model);
 
+/// The same from the URDF file at `path`, read as load_urdf_file reads it (ModelError naming a file
+/// that cannot be read).
+JointFriction joint_friction_from_urdf_file(const std::string& path, const RobotModel& model);
+
 }  // namespace chasles

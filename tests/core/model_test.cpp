@@ -460,6 +460,10 @@ TEST(JointFriction, ReadFromEachChainJointsDynamics) {
     }
   }
   EXPECT_THROW(joint_friction_from_urdf("<robot><joint", model), ModelError);
+
+  // From the file, read as the loader reads it.
+  EXPECT_EQ(joint_friction_from_urdf_file(testing::data_path("panda.urdf"), model).viscous, friction.viscous);
+  EXPECT_THROW(joint_friction_from_urdf_file(testing::data_path("no_such.urdf"), model), ModelError);
 }
 
 }  // namespace
