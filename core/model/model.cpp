@@ -166,7 +166,7 @@ bool RobotModel::check(const Data& data) const {
   const auto bodies = static_cast<size_t>(dof()) + 1;
   return data.T_local.size() == bodies && data.sin_q.size() == dof() && data.cos_q.size() == dof() &&
          data.T_body.size() == bodies && data.V.size() == bodies &&
-         data.Vd.size() == bodies && data.F.size() == bodies && data.composite.size() == bodies &&
+         data.Vd.size() == bodies && data.F.size() == bodies && data.crb_column.size() == bodies &&
          data.T_link.size() == links().size() && data.J_s.cols() == dof() && data.J_b.cols() == dof() &&
          data.M.rows() == dof() && data.M.cols() == dof() && data.tau.size() == dof() && data.g.size() == dof() &&
          data.c.size() == dof() && data.qdd.size() == dof() && data.p.size() == dof() &&
@@ -185,7 +185,7 @@ Data::Data(const RobotModel& model)
       V(static_cast<size_t>(model.dof()) + 1, Vector6d::Zero()),
       Vd(static_cast<size_t>(model.dof()) + 1, Vector6d::Zero()),
       F(static_cast<size_t>(model.dof()) + 1, Vector6d::Zero()),
-      composite(static_cast<size_t>(model.dof()) + 1),
+      crb_column(static_cast<size_t>(model.dof()) + 1, Vector6d::Zero()),
       tau(Eigen::VectorXd::Zero(model.dof())),
       g(Eigen::VectorXd::Zero(model.dof())),
       c(Eigen::VectorXd::Zero(model.dof())),

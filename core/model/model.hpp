@@ -220,9 +220,10 @@ struct Data {
   Matrix6Xd J_b;                   ///< body Jacobian at the tip
 
   // Dynamics: body twists, their derivatives and the wrenches between bodies, each in the body's
-  // own frame; composite inertias of the subtree from each body outward.
+  // own frame; crb_column[i] = C_i A_i, the momentum of bodies i…n (composite inertia C_i) moving
+  // together about joint i at unit rate, in body i's frame: the column the CRBA carries toward the base.
   std::vector<Vector6d> V, Vd, F;
-  std::vector<SpatialInertia> composite;
+  std::vector<Vector6d> crb_column;
   Eigen::VectorXd tau;  ///< inverse dynamics
   Eigen::VectorXd g;    ///< gravity torques
   Eigen::VectorXd c;    ///< velocity product C(q, q̇) q̇
