@@ -167,34 +167,39 @@ template <bool kVelocity, bool kAcceleration>
 CHASLES_FLATTEN void rnea(const RobotModel& model, Data& data, const double* qd, const double* qdd,
                           const Vector3d& gravity, const Vector6d& F_tip, Eigen::VectorXd& tau) {
   const int n = model.dof();
-  data.Vd[0] << Vector3d::Zero(), -gravity;
+  // The arrays' addresses once: Eigen's SSE2 stores may alias anything, std::vector's pointers too.
+  Vector6d* const Vs = data.V.data();
+  Vector6d* const Vds = data.Vd.data();
+  Vds[0] << Vector3d::Zero(), -gravity;
   for (int i = 0; i < n; ++i) {
     const ParentStep step = parent_step(model, data, i);
-    Vector6d& Vd = data.Vd[body(i)];
-    Vd = twist_to_child(step, data.Vd[body(i) - 1]);
+    Vector6d& Vd = Vds[body(i)];
+    Vd = twist_to_child(step, Vds[body(i) - 1]);
     visit_axis(model, i, [&](auto axis) {
       if constexpr (kVelocity) {
-        Vector6d& V = data.V[body(i)];
-        V = twist_to_child(step, data.V[body(i) - 1]) + axis.times(qd[i]);
-        Vd += axis.ad_times(V, qd[i]);
+        Vector6d& V = Vs[body(i)];
+        V = twist_to_child(step, Vs[body(i) - 1]);
+        axis.add_times(V, qd[i]);
+        axis.add_ad_times(Vd, V, qd[i]);
       }
-      if constexpr (kAcceleration) Vd += axis.times(qdd[i]);
+      if constexpr (kAcceleration) axis.add_times(Vd, qdd[i]);
     });
   }
   // A zero tip wrench (the common call) needs no transform.
   Vector6d F = Vector6d::Zero();
   if (!(F_tip.array() == 0.0).all()) F = adjoint_inverse_transpose_times(model.T_last_tip(), F_tip);
+  Vector6d* const Fs = data.F.data();
   for (int i = n - 1; i >= 0; --i) {
     const SpatialInertia& G = model.body_inertia(i);
     if constexpr (kVelocity) {
-      const Vector6d& V = data.V[body(i)];
+      const Vector6d& V = Vs[body(i)];
       Vector6d GVd, GV;
-      inertia_times_both(G, data.Vd[body(i)], V, GVd, GV);
+      inertia_times_both(G, Vds[body(i)], V, GVd, GV);
       F += GVd - ad_transpose_times(V, GV);
     } else {
-      F += G * data.Vd[body(i)];
+      F += G * Vds[body(i)];
     }
-    data.F[body(i)] = F;
+    Fs[body(i)] = F;
     tau(i) = axis_dot(model, i, F);
     // The rotor's reflected inertia, on the joint alone (M's diagonal; see mass_matrix_from_columns).
     if constexpr (kAcceleration) tau(i) += model.armature()[i] * qdd[i];

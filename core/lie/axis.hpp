@@ -50,6 +50,18 @@ struct AlignedRevoluteAxis {
     return out;
   }
 
+  /// V ← V + A x: one entry.
+  CHASLES_ALWAYS_INLINE void add_times(Vector6d& V, double x) const { V(K) += sign * x; }
+
+  /// out ← out + [ad_V] A x: four entries.
+  CHASLES_ALWAYS_INLINE void add_ad_times(Vector6d& out, const Vector6d& V, double x) const {
+    const double u = sign * x;
+    out(I) += V(J) * u;
+    out(J) -= V(I) * u;
+    out(3 + I) += V(3 + J) * u;
+    out(3 + J) -= V(3 + I) * u;
+  }
+
   /// R exp([a] θ) from c = cos θ and s = sin θ: 12 flops against 45 for Rodrigues and a 3×3
   /// product.
   CHASLES_ALWAYS_INLINE void rotate(const Matrix3d& R, double c, double s, Matrix3d& out) const {

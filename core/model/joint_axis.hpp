@@ -25,6 +25,12 @@ struct GeneralAxis {
   CHASLES_ALWAYS_INLINE Vector6d ad_times(const Vector6d& V, double x) const {
     return chasles::ad_times(V, A * x);
   }
+  /// V ← V + A x.
+  CHASLES_ALWAYS_INLINE void add_times(Vector6d& V, double x) const { V += A * x; }
+  /// out ← out + [ad_V] A x.
+  CHASLES_ALWAYS_INLINE void add_ad_times(Vector6d& out, const Vector6d& V, double x) const {
+    out += chasles::ad_times(V, A * x);
+  }
   /// [Ad_T] A for T = (R, p).
   CHASLES_ALWAYS_INLINE Vector6d adjoint(const Matrix3d& R, const Vector3d& p) const {
     Vector6d out;
