@@ -440,19 +440,21 @@ CHASLES_FLATTEN const Eigen::VectorXd& momentum_terms(const RobotModel& model, D
   const int n = model.dof();
   // Forward: body twists V_i and the gravity each body feels, as the base acceleration (0, −g)
   // seen from body i (the V̇_i of a chain at rest).
-  data.Vd[0] << Vector3d::Zero(), -model.gravity();
+  Vector6d* const Vs = data.V.data();  // the addresses once, as in rnea
+  Vector6d* const Vds = data.Vd.data();
+  Vds[0] << Vector3d::Zero(), -model.gravity();
   for (int i = 0; i < n; ++i) {
     const Transform& T = data.T_local[body(i)];
-    data.V[body(i)] = adjoint_inverse_times(T, data.V[body(i) - 1]) +
-                      visit_axis(model, i, [&](auto axis) { return axis.times(qd(i)); });
-    data.Vd[body(i)] = adjoint_inverse_times(T, data.Vd[body(i) - 1]);
+    Vs[body(i)] = adjoint_inverse_times(T, Vs[body(i) - 1]);
+    visit_axis(model, i, [&](auto axis) { axis.add_times(Vs[body(i)], qd(i)); });
+    Vds[body(i)] = adjoint_inverse_times(T, Vds[body(i) - 1]);
   }
   // Backward: subtree momentum H and gravity wrench W, carried toward the base as wrenches are.
   Vector6d H = Vector6d::Zero(), W = Vector6d::Zero();
   for (int i = n - 1; i >= 0; --i) {
-    const Vector6d& V = data.V[body(i)];
+    const Vector6d& V = Vs[body(i)];
     Vector6d GV, GVd;
-    inertia_times_both(model.body_inertia(i), V, data.Vd[body(i)], GV, GVd);
+    inertia_times_both(model.body_inertia(i), V, Vds[body(i)], GV, GVd);
     H += GV;
     W += GVd;
     data.p(i) = axis_dot(model, i, H) + model.armature()[i] * qd(i);  // (M + diag(armature)) q̇
@@ -471,13 +473,19 @@ CHASLES_FLATTEN const Data& compute_tick_terms(const RobotModel& model, Data& da
   const int n = model.dof();
   // Forward: body poses and twists, and the acceleration each body has at q̈ = 0 — the velocity
   // product's plus gravity's, entered as the base acceleration (0, −g) (MR eq. 8.50–8.51).
-  data.Vd[0] << Vector3d::Zero(), -model.gravity();
+  Vector6d* const Vs = data.V.data();  // the addresses once, as in rnea
+  Vector6d* const Vds = data.Vd.data();
+  Vds[0] << Vector3d::Zero(), -model.gravity();
   for (int i = 0; i < n; ++i) {
     const Transform& T = data.T_local[body(i)];
     data.T_body[body(i)] = data.T_body[body(i) - 1] * T;
     visit_axis(model, i, [&](auto axis) {
-      data.V[body(i)] = adjoint_inverse_times(T, data.V[body(i) - 1]) + axis.times(qd(i));
-      data.Vd[body(i)] = adjoint_inverse_times(T, data.Vd[body(i) - 1]) + axis.ad_times(data.V[body(i)], qd(i));
+      Vector6d& V = Vs[body(i)];
+      V = adjoint_inverse_times(T, Vs[body(i) - 1]);
+      axis.add_times(V, qd(i));
+      Vector6d& Vd = Vds[body(i)];
+      Vd = adjoint_inverse_times(T, Vds[body(i) - 1]);
+      axis.add_ad_times(Vd, V, qd(i));
     });
   }
   data.T_sb = data.T_body[body(n - 1)] * model.T_last_tip();
@@ -488,9 +496,9 @@ CHASLES_FLATTEN const Data& compute_tick_terms(const RobotModel& model, Data& da
   // a = −R_0iᵀ g, whose share for joint i is A_iᵀ C_i (0, a) = (C_i A_i)ᵀ (0, a), C_i being symmetric.
   Vector6d F = Vector6d::Zero(), H = Vector6d::Zero();
   for (int i = n - 1; i >= 0; --i) {
-    const Vector6d& V = data.V[body(i)];
+    const Vector6d& V = Vs[body(i)];
     Vector6d GV, GVd;
-    inertia_times_both(model.body_inertia(i), V, data.Vd[body(i)], GV, GVd);
+    inertia_times_both(model.body_inertia(i), V, Vds[body(i)], GV, GVd);
     F += GVd - ad_transpose_times(V, GV);
     H += GV;
     data.bias(i) = axis_dot(model, i, F);
@@ -572,8 +580,8 @@ CHASLES_FLATTEN double kinetic_energy(const RobotModel& model, Data& data, const
   double energy = 0.0;
   for (int i = 0; i < model.dof(); ++i) {
     Vector6d& V = data.V[body(i)];
-    V = adjoint_inverse_times(data.T_local[body(i)], data.V[body(i) - 1]) +
-        visit_axis(model, i, [&](auto axis) { return axis.times(qd(i)); });
+    V = adjoint_inverse_times(data.T_local[body(i)], data.V[body(i) - 1]);
+    visit_axis(model, i, [&](auto axis) { axis.add_times(V, qd(i)); });
     energy += 0.5 * (V.dot(model.body_inertia(i) * V) + model.armature()[i] * qd(i) * qd(i));
   }
   return energy;

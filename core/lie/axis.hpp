@@ -27,33 +27,15 @@ struct AlignedRevoluteAxis {
 
   double sign = 1.0;  ///< σ = ±1
 
-  /// A x: the twist of a unit-rate joint scaled by x.
-  CHASLES_ALWAYS_INLINE Vector6d times(double x) const {
-    Vector6d V = Vector6d::Zero();
-    V(K) = sign * x;
-    return V;
-  }
-
   /// Aᵀ F: the joint's share of a wrench (its K-th moment).
   CHASLES_ALWAYS_INLINE double dot(const Vector6d& F) const { return sign * F(K); }
 
-  /// [ad_V] A x = (ω × a, v × a) x (MR definition 8.1), with w × e_K = (…, w_J, −w_I) at (I, J).
-  CHASLES_ALWAYS_INLINE Vector6d ad_times(const Vector6d& V, double x) const {
-    const double u = sign * x;
-    Vector6d out;
-    out(I) = V(J) * u;
-    out(J) = -V(I) * u;
-    out(K) = 0.0;
-    out(3 + I) = V(3 + J) * u;
-    out(3 + J) = -V(3 + I) * u;
-    out(3 + K) = 0.0;
-    return out;
-  }
-
-  /// V ← V + A x: one entry.
+  /// V ← V + A x, A x being the twist of a unit-rate joint scaled by x: one entry. In place: a
+  /// whole 6-vector A x added to V took inverse dynamics 25 % longer.
   CHASLES_ALWAYS_INLINE void add_times(Vector6d& V, double x) const { V(K) += sign * x; }
 
-  /// out ← out + [ad_V] A x: four entries.
+  /// out ← out + [ad_V] A x, [ad_V] A x = (ω × a, v × a) x (MR definition 8.1) with
+  /// w × e_K = (…, w_J, −w_I) at (I, J): four entries.
   CHASLES_ALWAYS_INLINE void add_ad_times(Vector6d& out, const Vector6d& V, double x) const {
     const double u = sign * x;
     out(I) += V(J) * u;

@@ -17,14 +17,8 @@ namespace chasles {
 struct GeneralAxis {
   const Vector6d& A;
 
-  /// A x.
-  CHASLES_ALWAYS_INLINE Vector6d times(double x) const { return A * x; }
   /// Aᵀ F.
   CHASLES_ALWAYS_INLINE double dot(const Vector6d& F) const { return A.dot(F); }
-  /// [ad_V] A x.
-  CHASLES_ALWAYS_INLINE Vector6d ad_times(const Vector6d& V, double x) const {
-    return chasles::ad_times(V, A * x);
-  }
   /// V ← V + A x.
   CHASLES_ALWAYS_INLINE void add_times(Vector6d& V, double x) const { V += A * x; }
   /// out ← out + [ad_V] A x.
