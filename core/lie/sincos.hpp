@@ -88,13 +88,21 @@ CHASLES_ALWAYS_INLINE void sin_cos_reduced(Double2 theta, Double2& s, Double2& c
   const Double2 sin_r = kernel_sin(r, y);
   const Double2 cos_r = kernel_cos(r, y);
   // θ = r + n π/2: quadrant 0 (s, c), 1 (c, −s), 2 (−s, −c), 3 (−c, s).
-  const Int2 odd = (quadrant & 1) != 0;
-  const Double2 s_abs = odd ? cos_r : sin_r;
-  const Double2 c_abs = odd ? sin_r : cos_r;
+  // The mask of odd quadrants from 32-bit lanes (SSE2 compares 64-bit lanes only by emulation,
+  // which GCC writes as branches): each low half compared, then copied into its high half.
+  using Int4 = int32_t __attribute__((vector_size(16)));
+  const Int4 odd_low = ((Int4)quadrant & Int4{1, 0, 1, 0}) != Int4{0, 0, 0, 0};
+#if defined(__clang__)
+  const Int2 odd = (Int2)__builtin_shufflevector(odd_low, odd_low, 0, 0, 2, 2);
+#else
+  const Int2 odd = (Int2)__builtin_shuffle(odd_low, Int4{0, 0, 2, 2});
+#endif
+  const Int2 s_abs = (odd & bits_of(cos_r)) | (~odd & bits_of(sin_r));
+  const Int2 c_abs = (odd & bits_of(sin_r)) | (~odd & bits_of(cos_r));
   const Int2 s_sign = (quadrant & 2) << 62;
   const Int2 c_sign = ((quadrant + 1) & 2) << 62;
-  s = double_of(bits_of(s_abs) ^ s_sign);
-  c = double_of(bits_of(c_abs) ^ c_sign);
+  s = double_of(s_abs ^ s_sign);
+  c = double_of(c_abs ^ c_sign);
 }
 
 }  // namespace detail
