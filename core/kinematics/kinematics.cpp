@@ -140,8 +140,10 @@ const Matrix6Xd& body_jacobian(const RobotModel& model, Data& data, const JointV
 
 CHASLES_FLATTEN const Matrix6Xd& body_jacobian_from_poses(const RobotModel& model, Data& data) {
   ++data.passes.body_jacobians;
-  const Matrix3d& R_sb = data.T_sb.linear();
-  const Vector3d& p_sb = data.T_sb.translation();
+  // Copies: a store into J_b might otherwise be a store into T_sb, for all the compiler knows, and
+  // each column would load R_sb and p_sb again (J_b 2 % faster).
+  const Matrix3d R_sb = data.T_sb.linear();
+  const Vector3d p_sb = data.T_sb.translation();
   for (int i = 0; i < model.dof(); ++i) {
     // Joint i's axis seen from the tip, [Ad_{T_sb⁻¹ T_0i}] A_i (MR eq. 5.18 column by column): its
     // space form [Ad_T0i] A_i taken about the tip's origin (translation p_0i − p_sb), then turned

@@ -11,8 +11,9 @@ using JointVector = Eigen::Ref<const Eigen::VectorXd>;
 /// Throws ArgumentError unless v has one entry per joint; `name` names it ("q", "qd").
 void check_joint_vector(const RobotModel& model, const JointVector& v, const char* name);
 
-/// The joint transforms T_{i−1,i}(q_i) = M_{i−1,i} · exp([A_i] q_i) into data.T_local; the
-/// first step of forward kinematics and of every dynamics algorithm.
+/// The joint transforms T_{i−1,i}(q_i) = M_{i−1,i} · exp([A_i] q_i) into data.T_local, with
+/// sin q_i and cos q_i into data.sin_q and data.cos_q; the first step of the dynamics algorithms
+/// (those of an all-aligned arm need only the sines and cosines).
 void local_transforms(const RobotModel& model, Data& data, const JointVector& q);
 
 /// Tip pose T_sb and every body pose T_0i, by the local PoE recursion
