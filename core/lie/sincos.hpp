@@ -39,28 +39,55 @@ CHASLES_ALWAYS_INLINE Double2 double_of(Int2 x) { return (Double2)x; }
 // the 33-bit head of π/2 is exact (fdlibm's medium case).
 inline constexpr double kSinCosReductionLimit = 524288.0;
 
-// sin(x + y) and cos(x + y) for |x + y| ≤ π/4, y a tail below ulp(x): fdlibm's __kernel_sin and
-// __kernel_cos (FreeBSD k_sin.c, k_cos.c), minimax polynomials of degree 13 and 14.
-CHASLES_ALWAYS_INLINE Double2 kernel_sin(Double2 x, Double2 y) {
-  constexpr double S1 = -1.66666666666666324348e-01, S2 = 8.33333333332248946124e-03,
-                   S3 = -1.98412698298579493134e-04, S4 = 2.75573137070700676789e-06,
-                   S5 = -2.50507602534068634195e-08, S6 = 1.58969099521155010221e-10;
-  const Double2 z = x * x;
-  const Double2 v = z * x;
-  const Double2 r = S2 + z * (S3 + z * (S4 + z * (S5 + z * S6)));
-  return x - ((z * (0.5 * y - v * r) - y) - v * S1);
+// The constants in pairs, read through a pointer the compiler cannot see through: a pair of a
+// constant it knows GCC builds at every use from a scalar load and a shuffle (SSE2 has no
+// broadcast), about 40 instructions per pair of angles; a pair it must load it loads whole, or
+// takes as the operand of the multiplication (FK 5 % fewer instructions).
+struct SinCosConstants {
+  // fdlibm's __kernel_sin and __kernel_cos (FreeBSD k_sin.c, k_cos.c): degree 13 and 14.
+  Double2 S1, S2, S3, S4, S5, S6, C1, C2, C3, C4, C5, C6;
+  Double2 two_over_pi, pio2_head, pio2_mid, pio2_tail, round, half, one;
+};
+
+#define CHASLES_PAIR(x) \
+  { x, x }
+alignas(16) inline constexpr SinCosConstants kSinCosConstants = {
+    CHASLES_PAIR(-1.66666666666666324348e-01), CHASLES_PAIR(8.33333333332248946124e-03),
+    CHASLES_PAIR(-1.98412698298579493134e-04), CHASLES_PAIR(2.75573137070700676789e-06),
+    CHASLES_PAIR(-2.50507602534068634195e-08), CHASLES_PAIR(1.58969099521155010221e-10),
+    CHASLES_PAIR(4.16666666666666019037e-02),  CHASLES_PAIR(-1.38888888888741095749e-03),
+    CHASLES_PAIR(2.48015872894767294178e-05),  CHASLES_PAIR(-2.75573143513906633035e-07),
+    CHASLES_PAIR(2.08757232129817482790e-09),  CHASLES_PAIR(-1.13596475577881948265e-11),
+    CHASLES_PAIR(6.36619772367581382433e-01),  // 2/π
+    CHASLES_PAIR(1.57079632673412561417e+00),  // π/2's first 33 bits
+    CHASLES_PAIR(6.07710050630396597660e-11),  // its next 33
+    CHASLES_PAIR(2.02226624879595063154e-21),  // the rest, to 53 bits
+    CHASLES_PAIR(6755399441055744.0),          // 1.5 · 2^52
+    CHASLES_PAIR(0.5),
+    CHASLES_PAIR(1.0)};
+#undef CHASLES_PAIR
+
+CHASLES_ALWAYS_INLINE const SinCosConstants& sin_cos_constants() {
+  const SinCosConstants* k = &kSinCosConstants;
+  asm("" : "+r"(k));  // hides the values, not the loads
+  return *k;
 }
 
-CHASLES_ALWAYS_INLINE Double2 kernel_cos(Double2 x, Double2 y) {
-  constexpr double C1 = 4.16666666666666019037e-02, C2 = -1.38888888888741095749e-03,
-                   C3 = 2.48015872894767294178e-05, C4 = -2.75573143513906633035e-07,
-                   C5 = 2.08757232129817482790e-09, C6 = -1.13596475577881948265e-11;
+// sin(x + y) and cos(x + y) for |x + y| ≤ π/4, y a tail below ulp(x).
+CHASLES_ALWAYS_INLINE Double2 kernel_sin(const SinCosConstants& k, Double2 x, Double2 y) {
   const Double2 z = x * x;
-  const Double2 r = z * (C1 + z * (C2 + z * (C3 + z * (C4 + z * (C5 + z * C6)))));
-  const Double2 hz = 0.5 * z;
-  const Double2 w = 1.0 - hz;
+  const Double2 v = z * x;
+  const Double2 r = k.S2 + z * (k.S3 + z * (k.S4 + z * (k.S5 + z * k.S6)));
+  return x - ((z * (k.half * y - v * r) - y) - v * k.S1);
+}
+
+CHASLES_ALWAYS_INLINE Double2 kernel_cos(const SinCosConstants& k, Double2 x, Double2 y) {
+  const Double2 z = x * x;
+  const Double2 r = z * (k.C1 + z * (k.C2 + z * (k.C3 + z * (k.C4 + z * (k.C5 + z * k.C6)))));
+  const Double2 hz = k.half * z;
+  const Double2 w = k.one - hz;
   // 1 − z/2 rounded, and what the rounding lost, so that the sum keeps the last bit.
-  return w + (((1.0 - w) - hz) + (z * r - x * y));
+  return w + (((k.one - w) - hz) + (z * r - x * y));
 }
 
 // sin and cos of both lanes of θ, each |θ| < kSinCosReductionLimit.
@@ -70,23 +97,19 @@ CHASLES_ALWAYS_INLINE void sin_cos_reduced(Double2 theta, Double2& s, Double2& c
   // bits), as fdlibm's __ieee754_rem_pio2 for |θ| < 2^20 π/2: the first two products are exact,
   // the first difference too (Sterbenz), and the second difference's rounding error goes into the
   // tail.
-  constexpr double kTwoOverPi = 6.36619772367581382433e-01;
-  constexpr double kPio2Head = 1.57079632673412561417e+00;  // π/2's first 33 bits
-  constexpr double kPio2Mid = 6.07710050630396597660e-11;   // its next 33
-  constexpr double kPio2Tail = 2.02226624879595063154e-21;  // the rest, to 53 bits
-  constexpr double kRound = 6755399441055744.0;             // 1.5 · 2^52
-  const Double2 shifted = theta * kTwoOverPi + kRound;
-  const Double2 n = shifted - kRound;
+  const SinCosConstants& k = sin_cos_constants();
+  const Double2 shifted = theta * k.two_over_pi + k.round;
+  const Double2 n = shifted - k.round;
   const Int2 quadrant = bits_of(shifted);
-  const Double2 r1 = theta - n * kPio2Head;
-  const Double2 w1 = n * kPio2Mid;
+  const Double2 r1 = theta - n * k.pio2_head;
+  const Double2 w1 = n * k.pio2_mid;
   const Double2 r2 = r1 - w1;
-  const Double2 w2 = n * kPio2Tail - ((r1 - r2) - w1);
+  const Double2 w2 = n * k.pio2_tail - ((r1 - r2) - w1);
   // r + y = r2 − w2 as a head and a tail below half its ulp, as the kernels take it.
   const Double2 r = r2 - w2;
   const Double2 y = (r2 - r) - w2;
-  const Double2 sin_r = kernel_sin(r, y);
-  const Double2 cos_r = kernel_cos(r, y);
+  const Double2 sin_r = kernel_sin(k, r, y);
+  const Double2 cos_r = kernel_cos(k, r, y);
   // θ = r + n π/2: quadrant 0 (s, c), 1 (c, −s), 2 (−s, −c), 3 (−c, s).
   // The mask of odd quadrants from 32-bit lanes (SSE2 compares 64-bit lanes only by emulation,
   // which GCC writes as branches): each low half compared, then copied into its high half.
