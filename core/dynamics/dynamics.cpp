@@ -329,11 +329,17 @@ CHASLES_FLATTEN void crb_columns(const RobotModel& model, Data& data) {
   }
 }
 
-// A_jᵀ F for the wrench (m, f) of body j's frame.
+// A_jᵀ F for the wrench (m, f) of body j's frame. The entry is picked by cases, not by m[kind]: an
+// index known only at run time would keep m in memory rather than in registers.
 template <class T>
 CHASLES_ALWAYS_INLINE T axis_dot(const RobotModel& model, int j, const T* m, const T* f) {
   const JointAxis& a = model.joint_axis(j);
-  if (a.kind != AxisKind::General) return a.sign * m[static_cast<int>(a.kind)];
+  switch (a.kind) {
+    case AxisKind::RevoluteX: return a.sign * m[0];
+    case AxisKind::RevoluteY: return a.sign * m[1];
+    case AxisKind::RevoluteZ: return a.sign * m[2];
+    case AxisKind::General: break;
+  }
   const Vector6d& A = model.local_axis(j);
   return A(0) * m[0] + A(1) * m[1] + A(2) * m[2] + A(3) * f[0] + A(4) * f[1] + A(5) * f[2];
 }
