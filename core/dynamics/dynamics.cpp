@@ -13,28 +13,24 @@ namespace {
 
 size_t body(int joint_index) { return static_cast<size_t>(joint_index) + 1; }
 
-// A_iᵀ F: joint i's share of a wrench; one entry of F for an axis-aligned revolute joint.
-CHASLES_ALWAYS_INLINE double axis_dot(const RobotModel& model, int i, const Vector6d& F) {
-  const JointAxis& a = model.joint_axis(i);
-  return a.kind != AxisKind::General ? a.sign * F(static_cast<int>(a.kind)) : model.local_axis(i).dot(F);
+// A_jᵀ F for the wrench (m, f) of body j's frame. The entry is picked by cases, not by m[kind]: an
+// index known only at run time would keep m in memory rather than in registers.
+template <class T>
+CHASLES_ALWAYS_INLINE T axis_dot(const RobotModel& model, int j, const T* m, const T* f) {
+  const JointAxis& a = model.joint_axis(j);
+  switch (a.kind) {
+    case AxisKind::RevoluteX: return a.sign * m[0];
+    case AxisKind::RevoluteY: return a.sign * m[1];
+    case AxisKind::RevoluteZ: return a.sign * m[2];
+    case AxisKind::General: break;
+  }
+  const Vector6d& A = model.local_axis(j);
+  return A(0) * m[0] + A(1) * m[1] + A(2) * m[2] + A(3) * f[0] + A(4) * f[1] + A(5) * f[2];
 }
 
-// [Ad_{T⁻¹}]ᵀ F = (R m + p × R f, R f), as lie/se3.hpp's adjoint_inverse_transpose_times, with R m
-// and R f side by side (entry k of each in one SSE2 register, as lie/sincos.hpp's vector
-// extensions): fewer instructions, which is what the backward passes of RNEA wait for (4–7 % of
-// inverse dynamics). The moment then also waits for R f's lane to be taken out, a longer chain of
-// dependent operations: the CRBA's columns, which are such chains and little else, keep the plain one.
-CHASLES_ALWAYS_INLINE Vector6d wrench_to_parent(const Transform& T, const Vector6d& F) {
-  using detail::Double2;
-  const Matrix3d& R = T.linear();
-  const Double2 x[3] = {{F(0), F(3)}, {F(1), F(4)}, {F(2), F(5)}};
-  Double2 y[3];
-  for (int k = 0; k < 3; ++k) y[k] = R(k, 0) * x[0] + R(k, 1) * x[1] + R(k, 2) * x[2];
-  const Vector3d& p = T.translation();
-  Vector6d out;
-  out << y[0][0] + (p(1) * y[2][1] - p(2) * y[1][1]), y[1][0] + (p(2) * y[0][1] - p(0) * y[2][1]),
-      y[2][0] + (p(0) * y[1][1] - p(1) * y[0][1]), y[0][1], y[1][1], y[2][1];
-  return out;
+// A_iᵀ F for a wrench F = (m, f) of body i's frame: joint i's share of it.
+CHASLES_ALWAYS_INLINE double axis_dot(const RobotModel& model, int i, const Vector6d& F) {
+  return axis_dot(model, i, F.data(), F.data() + 3);
 }
 
 // G A and G B side by side, entry k of A in one lane of an SSE2 register and of B in the other:
@@ -57,7 +53,7 @@ CHASLES_ALWAYS_INLINE void inertia_times_both(const SpatialInertia& G, const Vec
   }
 }
 
-// One step of the CRBA toward the base, from body i's frame to its parent's: x ↦ R x (+ p) with
+// One step of the recursive algorithms between body i's frame and its parent's: x ↦ R x (+ p) with
 // T_{i−1,i} = (R_M R_J(q_i), p). For an axis-aligned joint under a placement that is the identity
 // or one rpy angle (RobotModel::placement_rotation) R is two turns in coordinate planes, applied as
 // such: a turn of a 3-vector is 4 multiplications where R x is 9, and of a symmetric matrix 10
@@ -235,8 +231,8 @@ struct CompositeInertia {
     return out;
   }
 
-  // I ← R_K I R_Kᵀ, h ← R_K h. With I_II = μ + δ, I_JJ = μ − δ, the 2×2 block turns by the double
-  // angle: (δ, I_IJ) ↦ (c₂δ − s₂I_IJ, s₂δ + c₂I_IJ), μ fixed; the entries with K turn as a vector.
+  // I ← R_K I R_Kᵀ, h ← R_K h: the 2×2 block in the plane of e_I, e_J by c², s² and cs (the products
+  // apart, then summed: a shorter chain than the double angle's), the entries with K as a vector.
   template <int K>
   CHASLES_ALWAYS_INLINE void turn_about(double c, double s) {
     constexpr int I = (K + 1) % 3, J = (K + 2) % 3;
@@ -327,21 +323,6 @@ CHASLES_FLATTEN void crb_columns(const RobotModel& model, Data& data) {
     C.to_parent(parent_step(model, data, i));
     C.add(model.body_inertia(i - 1));
   }
-}
-
-// A_jᵀ F for the wrench (m, f) of body j's frame. The entry is picked by cases, not by m[kind]: an
-// index known only at run time would keep m in memory rather than in registers.
-template <class T>
-CHASLES_ALWAYS_INLINE T axis_dot(const RobotModel& model, int j, const T* m, const T* f) {
-  const JointAxis& a = model.joint_axis(j);
-  switch (a.kind) {
-    case AxisKind::RevoluteX: return a.sign * m[0];
-    case AxisKind::RevoluteY: return a.sign * m[1];
-    case AxisKind::RevoluteZ: return a.sign * m[2];
-    case AxisKind::General: break;
-  }
-  const Vector6d& A = model.local_axis(j);
-  return A(0) * m[0] + A(1) * m[1] + A(2) * m[2] + A(3) * f[0] + A(4) * f[1] + A(5) * f[2];
 }
 
 // M from data.crb_column: column i is the wrench C_i A_i that accelerates joint i alone, carried
@@ -442,7 +423,7 @@ const Eigen::VectorXd& velocity_product(const RobotModel& model, Data& data, con
 CHASLES_FLATTEN const Eigen::VectorXd& momentum_terms(const RobotModel& model, Data& data, const JointVector& q,
                                                       const JointVector& qd) {
   check_joint_vector(model, qd, "qd");
-  local_transforms(model, data, q);
+  joint_terms(model, data, q);
   const int n = model.dof();
   // Forward: body twists V_i and the gravity each body feels, as the base acceleration (0, −g)
   // seen from body i (the V̇_i of a chain at rest).
@@ -450,10 +431,10 @@ CHASLES_FLATTEN const Eigen::VectorXd& momentum_terms(const RobotModel& model, D
   Vector6d* const Vds = data.Vd.data();
   Vds[0] << Vector3d::Zero(), -model.gravity();
   for (int i = 0; i < n; ++i) {
-    const Transform& T = data.T_local[body(i)];
-    Vs[body(i)] = adjoint_inverse_times(T, Vs[body(i) - 1]);
+    const ParentStep step = parent_step(model, data, i);
+    Vs[body(i)] = twist_to_child(step, Vs[body(i) - 1]);
     visit_axis(model, i, [&](auto axis) { axis.add_times(Vs[body(i)], qd(i)); });
-    Vds[body(i)] = adjoint_inverse_times(T, Vds[body(i) - 1]);
+    Vds[body(i)] = twist_to_child(step, Vds[body(i) - 1]);
   }
   // Backward: subtree momentum H and gravity wrench W, carried toward the base as wrenches are.
   Vector6d H = Vector6d::Zero(), W = Vector6d::Zero();
@@ -466,8 +447,9 @@ CHASLES_FLATTEN const Eigen::VectorXd& momentum_terms(const RobotModel& model, D
     data.p(i) = axis_dot(model, i, H) + model.armature()[i] * qd(i);  // (M + diag(armature)) q̇
     data.ct_qd(i) = axis_dot(model, i, ad_transpose_times(V, H));
     data.g(i) = axis_dot(model, i, W);
-    H = wrench_to_parent(data.T_local[body(i)], H);
-    W = wrench_to_parent(data.T_local[body(i)], W);
+    const ParentStep step = parent_step(model, data, i);
+    H = wrench_to_parent(step, H);
+    W = wrench_to_parent(step, W);
   }
   return data.p;
 }
@@ -483,14 +465,14 @@ CHASLES_FLATTEN const Data& compute_tick_terms(const RobotModel& model, Data& da
   Vector6d* const Vds = data.Vd.data();
   Vds[0] << Vector3d::Zero(), -model.gravity();
   for (int i = 0; i < n; ++i) {
-    const Transform& T = data.T_local[body(i)];
-    data.T_body[body(i)] = data.T_body[body(i) - 1] * T;
+    data.T_body[body(i)] = data.T_body[body(i) - 1] * data.T_local[body(i)];
+    const ParentStep step = parent_step(model, data, i);
     visit_axis(model, i, [&](auto axis) {
       Vector6d& V = Vs[body(i)];
-      V = adjoint_inverse_times(T, Vs[body(i) - 1]);
+      V = twist_to_child(step, Vs[body(i) - 1]);
       axis.add_times(V, qd(i));
       Vector6d& Vd = Vds[body(i)];
-      Vd = adjoint_inverse_times(T, Vds[body(i) - 1]);
+      Vd = twist_to_child(step, Vds[body(i) - 1]);
       axis.add_ad_times(Vd, V, qd(i));
     });
   }
@@ -512,8 +494,9 @@ CHASLES_FLATTEN const Data& compute_tick_terms(const RobotModel& model, Data& da
     data.ct_qd(i) = axis_dot(model, i, ad_transpose_times(V, H));
     const Vector3d a_gravity = -(data.T_body[body(i)].linear().transpose() * model.gravity());
     data.g(i) = data.crb_column[body(i)].tail<3>().dot(a_gravity);
-    F = wrench_to_parent(data.T_local[body(i)], F);
-    H = wrench_to_parent(data.T_local[body(i)], H);
+    const ParentStep step = parent_step(model, data, i);
+    F = wrench_to_parent(step, F);
+    H = wrench_to_parent(step, H);
   }
   data.c = data.bias - data.g;
   mass_matrix_from_columns(model, data);
@@ -582,11 +565,11 @@ std::string mass_matrix_defect(const RobotModel& model) {
 CHASLES_FLATTEN double kinetic_energy(const RobotModel& model, Data& data, const JointVector& q,
                                       const JointVector& qd) {
   check_joint_vector(model, qd, "qd");
-  local_transforms(model, data, q);
+  joint_terms(model, data, q);
   double energy = 0.0;
   for (int i = 0; i < model.dof(); ++i) {
     Vector6d& V = data.V[body(i)];
-    V = adjoint_inverse_times(data.T_local[body(i)], data.V[body(i) - 1]);
+    V = twist_to_child(parent_step(model, data, i), data.V[body(i) - 1]);
     visit_axis(model, i, [&](auto axis) { axis.add_times(V, qd(i)); });
     energy += 0.5 * (V.dot(model.body_inertia(i) * V) + model.armature()[i] * qd(i) * qd(i));
   }

@@ -211,9 +211,9 @@ struct Data {
   explicit Data(const RobotModel& model);
 
   // Kinematics.
-  /// T_{i−1,i}(q_i) = M_{i−1,i} exp([A_i] q_i), entry 0 unused: written by local_transforms. RNEA,
-  /// M and forward dynamics of an arm whose joints are all axis-aligned form none (they turn by
-  /// sin_q and cos_q) and leave it as it was.
+  /// T_{i−1,i}(q_i) = M_{i−1,i} exp([A_i] q_i), entry 0 unused: written by local_transforms. For an
+  /// arm whose joints are all axis-aligned the dynamics turn by sin_q and cos_q and form none, bar
+  /// compute_tick_terms, which composes the body poses from them.
   std::vector<Transform> T_local;
   Eigen::VectorXd sin_q, cos_q;    ///< sin q_i and cos q_i, all computed before the transforms
   std::vector<Transform> T_body;   ///< T_0i, pose of body i in the base frame; T_body[0] = I
