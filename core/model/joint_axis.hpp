@@ -62,6 +62,20 @@ struct AxisPlacement {
   }
 };
 
+/// A placement rotation (RobotModel::placement_rotation) by a quarter turn about e_K, s = ±1: R M
+/// is two columns of R swapped, one negated (by s).
+template <int K>
+struct QuarterPlacement {
+  double s;
+  CHASLES_ALWAYS_INLINE const Matrix3d& after(const Matrix3d& R, Matrix3d& out) const {
+    constexpr int I = (K + 1) % 3, J = (K + 2) % 3;
+    out.col(I) = s * R.col(J);
+    out.col(J) = -s * R.col(I);
+    out.col(K) = R.col(K);
+    return out;
+  }
+};
+
 /// The identity placement rotation: R M is R.
 struct IdentityPlacement {
   CHASLES_ALWAYS_INLINE const Matrix3d& after(const Matrix3d& R, Matrix3d&) const { return R; }
@@ -76,8 +90,8 @@ struct GeneralPlacement {
   }
 };
 
-/// Calls f(placement) with joint i's placement rotation as an AxisPlacement<K>, an
-/// IdentityPlacement or a GeneralPlacement.
+/// Calls f(placement) with joint i's placement rotation as an AxisPlacement<K>, a
+/// QuarterPlacement<K>, an IdentityPlacement or a GeneralPlacement.
 template <class F>
 CHASLES_ALWAYS_INLINE decltype(auto) visit_placement(const RobotModel& model, int i, F&& f) {
   const PlacementRotation& p = model.placement_rotation(i);
@@ -85,6 +99,9 @@ CHASLES_ALWAYS_INLINE decltype(auto) visit_placement(const RobotModel& model, in
     case PlacementKind::RotationX: return f(AxisPlacement<0>{p.c, p.s});
     case PlacementKind::RotationY: return f(AxisPlacement<1>{p.c, p.s});
     case PlacementKind::RotationZ: return f(AxisPlacement<2>{p.c, p.s});
+    case PlacementKind::QuarterX: return f(QuarterPlacement<0>{p.s});
+    case PlacementKind::QuarterY: return f(QuarterPlacement<1>{p.s});
+    case PlacementKind::QuarterZ: return f(QuarterPlacement<2>{p.s});
     case PlacementKind::Identity: return f(IdentityPlacement{});
     case PlacementKind::General: break;
   }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 #include "chasles/core/lie/se3.hpp"
 #include "chasles/core/lie/so3.hpp"
@@ -98,13 +99,20 @@ JointAxis classify_axis(const Joint& joint) {
 
 // A rotation whose row and column k are exactly e_k and whose other 2×2 block is exactly
 // [[c, −s], [s, c]] is a rotation about e_k (the identity when c = 1, s = 0): its products with it
-// are then the general ones without the terms that are exactly zero.
-PlacementRotation classify_placement(const Matrix3d& R) {
+// are then the general ones without the terms that are exactly zero. With s = ±1 and |c| ≤ 4ε it is
+// a quarter turn, c rounded to 0 (PlacementKind's comment says why); R is then made that exactly,
+// so that every path, special or general, takes the same placement.
+PlacementRotation classify_placement(Matrix3d& R) {
+  constexpr double kRounding = 4.0 * std::numeric_limits<double>::epsilon();
   for (int k = 0; k < 3; ++k) {
     const int i = (k + 1) % 3, j = (k + 2) % 3;
     if (R(k, k) == 1.0 && R(k, i) == 0.0 && R(k, j) == 0.0 && R(i, k) == 0.0 && R(j, k) == 0.0 &&
         R(i, i) == R(j, j) && R(i, j) == -R(j, i)) {
       if (R(i, i) == 1.0 && R(j, i) == 0.0) return {PlacementKind::Identity, 1.0, 0.0};
+      if (std::abs(R(j, i)) == 1.0 && std::abs(R(i, i)) <= kRounding) {
+        R(i, i) = R(j, j) = 0.0;
+        return {static_cast<PlacementKind>(static_cast<int>(PlacementKind::QuarterX) + k), 0.0, R(j, i)};
+      }
       return {static_cast<PlacementKind>(k), R(i, i), R(j, i)};
     }
   }
@@ -115,7 +123,8 @@ PlacementRotation classify_placement(const Matrix3d& R) {
 
 RobotModel::RobotModel(ChainDescription description) : d_(std::move(description)) {
   validate(d_);
-  const int n = dof();
+  dof_ = static_cast<int>(d_.joints.size());
+  const int n = dof_;
   if (d_.armature.empty()) d_.armature.assign(static_cast<size_t>(n), 0.0);
   armature_ = Eigen::Map<const Eigen::VectorXd>(d_.armature.data(), n);
   M_body_.resize(static_cast<size_t>(n));
@@ -127,6 +136,7 @@ RobotModel::RobotModel(ChainDescription description) : d_(std::move(description)
   B_.resize(6, n);
   Transform M_i = Transform::Identity();
   for (int i = 0; i < n; ++i) {
+    placement_[static_cast<size_t>(i)] = classify_placement(d_.joints[static_cast<size_t>(i)].T_parent_joint.linear());
     const Joint& j = joint(i);
     M_i = M_i * j.T_parent_joint;
     M_body_[static_cast<size_t>(i)] = M_i;
@@ -137,7 +147,6 @@ RobotModel::RobotModel(ChainDescription description) : d_(std::move(description)
       A << j.axis, Vector3d::Zero();
     }
     axis_kind_[static_cast<size_t>(i)] = classify_axis(j);
-    placement_[static_cast<size_t>(i)] = classify_placement(j.T_parent_joint.linear());
     S_.col(i) = adjoint_times(M_i, A);  // S_i = [Ad_{M_i}] A_i
     G_[static_cast<size_t>(i)] = SpatialInertia::from_matrix(d_.inertia[static_cast<size_t>(i)]);
   }

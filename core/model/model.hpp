@@ -85,9 +85,13 @@ struct JointAxis {
 /// The rotation of a joint's placement M_{i−1,i}, found once when the model is built so that
 /// forward kinematics turns two columns instead of multiplying 3×3 matrices where it can: the
 /// identity, a rotation about x, y or z (what a URDF origin with one nonzero rpy angle gives), with
-/// its angle's cosine c and sine s as stored in the matrix, or `General`. Exact: only a matrix whose
-/// other entries are exactly 0 and 1 gets a special kind.
-enum class PlacementKind : uint8_t { RotationX, RotationY, RotationZ, Identity, General };
+/// its angle's cosine c and sine s as stored in the matrix, a quarter turn about x, y or z (c = 0,
+/// s = ±1: a swap of two coordinates, one negated), or `General`. Exact: only a matrix whose other
+/// entries are exactly 0 and 1 gets a special kind, and the model's placement is exactly the
+/// matrix its kind says. The one rounding it takes: a cosine within 4ε of 0 beside a sine of
+/// exactly ±1 is 0, a quarter turn, as the matrix urdfdom's quaternion gives for rpy = ±π/2 (whose
+/// cosine comes out as ε) is one to the precision of the angle itself.
+enum class PlacementKind : uint8_t { RotationX, RotationY, RotationZ, Identity, General, QuarterX, QuarterY, QuarterZ };
 
 struct PlacementRotation {
   PlacementKind kind = PlacementKind::General;
@@ -145,7 +149,7 @@ class RobotModel {
   /// Checks the description and derives the rest; throws ModelError if it is not a valid chain.
   explicit RobotModel(ChainDescription description);
 
-  int dof() const { return static_cast<int>(d_.joints.size()); }
+  int dof() const { return dof_; }
   const ChainDescription& description() const { return d_; }
   const std::string& name() const { return d_.name; }
   const std::string& base_link() const { return d_.base_link; }
@@ -188,6 +192,7 @@ class RobotModel {
 
  private:
   ChainDescription d_;
+  int dof_ = 0;  // d_.joints.size(), kept: every loop of every algorithm reads it, and a vector's size divides
   Transform M_;
   std::vector<Transform> M_body_;
   std::vector<Vector6d> A_;

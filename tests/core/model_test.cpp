@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
+#include <cmath>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <random>
 #include <regex>
 #include <sstream>
@@ -84,7 +86,8 @@ TEST(Model, PandaHandCarriesTheLockedFingers) {
 }
 
 // The placement rotations the fast paths take (RobotModel::placement_rotation) are exactly the
-// matrices of the URDF: the identity, about one axis (c, s as stored), or general.
+// model's matrices: the identity, about one axis (c, s as stored), a quarter turn (c = 0), or
+// general.
 TEST_P(ReferenceRobot, PlacementRotationsAreExactlyTheirMatrices) {
   const RobotModel model = load_reference_model(load_reference(GetParam()));
   for (int i = 0; i < model.dof(); ++i) {
@@ -93,7 +96,11 @@ TEST_P(ReferenceRobot, PlacementRotationsAreExactlyTheirMatrices) {
     if (p.kind == PlacementKind::General) continue;
     Matrix3d expected = Matrix3d::Identity();
     if (p.kind != PlacementKind::Identity) {
-      const int k = static_cast<int>(p.kind), a = (k + 1) % 3, b = (k + 2) % 3;
+      const int kind = static_cast<int>(p.kind), quarter = static_cast<int>(PlacementKind::QuarterX);
+      const int k = kind >= quarter ? kind - quarter : kind, a = (k + 1) % 3, b = (k + 2) % 3;
+      if (kind >= quarter) {
+        EXPECT_EQ(p.c, 0.0) << model.joint(i).name;
+      }
       expected(a, a) = expected(b, b) = p.c;
       expected(b, a) = p.s;
       expected(a, b) = -p.s;
@@ -110,10 +117,22 @@ TEST(Model, PlacementRotationsOfTheUr5AndThePanda) {
     const PlacementKind expected = (i == 1 || i == 3) ? PlacementKind::RotationY : PlacementKind::Identity;
     EXPECT_EQ(ur5.placement_rotation(i).kind, expected) << i;
   }
+  // The UR5's rpy of 1.57079632679 is 5e-12 short of a quarter turn: its cosine stays as it is.
+  EXPECT_EQ(ur5.placement_rotation(1).c, ur5.joint(1).T_parent_joint.linear()(2, 2));
+  EXPECT_NEAR(ur5.placement_rotation(1).c, std::cos(1.57079632679), 1e-16);
   options.tip_link = "panda_hand";
   const RobotModel panda = load_urdf_file(testing::data_path("panda.urdf"), options);
   EXPECT_EQ(panda.placement_rotation(0).kind, PlacementKind::Identity);
-  for (int i = 1; i < panda.dof(); ++i) EXPECT_EQ(panda.placement_rotation(i).kind, PlacementKind::RotationX) << i;
+  // The Panda's rpy of ±π/2 (to the last digit) are quarter turns, made exact: within 4ε of the
+  // rotation by the angle as written, and with entries of exactly 0 and ±1.
+  const double angle[] = {-M_PI / 2, M_PI / 2, M_PI / 2, -M_PI / 2, M_PI / 2, M_PI / 2};
+  for (int i = 1; i < panda.dof(); ++i) {
+    EXPECT_EQ(panda.placement_rotation(i).kind, PlacementKind::QuarterX) << i;
+    const Matrix3d& R = panda.joint(i).T_parent_joint.linear();
+    const Matrix3d exact = Eigen::AngleAxisd(angle[i - 1], Vector3d::UnitX()).toRotationMatrix();
+    EXPECT_TRUE(matrices_near(R, exact, 4.0 * std::numeric_limits<double>::epsilon())) << i;
+    EXPECT_TRUE(matrices_near(R, exact.array().round().matrix(), 0.0)) << i;
+  }
 }
 
 TEST(Model, SeveralLeavesNeedATip) {
