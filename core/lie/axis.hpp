@@ -22,6 +22,7 @@ template <int K>
 struct AlignedRevoluteAxis {
   static_assert(K >= 0 && K < 3, "K is the axis index: 0 = x, 1 = y, 2 = z");
   // e_K × e_I = e_J, e_I × e_J = e_K: the other two indices in cyclic order.
+  static constexpr int kIndex = K;
   static constexpr int I = (K + 1) % 3;
   static constexpr int J = (K + 2) % 3;
 
