@@ -6,7 +6,10 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <sstream>
+#include <string>
 
+#include "chasles/core/kinematics/kinematics.hpp"
 #include "chasles/core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/decompositions.hpp"
@@ -304,6 +307,111 @@ INSTANTIATE_TEST_SUITE_P(Robots, ReferenceDynamics,
 INSTANTIATE_TEST_SUITE_P(Robots, Dynamics,
                          ::testing::Values(Robot{"ur5", "tool0"}, Robot{"panda", "panda_hand"}, Robot{"arm", "tip"}, Robot{"tiago", "hand_grasping_frame"}, Robot{"talos_left_arm", "gripper_left_motor_double_link"}, Robot{"finger_edu", "finger_tip_link"}, Robot{"iiwa14", "iiwa_link_ee"}),
                          [](const ::testing::TestParamInfo<Robot>& p) { return p.param.name; });
+
+// A 12-joint chain whose placements take every shape RobotModel::placement_rotation tells apart
+// (the identity, one rpy angle about x, y or z, a quarter turn about each either way, and a general
+// rotation) under joints about ±x, ±y, ±z, an oblique axis and a prismatic one; with `twin`, the
+// first two zeros of each rpy and axis are 1e-200 and 2e-200 instead, so that every placement and
+// axis is general and takes the full 3×3 path (T_local): the same chain to far below rounding.
+std::string every_shape_chain(bool twin) {
+  const char* const rpy[] = {"0 0 0",
+                             "1.5707963267948966 0 0",
+                             "0 -1.5707963267948966 0",
+                             "0 0 1.5707963267948966",
+                             "-1.5707963267948966 0 0",
+                             "0 1.5707963267948966 0",
+                             "0 0 -1.5707963267948966",
+                             "0.4 0 0",
+                             "0 -0.7 0",
+                             "0 0 1.1",
+                             "0.3 0.2 0.1",
+                             "0 0 0"};
+  const char* const axes[] = {"0 0 1", "0 1 0", "1 0 0", "0 0 -1", "0 -1 0", "-1 0 0",
+                              "0.6 0 0.8", "0 0 1", "0 1 0", "1 0 0", "0 0 1", "0 1 0"};
+  const auto perturbed = [&](const std::string& triple) {
+    if (!twin) return triple;
+    std::istringstream in(triple);
+    std::string out, x;
+    int moved = 0;  // 1e-200, then 2e-200: equal roll and yaw would cancel at a pitch of ±π/2
+    while (in >> x) {
+      out += out.empty() ? "" : " ";
+      out += x == "0" && moved < 2 ? (++moved == 1 ? "1e-200" : "2e-200") : x;
+    }
+    return out;
+  };
+  std::ostringstream xml;
+  xml << "<robot name='every_shape'>";
+  for (int i = 0; i <= 12; ++i) {
+    xml << "<link name='l" << i << "'><inertial><origin xyz='" << 0.01 * i << " -0.02 0.05' rpy='0.1 0.2 0.3'/>"
+        << "<mass value='" << 1.0 + 0.1 * i << "'/><inertia ixx='0.02' iyy='0.03' izz='0.025' ixy='0.001' "
+        << "ixz='-0.002' iyz='0.0015'/></inertial></link>";
+  }
+  for (int i = 0; i < 12; ++i) {
+    xml << "<joint name='j" << i + 1 << "' type='" << (i == 11 ? "prismatic" : "revolute") << "'><parent link='l" << i
+        << "'/><child link='l" << i + 1 << "'/><origin xyz='0.05 0.02 0.12' rpy='" << perturbed(rpy[i])
+        << "'/><axis xyz='" << perturbed(axes[i]) << "'/><limit lower='-3' upper='3' effort='100' velocity='2'/></joint>";
+  }
+  xml << "</robot>";
+  return xml.str();
+}
+
+// The fast paths (plane turns and quarter turns by the placement's and the axis's shape, no joint
+// transform) against the general one, on every shape: FK, J_b, RNEA, M, forward dynamics and the
+// tick's terms.
+TEST(Dynamics, EveryShapedPathIsTheGeneralOne) {
+  const UrdfOptions options{"l12", {0.0, 0.0, -9.81}};
+  const RobotModel shaped = load_urdf_string(every_shape_chain(false), options, "every_shape.urdf");
+  const RobotModel general = load_urdf_string(every_shape_chain(true), options, "every_shape_twin.urdf");
+  ASSERT_EQ(shaped.dof(), 12);
+  const PlacementKind placements[] = {PlacementKind::Identity,  PlacementKind::QuarterX,  PlacementKind::QuarterY,
+                                      PlacementKind::QuarterZ,  PlacementKind::QuarterX,  PlacementKind::QuarterY,
+                                      PlacementKind::QuarterZ,  PlacementKind::RotationX, PlacementKind::RotationY,
+                                      PlacementKind::RotationZ, PlacementKind::General,   PlacementKind::Identity};
+  const AxisKind axes[] = {AxisKind::RevoluteZ, AxisKind::RevoluteY, AxisKind::RevoluteX, AxisKind::RevoluteZ,
+                           AxisKind::RevoluteY, AxisKind::RevoluteX, AxisKind::General,   AxisKind::RevoluteZ,
+                           AxisKind::RevoluteY, AxisKind::RevoluteX, AxisKind::RevoluteZ, AxisKind::General};
+  for (int i = 0; i < 12; ++i) {
+    EXPECT_EQ(shaped.placement_rotation(i).kind, placements[i]) << i;
+    EXPECT_EQ(shaped.joint_axis(i).kind, axes[i]) << i;
+    EXPECT_EQ(general.placement_rotation(i).kind, PlacementKind::General) << i;
+    EXPECT_EQ(general.joint_axis(i).kind, AxisKind::General) << i;
+  }
+  // The quarter turns either way, so that both signs of s are taken.
+  EXPECT_EQ(shaped.placement_rotation(1).s, 1.0);
+  EXPECT_EQ(shaped.placement_rotation(4).s, -1.0);
+
+  Data a(shaped), b(general);
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> normal;
+  for (int k = 0; k < 5; ++k) {
+    Eigen::VectorXd q(12), qd(12), qdd(12), tau(12);
+    for (int i = 0; i < 12; ++i) {
+      q(i) = 2.5 * std::tanh(normal(rng));
+      qd(i) = normal(rng);
+      qdd(i) = normal(rng);
+      tau(i) = 5.0 * normal(rng);
+    }
+    EXPECT_TRUE(matrices_near_relative(forward_kinematics(shaped, a, q).matrix(),
+                                       forward_kinematics(general, b, q).matrix(), 1e-13));
+    EXPECT_TRUE(matrices_near_relative(body_jacobian(shaped, a, q), body_jacobian(general, b, q), 1e-13));
+    EXPECT_TRUE(matrices_near_relative(inverse_dynamics(shaped, a, q, qd, qdd), inverse_dynamics(general, b, q, qd, qdd),
+                                       1e-12));
+    EXPECT_TRUE(matrices_near_relative(mass_matrix(shaped, a, q), mass_matrix(general, b, q), 1e-12));
+    EXPECT_TRUE(matrices_near_relative(forward_dynamics(shaped, a, q, qd, tau), forward_dynamics(general, b, q, qd, tau),
+                                       1e-9));
+    compute_tick_terms(shaped, a, q, qd);
+    compute_tick_terms(general, b, q, qd);
+    EXPECT_TRUE(matrices_near_relative(a.M, b.M, 1e-12));
+    EXPECT_TRUE(matrices_near_relative(a.c, b.c, 1e-12));
+    EXPECT_TRUE(matrices_near_relative(a.g, b.g, 1e-12));
+    EXPECT_TRUE(matrices_near_relative(a.p, b.p, 1e-12));
+    EXPECT_TRUE(matrices_near_relative(a.ct_qd, b.ct_qd, 1e-12));
+    EXPECT_TRUE(matrices_near_relative(a.J_b, b.J_b, 1e-13));
+    EXPECT_TRUE(matrices_near_relative(momentum_terms(shaped, a, q, qd), momentum_terms(general, b, q, qd), 1e-12));
+    EXPECT_NEAR(kinetic_energy(shaped, a, q, qd), kinetic_energy(general, b, q, qd),
+                1e-12 * kinetic_energy(general, b, q, qd));
+  }
+}
 
 // A passive swing: τ = 0, no damping, so kinetic + potential energy is conserved. Integrated with
 // classical Runge-Kutta at 4 kHz for 10 s (the light wrist spins up past 100 rad/s); RK4's energy
