@@ -410,6 +410,8 @@ CHASLES_FLATTEN void mass_matrix_from_columns(const RobotModel& model, Data& dat
       f[k] = Double2{A(3 + k), fb[k]};
     }
     data.M(a, a + 1) = data.M(a + 1, a) = visit_axis(model, a, [&](auto axis) { return axis_dot(axis, mb, fb); });
+    // The step and the next joint's share in visits of their own: in one visit per joint, the
+    // pair no longer stayed in registers (M 10–14 % more instructions).
     for (int j = a; j > 0; --j) {
       visit_step(model, data, j, [&](const auto& step) { wrench_to_parent(step, m, f); });
       const Double2 entries = visit_axis(model, j - 1, [&](auto axis) { return axis_dot(axis, m, f); });
