@@ -30,9 +30,11 @@ if [ "${1:-}" = "--sanitize" ]; then
   fuzz=0
   # Warnings are enforced by the normal build; GCC 12 reports false maybe-uninitialized warnings
   # inside libstdc++ (std::regex) under -fsanitize, so they are not errors here.
-  # -O1 -g1 (line tables, enough for ASan's reports) compiles in 40 % of the time -O2 -g takes.
+  # -Og -g1 (line tables, enough for ASan's reports): -O1 compiled in 40 % of the time -O2 -g
+  # takes, and -Og in 74 % of -O1's (405 against 548 s on the 2-core VM) while the suite ran as
+  # fast (126 against 120 s).
   options=(-DCHASLES_WERROR=OFF -DCHASLES_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo
-           "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" -DCHASLES_BUILD_TOOLS=OFF)
+           "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-Og -g1 -DNDEBUG" -DCHASLES_BUILD_TOOLS=OFF)
 fi
 [ $# -eq 0 ] || fuzz=0
 # The Python package and its tests, in the Release stage only (an extension module under ASan needs
