@@ -515,6 +515,7 @@ CHASLES_FLATTEN const Eigen::VectorXd& momentum_terms(const RobotModel& model, D
       data.p(i) = step.axis.dot(H) + model.armature()[i] * qd(i);  // (M + diag(armature)) q̇
       data.ct_qd(i) = step.axis.dot(ad_transpose_times(V, H));
       data.g(i) = step.axis.dot(W);
+      if (i == 0) return;  // the base's wrenches are unused
       H = wrench_to_parent(step, H);
       W = wrench_to_parent(step, W);
     });
@@ -562,6 +563,7 @@ CHASLES_FLATTEN const Data& compute_tick_terms(const RobotModel& model, Data& da
       data.bias(i) = step.axis.dot(F);
       data.p(i) = step.axis.dot(H) + model.armature()[i] * qd(i);  // (M + diag(armature)) q̇
       data.ct_qd(i) = step.axis.dot(ad_transpose_times(V, H));
+      if (i == 0) return;  // the base's wrenches are unused
       F = wrench_to_parent(step, F);
       H = wrench_to_parent(step, H);
     });
