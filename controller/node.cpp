@@ -432,6 +432,11 @@ int64_t Node::report() {
                  static_cast<long long>(rejections_.count() - reporter_.reported_wire), rejections_.last());
     reporter_.reported_wire = rejections_.count();
   }
+  if (const int64_t lost = buses_.receive.lost(); lost != reporter_.reported_lost) {
+    std::fprintf(stderr, "chasles_controller: lost %lld message(s) before they could be read, last: %s\n",
+                 static_cast<long long>(lost - reporter_.reported_lost), buses_.receive.last_loss());
+    reporter_.reported_lost = lost;
+  }
   if (!changed && now - reporter_.last_status_ns < status_period) return reporter_.last_status_ns + status_period;
   reporter_.last_status_ns = now;
   fill_status();
@@ -503,7 +508,7 @@ void Node::fill_status() {
   status.ticks = s.loop.ticks;
   status.overruns = s.loop.overruns;
   status.stale_states = s.stale;
-  status.rejected_messages = rejections_.count() + s.rejected_targets + s.rejected_modes;
+  status.rejected_messages = rejections_.count() + s.rejected_targets + s.rejected_modes + buses_.receive.lost();
   status.faults = s.faults;
 }
 
@@ -530,7 +535,7 @@ Summary Node::summary(double seconds) {
   summary.tracking_max = reporter_.error_max;
   summary.commands = s.loop.commands;
   summary.stale_states = s.stale;
-  summary.rejected_messages = rejections_.count() + s.rejected_targets + s.rejected_modes;
+  summary.rejected_messages = rejections_.count() + s.rejected_targets + s.rejected_modes + buses_.receive.lost();
   summary.faults = s.faults;
   summary.foreign_commands = s.foreign_commands;
   summary.contacts = s.contacts;

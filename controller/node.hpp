@@ -257,6 +257,7 @@ class Node {
     std::vector<uint8_t> status_bytes;
     Mode reported_mode = Mode::kWaiting;
     int64_t reported_rejections = 0, reported_wire = 0, reported_modes = 0, reported_faults = 0;
+    int64_t reported_lost = 0;  // messages the receiving bus lost whole
     bool period_warned = false;
     int64_t reported_trajectory = 0;
     TrajectoryProgress::Outcome reported_outcome = TrajectoryProgress::kNone;

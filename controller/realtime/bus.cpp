@@ -4,16 +4,21 @@
 #include <lcm/lcm.h>
 #include <netinet/in.h>
 #include <poll.h>
+#include <sys/epoll.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <cerrno>
 #include <cstdlib>
+#include <cstdio>
 #include <cstring>
+#include <ctime>
 #include <thread>
 #include <vector>
 
+#include "chasles/controller/realtime/fragments.hpp"
+#include "chasles/controller/realtime/mailbox.hpp"
 #include "chasles/controller/realtime/realtime.hpp"
 #include "chasles/core/error.hpp"
 
@@ -33,10 +38,24 @@ constexpr int kDefaultPort = 7667;
 // LCM's small-message header: magic 'LC02', then a sequence number, both big-endian; then the
 // channel, NUL-terminated, and the payload. A fragment of a larger message starts with 'LC03'.
 constexpr uint32_t kShortMagic = 0x4c433032;
+constexpr uint32_t kLongMagic = 0x4c433033;
 constexpr size_t kShortHeader = 8;
 constexpr size_t kMaxChannel = 63;             // LCM_MAX_CHANNEL_NAME_LENGTH
 constexpr size_t kMaxDatagram = 65536;         // more than UDP's 65,507-byte payload
 constexpr int kReceiveBuffer = 2 * 1024 * 1024;  // bytes asked for; the kernel caps it at rmem_max
+// Fragments on their way to the assembler (64 kB each): a 1000-waypoint trajectory of a 7-joint
+// arm is 3, so 64 hold several such messages arriving at once.
+constexpr int kFragmentSlots = 64;
+// Reassembled messages waiting for the reading thread, which takes them at its next turn.
+constexpr int kMessageSlots = 8;
+// How often the assembler looks for messages whose fragments stopped coming.
+constexpr int64_t kExpiryCheckNs = 100'000'000;
+
+int64_t monotonic_ns() {
+  timespec t{};
+  clock_gettime(CLOCK_MONOTONIC, &t);
+  return int64_t{t.tv_sec} * 1'000'000'000 + t.tv_nsec;
+}
 
 uint32_t big_endian_u32(const uint8_t* p) {
   return uint32_t{p[0]} << 24 | uint32_t{p[1]} << 16 | uint32_t{p[2]} << 8 | uint32_t{p[3]};
@@ -56,16 +75,47 @@ bool parse_lcm_datagram(const uint8_t* data, size_t size, LcmDatagram& out) {
   return true;
 }
 
-// The multicast socket of a Bus that receives directly, and its exact-name subscriptions.
+// The multicast socket of a Bus that receives directly, its exact-name subscriptions, and the
+// assembler of large messages. The reading thread (the one that calls handle) hands each fragment
+// to the assembler's thread through a ring of preallocated datagram slots and takes whole messages
+// back through a second ring: reassembly allocates, the reading thread never does.
 struct Bus::Direct {
   struct Entry {
     std::string channel;
     Subscription::Slot* slot;
   };
+  struct Datagram {  // a fragment on its way to the assembler
+    uint64_t sender = 0;
+    int64_t stamp_us = -1;
+    size_t size = 0;
+    std::vector<uint8_t> bytes = std::vector<uint8_t>(kMaxDatagram);
+  };
+  struct Reassembled {  // a whole message on its way back
+    FragmentAssembler::Message message;
+    int64_t stamp_us = -1;
+  };
+  using Note = std::array<char, 192>;
+
   int fd = -1;
+  int readable = -1;  // epoll over the socket and the assembler's doorbell: Bus::fileno()
   std::vector<Entry> entries;  // changed only while nothing is handled (construction, teardown)
   std::vector<uint8_t> buffer = std::vector<uint8_t>(kMaxDatagram);
   std::atomic<int64_t> dropped{0};
+  // Fragments: the reading thread takes a free slot, fills it, queues it; the assembler returns it.
+  std::vector<Datagram> datagrams = std::vector<Datagram>(kFragmentSlots);
+  SpscRing<int> fragments{kFragmentSlots, -1}, free_datagrams{kFragmentSlots, -1};
+  std::atomic<int64_t> fragments_refused{0};  // no free slot: the assembler fell behind
+  // Whole messages: the assembler fills a slot and queues it; the reading thread hands it back.
+  std::vector<Reassembled> reassembled = std::vector<Reassembled>(kMessageSlots);
+  SpscRing<int> ready{kMessageSlots, -1}, spent{kMessageSlots, -1};
+  std::atomic<bool> ready_rung{false};
+  Doorbell to_assembler, to_reader;
+  // Messages lost whole, and the newest loss described (the assembler writes, the reporter reads).
+  std::atomic<int64_t> lost{0};
+  Mailbox<Note> loss{Note{}};
+  Note last_loss{};
+  std::atomic<bool> stopping{false};
+  std::thread assembling;
 
   explicit Direct(const std::string& url) {
     // udpm://GROUP:PORT?options; LCM's defaults fill in what is left out.
@@ -111,17 +161,101 @@ struct Bus::Direct {
                   "; no multicast route? inside a network namespace run tools/netns.sh)");
     }
     setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &kReceiveBuffer, sizeof(kReceiveBuffer));  // best effort
+    readable = epoll_create1(EPOLL_CLOEXEC);
+    epoll_event on_socket{EPOLLIN, {}}, on_bell{EPOLLIN, {}};
+    on_socket.data.fd = fd;
+    on_bell.data.fd = to_reader.fileno();
+    if (readable < 0 || epoll_ctl(readable, EPOLL_CTL_ADD, fd, &on_socket) != 0 ||
+        epoll_ctl(readable, EPOLL_CTL_ADD, to_reader.fileno(), &on_bell) != 0) {
+      const int err = errno;
+      if (readable >= 0) close(readable);
+      close(fd);
+      throw Error(std::string("cannot wait on the bus's socket (epoll: ") + std::strerror(err) + ")");
+    }
+    for (int i = 0; i < kFragmentSlots; ++i) free_datagrams.push(i);
+    assembling = std::thread([this] { assemble(); });
   }
-  ~Direct() { close(fd); }
+  ~Direct() {
+    stopping = true;
+    to_assembler.ring();
+    assembling.join();
+    close(readable);
+    close(fd);
+  }
   Direct(const Direct&) = delete;
   Direct& operator=(const Direct&) = delete;
 
-  // Reads one datagram and hands it to its subscribers: 1 if one was read (delivered or dropped),
-  // 0 if none waits, −1 on a socket error. Allocates nothing.
+  // The assembler's thread: fragments into messages, messages handed to the reading thread,
+  // losses counted and described.
+  void assemble() {
+    FragmentAssembler assembler;
+    std::vector<int> free_messages;
+    for (int i = 0; i < kMessageSlots; ++i) free_messages.push_back(i);
+    std::vector<FragmentAssembler::Loss> losses;
+    FragmentAssembler::Message message;
+    int64_t refused_seen = 0;
+    while (!stopping.load(std::memory_order_relaxed)) {
+      to_assembler.wait_until(monotonic_ns() + kExpiryCheckNs);
+      for (int i = 0; spent.pop(i);) free_messages.push_back(i);
+      for (int i = 0; fragments.pop(i);) {
+        Datagram& d = datagrams[static_cast<size_t>(i)];
+        if (assembler.add(d.sender, d.bytes.data(), d.size, monotonic_ns(), message, losses)) {
+          if (free_messages.empty()) {
+            losses.push_back({message.channel, message.payload.size(),
+                              "whole, but " + std::to_string(kMessageSlots) +
+                                  " reassembled messages already waited to be handled (the receiving thread fell behind)"});
+          } else {
+            const int slot = free_messages.back();
+            free_messages.pop_back();
+            reassembled[static_cast<size_t>(slot)] = {std::move(message), d.stamp_us};
+            ready.push(slot);
+            ready_rung.store(true, std::memory_order_release);
+            to_reader.ring();
+          }
+        }
+        free_datagrams.push(i);
+      }
+      assembler.expire(monotonic_ns(), losses);
+      if (const int64_t refused = fragments_refused.load(std::memory_order_relaxed); refused != refused_seen) {
+        for (auto& l : losses) l.why += "; " + std::to_string(refused - refused_seen) + " fragment(s) found no room on the way to the assembler";
+        refused_seen = refused;
+      }
+      for (const auto& l : losses) {
+        Note& note = loss.back();
+        std::snprintf(note.data(), note.size(), "a %zu-byte message on %s: %s", l.size,
+                      l.channel.empty() ? "a channel unknown (its first fragment never came)" : l.channel.c_str(),
+                      l.why.c_str());
+        loss.publish();
+        lost.fetch_add(1, std::memory_order_release);
+      }
+      losses.clear();
+    }
+  }
+
+  // Hands the message to the subscribers of its channel; whether any was.
+  bool deliver(Bus& bus, const char* channel, const uint8_t* payload, size_t size, int64_t stamp_us) {
+    bool heard = false;
+    for (const Entry& entry : entries) {
+      if (std::strcmp(entry.channel.c_str(), channel) != 0) continue;
+      bus.arrival_utime_ = stamp_us;
+      entry.slot->handler(payload, size);
+      bus.arrival_utime_ = -1;
+      heard = true;
+    }
+    if (!heard) dropped.fetch_add(1, std::memory_order_relaxed);
+    return heard;
+  }
+
+  // Reads one datagram and hands it on: a small message to its subscribers, a fragment to the
+  // assembler. 1 if one was read (delivered, handed on or dropped), 0 if none waits, −1 on a
+  // socket error. Allocates nothing.
   int receive_one(Bus& bus) {
     iovec io{buffer.data(), buffer.size()};
     alignas(cmsghdr) char control[CMSG_SPACE(sizeof(timeval))];
+    sockaddr_in from{};
     msghdr message{};
+    message.msg_name = &from;
+    message.msg_namelen = sizeof(from);
     message.msg_iov = &io;
     message.msg_iovlen = 1;
     message.msg_control = control;
@@ -131,11 +265,7 @@ struct Bus::Direct {
       n = recvmsg(fd, &message, MSG_DONTWAIT);
     } while (n < 0 && errno == EINTR);
     if (n < 0) return errno == EAGAIN || errno == EWOULDBLOCK ? 0 : -1;
-    LcmDatagram datagram;
-    if ((message.msg_flags & MSG_TRUNC) != 0 || !parse_lcm_datagram(buffer.data(), static_cast<size_t>(n), datagram)) {
-      dropped.fetch_add(1, std::memory_order_relaxed);  // a fragment ('LC03'), or not LCM's
-      return 1;
-    }
+    const size_t size = static_cast<size_t>(n);
     int64_t stamp_us = -1;
     for (cmsghdr* c = CMSG_FIRSTHDR(&message); c != nullptr; c = CMSG_NXTHDR(&message, c)) {
       if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SCM_TIMESTAMP) {
@@ -144,16 +274,47 @@ struct Bus::Direct {
         stamp_us = int64_t{tv.tv_sec} * 1'000'000 + tv.tv_usec;
       }
     }
-    bool heard = false;
-    for (const Entry& entry : entries) {
-      if (std::strcmp(entry.channel.c_str(), datagram.channel) != 0) continue;
-      bus.arrival_utime_ = stamp_us;
-      entry.slot->handler(datagram.payload, datagram.payload_size);
-      bus.arrival_utime_ = -1;
-      heard = true;
+    if ((message.msg_flags & MSG_TRUNC) != 0) {
+      dropped.fetch_add(1, std::memory_order_relaxed);
+      return 1;
     }
-    if (!heard) dropped.fetch_add(1, std::memory_order_relaxed);
+    LcmDatagram datagram;
+    if (parse_lcm_datagram(buffer.data(), size, datagram)) {
+      deliver(bus, datagram.channel, datagram.payload, datagram.payload_size, stamp_us);
+      return 1;
+    }
+    if (size < 4 || big_endian_u32(buffer.data()) != kLongMagic) {
+      dropped.fetch_add(1, std::memory_order_relaxed);  // not LCM's
+      return 1;
+    }
+    int slot = -1;
+    if (!free_datagrams.pop(slot)) {
+      fragments_refused.fetch_add(1, std::memory_order_relaxed);  // its message is reported lost
+      return 1;
+    }
+    Datagram& d = datagrams[static_cast<size_t>(slot)];
+    d.sender = uint64_t{ntohl(from.sin_addr.s_addr)} << 16 | ntohs(from.sin_port);
+    d.stamp_us = stamp_us;
+    d.size = size;
+    std::memcpy(d.bytes.data(), buffer.data(), size);
+    fragments.push(slot);
+    to_assembler.ring();
     return 1;
+  }
+
+  // Hands every reassembled message waiting to its subscribers; how many. One atomic load when
+  // none waits.
+  int deliver_reassembled(Bus& bus) {
+    if (!ready_rung.exchange(false, std::memory_order_acquire)) return 0;
+    to_reader.clear();
+    int count = 0;
+    for (int i = 0; ready.pop(i); ++count) {
+      const Reassembled& r = reassembled[static_cast<size_t>(i)];
+      deliver(bus, r.message.channel.c_str(), r.message.payload.data(), r.message.payload.size(), r.stamp_us);
+      spent.push(i);
+    }
+    if (count > 0) to_assembler.ring();  // its slots are free again
+    return count;
   }
 };
 
@@ -217,6 +378,14 @@ Bus::~Bus() {
 
 int64_t Bus::dropped() const { return direct_ ? direct_->dropped.load(std::memory_order_relaxed) : 0; }
 
+int64_t Bus::lost() const { return direct_ ? direct_->lost.load(std::memory_order_acquire) : 0; }
+
+const char* Bus::last_loss() {
+  if (!direct_) return "";
+  direct_->loss.read(direct_->last_loss);
+  return direct_->last_loss.data();
+}
+
 bool Bus::publish(const std::string& channel, const void* data, size_t size) {
   return lcm_publish(lcm_, channel.c_str(), data, static_cast<unsigned>(size)) == 0;
 }
@@ -252,23 +421,24 @@ Bus::Subscription Bus::subscribe(const std::string& channel, Handler handler, in
 
 int Bus::handle(int timeout_ms) {
   if (!direct_) return lcm_handle_timeout(lcm_, timeout_ms);
-  pollfd p{direct_->fd, POLLIN, 0};
+  pollfd p{direct_->readable, POLLIN, 0};
   const int ready = poll(&p, 1, timeout_ms);
   if (ready <= 0) return ready;
-  return direct_->receive_one(*this);
+  if (const int read = direct_->receive_one(*this); read != 0) return read;
+  return direct_->deliver_reassembled(*this);
 }
 
 int Bus::handle_pending() {
   int count = 0;
   if (direct_) {
     while (direct_->receive_one(*this) > 0) ++count;
-    return count;
+    return count + direct_->deliver_reassembled(*this);
   }
   while (lcm_handle_timeout(lcm_, 0) > 0) ++count;
   return count;
 }
 
-int Bus::fileno() const { return direct_ ? direct_->fd : lcm_get_fileno(lcm_); }
+int Bus::fileno() const { return direct_ ? direct_->readable : lcm_get_fileno(lcm_); }
 
 std::string Bus::start_receiving(int priority) {
   if (direct_) return {};  // no receive thread: the handling thread reads the socket

@@ -7,11 +7,16 @@
 // Receiving directly (Receive::kDirect, on udpm://): LCM 1.3.1 reads every datagram on a thread of
 // its own and hands it over through a pipe, two wake-ups per message before a handler runs. A
 // direct Bus instead reads the multicast group itself, on the thread that calls handle(): its own
-// socket, joined to the URL's group and port as LCM's is, and LCM's small-message format (the
-// 'LC02' header, the channel, the payload), so the messages are LCM's own, published by LCM. It
-// takes only the group it joined (IP_MULTICAST_ALL off: another group on the same port is not
-// delivered to it), exact channel names, and messages of one datagram (up to 64 kB, which every
-// chasles message is); a fragmented message ('LC03') is counted and dropped. It sends through LCM.
+// socket, joined to the URL's group and port as LCM's is, and LCM's formats, so the messages are
+// LCM's own, published by LCM. It takes only the group it joined (IP_MULTICAST_ALL off: another
+// group on the same port is not delivered to it) and exact channel names. A message of one
+// datagram (LCM's 'LC02', up to 64 kB: every state, command and setpoint) is handed to its
+// subscribers at once; the fragments of a larger one ('LC03': a planner's long trajectory) go to a
+// thread of the Bus's own that puts them together (fragments.hpp), and the whole message comes
+// back to the handling thread, which delivers it at its next turn — so the reading thread never
+// allocates, and a message of any size LCM allows arrives. One that cannot be put together (a
+// fragment lost, the queues full) is counted and described: lost(), last_loss(). It sends
+// through LCM.
 #pragma once
 
 #include <cstddef>
@@ -121,9 +126,17 @@ class Bus {
 
   /// Whether this Bus reads its socket itself.
   bool direct() const { return direct_ != nullptr; }
-  /// Receiving directly: datagrams dropped as not one whole LCM message of ours to read (a
-  /// fragment, a truncated or foreign datagram), and those on channels nobody here subscribed to.
+  /// Receiving directly: datagrams dropped as not LCM's (truncated, foreign, a fragment that is
+  /// not one), and messages on channels nobody here subscribed to.
   int64_t dropped() const;
+  /// Receiving directly: messages lost before they could be delivered — a fragment that never
+  /// came (within 0.5 s of the one before), one longer than LCM allows, the queues to and from the
+  /// assembler full. Any thread.
+  int64_t lost() const;
+  /// The newest loss, described with its channel and size ("a 176432-byte message on
+  /// CHASLES_TRAJECTORY: fragment 2 of 3 never came (1 missing)"); empty if none. One thread
+  /// only (the reporter's).
+  const char* last_loss();
 
  private:
   lcm_t* lcm_;

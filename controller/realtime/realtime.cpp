@@ -71,4 +71,9 @@ bool Doorbell::wait_until(int64_t until_ns) {
   return read(fd_, &rings, sizeof(rings)) == static_cast<ssize_t>(sizeof(rings));
 }
 
+void Doorbell::clear() {
+  uint64_t rings = 0;
+  [[maybe_unused]] const ssize_t n = read(fd_, &rings, sizeof(rings));  // EAGAIN: not rung
+}
+
 }  // namespace chasles::controller

@@ -38,6 +38,10 @@ class Doorbell {
   /// Waits until rung or until CLOCK_MONOTONIC reaches `until_ns`; whether it was rung (the rings
   /// so far are consumed: several count as one).
   bool wait_until(int64_t until_ns);
+  /// Consumes the rings so far without waiting.
+  void clear();
+  /// Readable while rung (for poll or epoll beside other descriptors).
+  int fileno() const { return fd_; }
 
  private:
   int fd_;

@@ -1,7 +1,8 @@
 // The Bus that reads its multicast socket itself (Receive::kDirect) against LCM's own sender, over
 // real UDP multicast on loopback in a network namespace of this binary's own (tools/netns.sh): it
-// hears exactly what LCM publishes, stamps it with the kernel's receive time, shares the port with
-// LCM's own receivers, takes only its own group, and drops what is not one whole LCM message.
+// hears exactly what LCM publishes, large messages put back together from their fragments, stamps
+// it with the kernel's receive time, shares the port with LCM's own receivers, takes only its own
+// group, drops what is not LCM's and counts and names a message that lost a fragment.
 #include <arpa/inet.h>
 #include <gtest/gtest.h>
 #include <netinet/in.h>
@@ -10,6 +11,7 @@
 #include <sys/time.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstring>
 #include <string>
@@ -19,6 +21,7 @@
 #include "chasles/controller/realtime/bus.hpp"
 #include "chasles/core/error.hpp"
 #include "support/allocation_counter.hpp"
+#include "support/lcm_wire.hpp"
 
 namespace chasles::controller {
 namespace {
@@ -143,38 +146,55 @@ TEST(DirectBus, SharesThePortWithLcmsOwnReceivers) {
   }
 }
 
-TEST(DirectBus, DropsFragmentsAndForeignDatagramsAndGoesOn) {
+void send_raw(const std::vector<std::vector<uint8_t>>& datagrams) {
+  testing::send_datagrams("239.255.76.67", 7667, datagrams);
+}
+
+TEST(DirectBus, PutsLcmsLargeMessagesBackTogetherAndDropsForeignDatagrams) {
   Bus sender(kUrl);
   Bus receiver(kUrl, Bus::Receive::kDirect);
   Heard heard;
-  auto subscription = receiver.subscribe("ARM_STATE", recorder(heard, receiver));
-  // LCM fragments a message this large ('LC03' datagrams): not one this Bus reads.
-  ASSERT_TRUE(sender.publish("ARM_STATE", bytes(200'000, 1)));
+  auto subscription = receiver.subscribe("ARM_TRAJECTORY", recorder(heard, receiver));
+  // LCM sends a message this large as 4 fragments ('LC03' datagrams, lcm/udpm.c).
+  ASSERT_TRUE(sender.publish("ARM_TRAJECTORY", bytes(200'000, 1)));
   // Datagrams on the group that are not LCM's: junk, a short header, a channel without its NUL.
-  const int fd = socket(AF_INET, SOCK_DGRAM, 0);
-  ASSERT_GE(fd, 0);
-  sockaddr_in group{};
-  group.sin_family = AF_INET;
-  group.sin_port = htons(7667);
-  inet_pton(AF_INET, "239.255.76.67", &group.sin_addr);
-  const unsigned char ttl = 0;
-  setsockopt(fd, IPPROTO_IP, IP_MULTICAST_TTL, &ttl, sizeof(ttl));
   std::vector<std::vector<uint8_t>> foreign = {
       {1, 2, 3, 4, 5, 6, 7, 8, 9, 10}, {0x4c, 0x43, 0x30, 0x32, 0, 0}, {0x4c, 0x43, 0x30, 0x32, 0, 0, 0, 1}};
   std::vector<uint8_t> unterminated = {0x4c, 0x43, 0x30, 0x32, 0, 0, 0, 2};
   unterminated.insert(unterminated.end(), 64, 'A');  // 64 characters and no NUL: over LCM's 63
   foreign.push_back(unterminated);
-  for (const auto& datagram : foreign) {
-    ASSERT_EQ(sendto(fd, datagram.data(), datagram.size(), 0, reinterpret_cast<const sockaddr*>(&group), sizeof(group)),
-              static_cast<ssize_t>(datagram.size()));
-  }
-  close(fd);
-  ASSERT_TRUE(sender.publish("ARM_STATE", bytes(20, 4)));
-  handle_until(receiver, heard, 1);
-  ASSERT_EQ(heard.messages.size(), 1u);
+  send_raw(foreign);
+  ASSERT_TRUE(sender.publish("ARM_TRAJECTORY", bytes(20, 4)));
+  // The large message, 1,000 waypoints of a 12-joint arm's size, at LCM's 64 kB per fragment.
+  ASSERT_TRUE(sender.publish("ARM_TRAJECTORY", bytes(1'000'000, 2)));
+  handle_until(receiver, heard, 3);
+  ASSERT_EQ(heard.messages.size(), 3u);
+  // The small message is delivered as it is read; the large ones once put together.
   EXPECT_EQ(heard.messages[0], bytes(20, 4));
-  // 200,000 bytes go in 4 fragments of at most 65,423 bytes (lcm/udpm.c), then the four above.
-  EXPECT_EQ(receiver.dropped(), 4 + 4);
+  EXPECT_EQ(heard.messages[1], bytes(200'000, 1));
+  EXPECT_EQ(heard.messages[2], bytes(1'000'000, 2));
+  EXPECT_GT(heard.stamps[1], 0);  // the kernel's stamp of its last fragment
+  EXPECT_EQ(receiver.dropped(), 4);
+  EXPECT_EQ(receiver.lost(), 0);
+  EXPECT_STREQ(receiver.last_loss(), "");
+}
+
+TEST(DirectBus, AMessageMissingAFragmentIsCountedAndNamed) {
+  Bus receiver(kUrl, Bus::Receive::kDirect);
+  Heard heard;
+  auto subscription = receiver.subscribe("ARM_TRAJECTORY", recorder(heard, receiver));
+  auto sent = testing::lcm_fragments("ARM_TRAJECTORY", bytes(176'432, 3), 41, 60'000);
+  ASSERT_EQ(sent.size(), 3u);
+  sent.erase(sent.begin() + 1);
+  send_raw(sent);
+  // Then a whole one from another sender (another socket): it is not held up by the lost one.
+  send_raw(testing::lcm_fragments("ARM_TRAJECTORY", bytes(70'000, 4), 7, 60'000));
+  for (int i = 0; i < 300 && (heard.messages.empty() || receiver.lost() == 0); ++i) receiver.handle(10);
+  ASSERT_EQ(heard.messages.size(), 1u);
+  EXPECT_EQ(heard.messages[0], bytes(70'000, 4));
+  EXPECT_EQ(receiver.lost(), 1);
+  EXPECT_STREQ(receiver.last_loss(), "a 176432-byte message on ARM_TRAJECTORY: fragment 2 of 3 never came (1 missing)");
+  EXPECT_EQ(receiver.dropped(), 0);
 }
 
 TEST(DirectBus, RefusesChannelPatternsAndHandlesWithoutAllocating) {
@@ -189,13 +209,16 @@ TEST(DirectBus, RefusesChannelPatternsAndHandlesWithoutAllocating) {
   });
   const std::vector<uint8_t> message = bytes(196, 5);
   for (int i = 0; i < 100; ++i) ASSERT_TRUE(sender.publish("ARM_STATE", message));
+  // And a large message: its fragments are read and handed on, and it comes back whole, on this
+  // thread without an allocation (the assembler's thread allocates).
+  ASSERT_TRUE(sender.publish("ARM_STATE", bytes(300'000, 6)));
   testing::AllocationCounter counter;
   int handled = 0;
-  for (int i = 0; i < 200 && heard < 100; ++i) handled += receiver.handle_pending();
+  for (int i = 0; i < 200 && heard < 101; ++i) handled += receiver.handle(10);
   const int64_t allocations = counter.count();
-  EXPECT_EQ(heard, 100u);
-  EXPECT_EQ(handled, 100);
-  EXPECT_EQ(bytes_heard, 100 * message.size());
+  EXPECT_EQ(heard, 101u);
+  EXPECT_EQ(handled, 100 + 5 + 1);  // the small ones, the fragments read, the large one delivered
+  EXPECT_EQ(bytes_heard, 100 * message.size() + 300'000);
   EXPECT_EQ(allocations, 0);
 }
 

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <chasles/arm_target_t.hpp>
 #include <chasles/controller_status_t.hpp>
+#include <chasles/joint_trajectory_t.hpp>
 #include <chasles/joint_torque_command_t.hpp>
 #include <chasles/robot_state_t.hpp>
 #include <Eigen/Geometry>
@@ -20,6 +21,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 #include "chasles/controller/controller.hpp"
@@ -31,6 +33,7 @@
 #include "chasles/core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/arm.hpp"
+#include "support/lcm_wire.hpp"
 #include "support/process.hpp"
 #include "support/reference.hpp"
 
@@ -224,6 +227,100 @@ TEST_P(RealTime, AJointMoveReachesItsGoalAndEveryCommandAnswersAState) {
 
 INSTANTIATE_TEST_SUITE_P(Receive, RealTime, ::testing::Values("direct", "lcm"),
                          [](const ::testing::TestParamInfo<const char*>& p) { return std::string(p.param); });
+
+// A planner's trajectory from q0 to `goal` in `seconds`, sampled at `points` waypoints of a
+// minimum-jerk move (s = 10τ³ − 15τ⁴ + 6τ⁵), with its exact velocities and accelerations when
+// `derivatives`; within 10 mrad of the goal within 1 s of its end.
+joint_trajectory_t planned(const VectorXd& q0, const VectorXd& goal, double seconds, int points, bool derivatives) {
+  joint_trajectory_t t{};
+  t.id = points;
+  t.num_joints = 7;
+  t.num_points = points;
+  t.num_velocities = t.num_accelerations = derivatives ? points : 0;
+  for (int i = 1; i <= 7; ++i) t.joint_names.push_back("panda_joint" + std::to_string(i));
+  const VectorXd delta = goal - q0;
+  for (int k = 1; k <= points; ++k) {
+    const double tau = static_cast<double>(k) / points, time = tau * seconds;
+    const double s = tau * tau * tau * (10 - 15 * tau + 6 * tau * tau);
+    const double sd = 30 * tau * tau * (1 - tau) * (1 - tau) / seconds;
+    const double sdd = 60 * tau * (1 - tau) * (1 - 2 * tau) / (seconds * seconds);
+    t.time_from_start.push_back(time);
+    std::vector<double> q(7), qd(7), qdd(7);
+    for (int i = 0; i < 7; ++i) q[i] = q0(i) + s * delta(i), qd[i] = sd * delta(i), qdd[i] = sdd * delta(i);
+    t.positions.push_back(q);
+    if (derivatives) t.velocities.push_back(qd), t.accelerations.push_back(qdd);
+  }
+  t.path_tolerance.assign(7, 0.0);
+  t.goal_tolerance.assign(7, 0.01);
+  t.goal_time_tolerance = 1.0;
+  return t;
+}
+
+// A planner's trajectory of 10 waypoints (positions only, one datagram) and of 1000 (the type's
+// limit, with velocities and accelerations: 176 kB, three fragments, as chasles_calibrate excite
+// writes), on both ways of reading the wire: taken, followed, and ended at its goal.
+class LargeTrajectory : public ::testing::TestWithParam<std::tuple<const char*, int>> {};
+
+TEST_P(LargeTrajectory, IsTakenAndFollowedToItsGoal) {
+  const auto [receive, points] = GetParam();
+  Seat bus;
+  ChildProcess plant(plant_args({"--receive", receive, "--damping", "0.5", "--q0", list(bent_pose())}));
+  ChildProcess controller(controller_args({"--receive", receive, "--damping", "0.5"}));
+  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
+  VectorXd goal = bent_pose();
+  goal(0) += 0.3, goal(1) -= 0.2, goal(3) += 0.2, goal(6) -= 0.3;
+  const joint_trajectory_t trajectory = planned(bent_pose(), goal, 2.0, points, points > 10);
+  ASSERT_EQ(trajectory.getEncodedSize() > 170'000, points > 10);
+  bus.send("CHASLES_TRAJECTORY", trajectory);
+  const auto outcome = [&] {
+    return bus.status && bus.status->trajectory_id == points ? bus.status->trajectory_outcome : -1;
+  };
+  ASSERT_TRUE(bus.until([&] { return outcome() == controller_status_t::TRAJECTORY_ACTIVE; }, 2.0))
+      << controller.stderr_text();
+  ASSERT_TRUE(bus.until([&] { return outcome() == controller_status_t::TRAJECTORY_SUCCEEDED; }, 5.0))
+      << controller.stderr_text() << (bus.status ? bus.status->trajectory_message : "");
+  EXPECT_EQ(bus.status->trajectory_time_scale, 1.0);
+  EXPECT_EQ(bus.status->trajectory_waypoint, points);
+  EXPECT_EQ(bus.status->rejected_messages, 0) << controller.stderr_text();
+  EXPECT_LT((vector_of(bus.state->position) - goal).cwiseAbs().maxCoeff(), 0.01);
+}
+
+INSTANTIATE_TEST_SUITE_P(Receive, LargeTrajectory,
+                         ::testing::Combine(::testing::Values("direct", "lcm"), ::testing::Values(10, 1000)),
+                         [](const auto& p) {
+                           return std::string(std::get<0>(p.param)) + "_" + std::to_string(std::get<1>(p.param));
+                         });
+
+// A large message that loses a fragment on the way: counted in the status and said on stderr with
+// its channel and size; the arm holds on, and the next whole trajectory is taken.
+TEST(daemon, ATrajectoryMissingAFragmentIsCountedAndSaid) {
+  Seat bus;
+  ChildProcess plant(plant_args({"--q0", list(bent_pose())}));
+  ChildProcess controller(controller_args({}));
+  ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
+  VectorXd goal = bent_pose();
+  goal(0) += 0.2;
+  const joint_trajectory_t trajectory = planned(bent_pose(), goal, 1.0, 1000, true);
+  std::vector<uint8_t> bytes(size_t(trajectory.getEncodedSize()));
+  trajectory.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+  auto datagrams = testing::lcm_fragments("CHASLES_TRAJECTORY", bytes, 1);
+  ASSERT_EQ(datagrams.size(), 3u);
+  datagrams.erase(datagrams.begin() + 1);
+  testing::send_datagrams("239.255.76.67", 7667, datagrams);
+  ASSERT_TRUE(bus.until([&] { return bus.status && bus.status->rejected_messages == 1; }, 3.0))
+      << controller.stderr_text();
+  EXPECT_EQ(bus.status->state, controller_status_t::HOLDING);
+  EXPECT_EQ(bus.status->trajectory_outcome, controller_status_t::TRAJECTORY_NONE);
+  ASSERT_TRUE(bus.until([&] { return controller.stderr_text().find("lost 1 message") != std::string::npos; }, 2.0));
+  const std::string said = "a " + std::to_string(bytes.size()) +
+                           "-byte message on CHASLES_TRAJECTORY: fragment 2 of 3 never came (1 missing)";
+  EXPECT_NE(controller.stderr_text().find(said), std::string::npos) << controller.stderr_text();
+  // Sent whole, the same trajectory is taken.
+  bus.send("CHASLES_TRAJECTORY", trajectory);
+  EXPECT_TRUE(bus.until([&] { return bus.status->trajectory_outcome == controller_status_t::TRAJECTORY_SUCCEEDED; }, 5.0))
+      << controller.stderr_text();
+  EXPECT_EQ(bus.status->rejected_messages, 1);
+}
 
 // The KUKA iiwa 14 of Drake's models, plant and controller as processes speaking Drake's iiwa
 // protocol (lcmt_iiwa_status / lcmt_iiwa_command on IIWA_STATUS / IIWA_COMMAND, the plant adding
