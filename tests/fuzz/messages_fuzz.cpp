@@ -5,7 +5,8 @@
 // 4 the controller's watch for other senders on its command channel, 5 its control_mode_t receiver
 // and Controller::set_law, 6 its payload_t receiver, the model built with the payload (as the
 // daemon's worker does) and Controller::set_model, 7 the direct Bus's reading of a UDP datagram as an
-// LCM small message (parse_lcm_datagram) and, when it is one, the state receiver on its payload; 8
+// LCM small message (parse_lcm_datagram) and, when it is one, the state receiver on its payload,
+// or as a fragment of a large one (parse_lcm_fragment, FragmentAssembler); 8
 // its joint_trajectory_t receiver and Controller::set_trajectory; 9 its joint_setpoint_t receiver
 // and Controller::set_setpoint; 10 its jog_command_t receiver and Controller::set_jog; 11 its
 // tip_setpoint_t receiver and Controller::set_tip_setpoint; 12 the checked decoders of Drake's iiwa
@@ -33,6 +34,7 @@
 #include "chasles/controller/protocol.hpp"
 #include "chasles/controller/realtime/bus.hpp"
 #include "chasles/controller/realtime/clock.hpp"
+#include "chasles/controller/realtime/fragments.hpp"
 #include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/model/urdf.hpp"
 #include "chasles/lcmtypes/checked.hpp"
@@ -51,6 +53,7 @@ struct Readers {
   SimulatedClock clock;
   Mailbox<JointState> states{JointState(n)};
   SpscRing<Target> targets{4, Target(n)};
+  FragmentAssembler fragments{1 << 20};  // across inputs, as the bus's assembler lives
   SpscRing<Waypoints> trajectories{1, Waypoints(n)};
   TrajectoryReceiver trajectory_receiver{model, trajectories};
   SpscRing<Setpoint> setpoints{1, Setpoint(n)};
@@ -294,6 +297,21 @@ void judge_a_payload(Readers& r, const uint8_t* message, int bytes) {
 // A datagram the direct Bus reads: what it takes is LCM's small-message format, its channel and
 // payload inside the datagram, end to end; the payload then goes where the state channel's would.
 void judge_a_datagram(Readers& r, const uint8_t* data, size_t size) {
+  LcmFragment fragment;
+  if (parse_lcm_fragment(data, size, fragment)) {
+    // A fragment lies inside its message; a message put together is exactly its announced size,
+    // on a channel; a sender has one message in the works at most.
+    FUZZ_CHECK(fragment.number < fragment.count && uint64_t{fragment.offset} + fragment.size <= fragment.message_size);
+    FragmentAssembler::Message whole;
+    std::vector<FragmentAssembler::Loss> losses;
+    if (r.fragments.add(data[5] % 4, data, size, r.now_ns, whole, losses)) {
+      FUZZ_CHECK(whole.payload.size() == fragment.message_size && !whole.channel.empty());
+    }
+    for (const auto& loss : losses) FUZZ_CHECK(!loss.why.empty());
+    r.fragments.expire(r.now_ns, losses);
+    FUZZ_CHECK(r.fragments.pending() <= 4);  // one message at most per sender
+    return;
+  }
   LcmDatagram datagram;
   if (!parse_lcm_datagram(data, size, datagram)) return;
   FUZZ_CHECK(size >= 9 && data[0] == 'L' && data[1] == 'C' && data[2] == '0' && data[3] == '2');
