@@ -318,6 +318,33 @@ void Controller::observe(const JointState& state) {
   if (e.contact && !in_contact_) ++contacts_;
   in_contact_ = e.contact;
   peak_tip_force_ = std::max(peak_tip_force_, e.wrench_base.tail<3>().norm());
+  check_semantics(state, dt);
+}
+
+// The torque the arm reports applying over its last step against the one commanded for it: the
+// latest sent before the state arrived. Judged only while this controller commands. A mismatch is
+// the configuration's, not the moment's: this controller stops commanding for good, as when
+// another sender is heard, and the message says the flag that fixes it.
+void Controller::check_semantics(const JointState& state, double dt) {
+  const int j = mode_ == Mode::kWaiting || mode_ == Mode::kFault ? -1 : command_in_force(state.arrival_ns);
+  if (!config_.check_torque_semantics || j < 0 || !(dt > 0.0)) {
+    semantics_.restart();
+    return;
+  }
+  switch (semantics_.update(state.effort, sent_torque_.col(j), data_.g, dt)) {
+    case TorqueSemanticsCheck::Verdict::kDriverAddsGravity:
+      stand_down("the arm applied the torque commanded + %.0f %% of g(q) over %g s: its driver adds gravity "
+            "compensation to the whole torque sent; run with --torque-semantics overlay",
+            100.0 * semantics_.share(), TorqueSemanticsCheck::kWindow);
+      break;
+    case TorqueSemanticsCheck::Verdict::kDriverAddsNothing:
+      stand_down("the arm applied the torque commanded - %.0f %% of g(q) over %g s: its driver adds no gravity "
+            "compensation to the tau - g(q) sent; run with --torque-semantics full",
+            -100.0 * semantics_.share(), TorqueSemanticsCheck::kWindow);
+      break;
+    default:
+      break;
+  }
 }
 
 // The mean torque the arm applied across the dt since the last state observed. A state's effort is
@@ -919,6 +946,7 @@ bool Controller::tick(int64_t now_ns, const JointState* state) {
   // The model's terms at this state, once: the law, the observer and the contact monitor read them.
   compute_tick_terms(*model_, data_, q_, qd_);
   observe(*state);
+  if (stood_down_) return false;  // the observer found the torque semantics wrong
 
   if (mode_ == Mode::kWaiting || mode_ == Mode::kFault) {
     // (Re-)entering HOLD where the arm is now. The torque-rate limit starts from g(q), which is

@@ -23,6 +23,7 @@
 #include "chasles/controller/contact.hpp"
 #include "chasles/controller/jog.hpp"
 #include "chasles/controller/law.hpp"
+#include "chasles/controller/semantics_check.hpp"
 #include "chasles/controller/limits.hpp"
 #include "chasles/controller/trajectory.hpp"
 #include "chasles/controller/waypoints.hpp"
@@ -59,6 +60,10 @@ struct Config {
   double stream_timeout = 0.1;
   /// The condition numbers where a twist jog toward a singularity slows and stops.
   JogConfig jog;
+  /// FAULT when the arm applies the command ± g(q), a driver's gravity compensation added to a
+  /// whole torque or missing from τ − g(q) (semantics_check.hpp): off only for a driver whose
+  /// reported torque is not the torque it applies.
+  bool check_torque_semantics = true;
 
   /// K_p = ω², K_d = 2ω (critically damped error dynamics at the natural frequency ω, rad/s).
   static Config critically_damped(int dof, double omega);
@@ -281,6 +286,7 @@ class Controller {
 
   bool refuse(const char* format, ...) __attribute__((format(printf, 2, 3)));
   void fault(const char* format, ...) __attribute__((format(printf, 2, 3)));
+  void check_semantics(const JointState& state, double dt);
   void hold_at(const Eigen::VectorXd& q);
   void observe(const JointState& state);
   void track_period(double dt);
@@ -362,6 +368,7 @@ class Controller {
   JogProgress jog_progress_;
   int64_t jog_utime_ = 0, jog_ns_ = 0, jogs_ = 0, dropped_jogs_ = 0;
   ContactMonitor contact_;
+  TorqueSemanticsCheck semantics_;
   int64_t observed_seq_ = 0;  // of the last state the contact monitor took, once observed_any_
   int64_t observed_utime_ = 0, observed_arrival_ns_ = 0;
   bool observed_any_ = false;

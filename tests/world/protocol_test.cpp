@@ -222,5 +222,62 @@ TEST_P(Protocols, AWronglySizedOrMalformedStatusIsRefusedCountedAndFaults) {
 
 INSTANTIATE_TEST_SUITE_P(Wires, Protocols, ::testing::ValuesIn(wires_to_run()), wire_name);
 
+// A controller sending the other torque than its driver expects — the whole torque to a driver
+// that adds gravity compensation, or τ − g(q) to one that adds none — stops commanding for good
+// within a quarter of a second of holding (one window of semantics_check.hpp), its FAULT naming the flag
+// that fixes it; sent the right one (every other test here), it never does.
+struct Mismatch {
+  Wire wire;
+  controller::TorqueSemantics plant, controller;
+};
+
+class Semantics : public ::testing::TestWithParam<Mismatch> {};
+
+TEST_P(Semantics, AMismatchStopsTheControllerNamingTheFlag) {
+  const Mismatch m = GetParam();
+  World world(panda(), m.wire.protocol);
+  plant::SimulationOptions plant = plant_on(m.wire);
+  plant.torque_semantics = m.plant;
+  DaemonOptions options = controller_on(m.wire);
+  options.torque_semantics = m.controller;
+  world.start_plant(bent_pose(), plant);
+  world.add_controller(options, m.wire.period_ns() / 2);
+  ASSERT_TRUE(world.run_until([&] { return world.recorder().status_is(controller_status_t::HOLDING); }, 1.0));
+  ASSERT_TRUE(world.run_until([&] { return world.controller().controller().stood_down(); }, 0.3));
+  const std::string reason = world.controller().controller().fault_reason();
+  const std::string fix = m.plant == controller::TorqueSemantics::kOverlay ? "run with --torque-semantics overlay"
+                                                                           : "run with --torque-semantics full";
+  EXPECT_NE(reason.find(fix), std::string::npos) << reason;
+  // The share of g(q) the arm got beyond (or short of) the command: the driver's whole gravity.
+  const std::string sign = m.plant == controller::TorqueSemantics::kOverlay ? "commanded + " : "commanded - ";
+  const size_t at = reason.find(sign);
+  ASSERT_NE(at, std::string::npos) << reason;
+  const double percent = std::stod(reason.substr(at + sign.size()));
+  EXPECT_GT(percent, 90.0) << reason;
+  EXPECT_LT(percent, 110.0) << reason;
+  // For good: no command follows, however long the states keep coming.
+  const size_t commands = world.recorder().commands().size();
+  world.run_for(0.5);
+  EXPECT_EQ(world.recorder().commands().size(), commands);
+  EXPECT_EQ(world.controller().controller().mode(), Mode::kFault);
+}
+
+std::vector<Mismatch> mismatches() {
+  using controller::TorqueSemantics;
+  const Wire iiwa{Protocol::kDrakeIiwa, 200.0}, panda{Protocol::kDrakePanda, 1000.0}, chasles{Protocol::kChasles, 1000.0};
+  return {{iiwa, TorqueSemantics::kFull, TorqueSemantics::kOverlay},
+          {iiwa, TorqueSemantics::kOverlay, TorqueSemantics::kFull},
+          {panda, TorqueSemantics::kFull, TorqueSemantics::kOverlay},
+          {panda, TorqueSemantics::kOverlay, TorqueSemantics::kFull},
+          {chasles, TorqueSemantics::kOverlay, TorqueSemantics::kFull}};
+}
+
+INSTANTIATE_TEST_SUITE_P(Wires, Semantics, ::testing::ValuesIn(mismatches()),
+                         [](const ::testing::TestParamInfo<Mismatch>& p) {
+                           std::string name = controller::to_string(p.param.wire.protocol);
+                           name.erase(std::remove(name.begin(), name.end(), '-'), name.end());
+                           return name + "_plant_" + controller::to_string(p.param.plant);
+                         });
+
 }  // namespace
 }  // namespace chasles::faults
