@@ -36,6 +36,10 @@ using Json = nlohmann::json;
 std::atomic<bool> g_stop{false};
 void on_signal(int) { g_stop.store(true); }
 
+// --simulator without --stale-ms: how long a silent simulator is waited for. Drake's simulated arms,
+// paced by Python on a busy 2-core host, were seen silent for up to 110 ms.
+constexpr int64_t kSimulatorStaleNs = 1'000'000'000;
+
 /// A gain option: one number for every joint or a comma list of n; thresholds may be "inf" (none).
 Eigen::VectorXd gains(const std::string& text, int n, const std::string& name, bool infinite_ok = false) {
   std::vector<double> values;
@@ -104,6 +108,7 @@ struct Flags {
   chasles::controller::LimitConfig limits;
   chasles::controller::JogConfig jog;
   double pose_time_constant_ms = 50.0;
+  bool semantics_check = true;
 };
 
 // The config file's keys are the flags' names with '_' for '-'.
@@ -236,7 +241,8 @@ int main(int argc, char** argv) {
                  "flags win")
       ->check(CLI::ExistingFile);
   app.add_option("--stale-ms", flags.stale_ms,
-                 "a robot state older than this is a FAULT (default 10, or three periods where that is longer)")
+                 "a robot state older than this is a FAULT (default 10, or three periods where that is longer; "
+                 "with --simulator, 1000)")
       ->check(CLI::PositiveNumber);
   app.add_option("--torque-ramp-ms", flags.torque_ramp_ms,
                  "torque-rate limit: time to ramp through a joint's effort range, ms (default 50)")
@@ -338,6 +344,15 @@ int main(int argc, char** argv) {
       ->transform(CLI::CheckedTransformer(std::map<std::string, chasles::controller::TorqueSemantics>{
           {"full", chasles::controller::TorqueSemantics::kFull},
           {"overlay", chasles::controller::TorqueSemantics::kOverlay}}));
+  app.add_flag("--simulator", options.simulator,
+               "The plant is a simulator that may pause (Drake's, paced by Python on a busy host): keep the "
+               "plant's time, its states' utime, for the motion, the observer and the stale rule, so that a "
+               "pause is waited for rather than a FAULT; --stale-ms is then how long a silent simulator is "
+               "waited for (default 1000). Never for a real arm, whose time does not stop");
+  app.add_flag("!--no-semantics-check", flags.semantics_check,
+               "Do not FAULT when the arm applies the torque commanded +- g(q) over a quarter second of states (a driver's "
+               "gravity compensation added to a whole torque, or missing from an overlay); for a driver whose "
+               "reported torque is not the torque it applies");
   app.add_option("--iiwa-positions", options.iiwa_positions,
                  "drake-iiwa: what a torque command carries in joint_position: 'none' (num_joints 0: Drake's "
                  "torque-only mode, drake-iiwa-driver --torque_only; default) or 'measured' (the measured position "
@@ -405,14 +420,16 @@ int main(int argc, char** argv) {
     if (!flags.coulomb.empty()) options.control.coulomb = gains(flags.coulomb, n, "--coulomb");
     const double status_period = chasles::controller::nominal_status_period(options.protocol);
     options.control.period = flags.rate > 0.0 ? 1.0 / flags.rate : status_period > 0.0 ? status_period : 1e-3;
-    options.control.stale_ns = flags.stale_ms > 0.0 ? static_cast<int64_t>(flags.stale_ms * 1e6)
-                                                    : chasles::controller::default_stale_ns(options.control.period);
+    options.control.stale_ns = flags.stale_ms > 0.0  ? static_cast<int64_t>(flags.stale_ms * 1e6)
+                               : options.simulator ? kSimulatorStaleNs
+                                                   : chasles::controller::default_stale_ns(options.control.period);
     options.control.torque_ramp = flags.torque_ramp_ms * 1e-3;
     options.control.contact = flags.contact;
     options.control.contact.retract_distance = flags.retract_mm * 1e-3;
     options.control.limits = flags.limits;
     options.control.stream_timeout = flags.stream_timeout_ms * 1e-3;
     options.control.jog = flags.jog;
+    options.control.check_torque_semantics = flags.semantics_check;
     options.control.jog.pose_time_constant = flags.pose_time_constant_ms * 1e-3;
     if (!flags.acceleration_limit.empty()) {
       options.control.limits.acceleration = gains(flags.acceleration_limit, n, "--acceleration-limit");

@@ -61,7 +61,8 @@ Node::Loop::Loop(const RobotModel& model, const DaemonOptions& options, double p
       mode(model.dof()),
       payload_mass(payload_mass_in),
       request(model.dof()),
-      path(model.dof()) {}
+      path(model.dof()),
+      plant_state(model.dof()) {}
 
 Node::Planner::Planner(const RobotModel& model, const LimitConfig& config)
     : solver(model), limits(model, config), request(model.dof()), path(model.dof()) {}
@@ -189,27 +190,41 @@ int64_t Node::tick(int64_t scheduled) {
   if (fresh) loop_.have_state = true;
   const int64_t trigger = state_driven && fresh ? loop_.state.arrival_ns : scheduled;
   record.jitter_us = 1e-3 * static_cast<double>(wake - trigger);
+  // The controller's time: this host's clock, or with --simulator the plant's (its states' utime),
+  // which stands still while the simulator pauses.
+  int64_t now = wake;
+  const JointState* state = loop_.have_state ? &loop_.state : nullptr;
+  bool silent_simulator = false;
+  if (options_.simulator && loop_.have_state) {
+    if (fresh) follow_plant_time(wake);
+    const int64_t silent = fresh ? 0 : wake - loop_.state.arrival_ns;
+    silent_simulator = !fresh && silent <= options_.control.stale_ns;
+    now = loop_.plant_ns + silent;
+    state = &loop_.plant_state;
+  }
   if (foreign_commands() > 0 && !loop_.controller.stood_down()) stand_down();
   if (models_.take()) {  // a payload built by the worker, between two ticks
     loop_.controller.set_model(models_.front().model);
     loop_.payload_mass = models_.front().payload_mass;
   }
   // Modes before targets: a target sent after a law is meant for it.
-  while (modes_.pop(loop_.mode)) loop_.controller.set_law(loop_.mode, wake);
-  while (targets_.pop(loop_.target)) loop_.controller.set_target(loop_.target, wake);
-  while (trajectories_.pop(loop_.waypoints)) loop_.controller.set_trajectory(loop_.waypoints, wake);
-  while (setpoints_.pop(loop_.setpoint)) loop_.controller.set_setpoint(loop_.setpoint, wake);
-  while (jogs_.pop(loop_.jog)) loop_.controller.set_jog(loop_.jog, wake);
-  while (tip_setpoints_.pop(loop_.tip_setpoint)) loop_.controller.set_tip_setpoint(loop_.tip_setpoint, wake);
+  while (modes_.pop(loop_.mode)) loop_.controller.set_law(loop_.mode, now);
+  while (targets_.pop(loop_.target)) loop_.controller.set_target(loop_.target, now);
+  while (trajectories_.pop(loop_.waypoints)) loop_.controller.set_trajectory(loop_.waypoints, now);
+  while (setpoints_.pop(loop_.setpoint)) loop_.controller.set_setpoint(loop_.setpoint, now);
+  while (jogs_.pop(loop_.jog)) loop_.controller.set_jog(loop_.jog, now);
+  while (tip_setpoints_.pop(loop_.tip_setpoint)) loop_.controller.set_tip_setpoint(loop_.tip_setpoint, now);
   if (loop_.controller.take_request(loop_.request)) {
     requests_.write(loop_.request);
     planner_bell_.ring();
   }
   if (paths_.pop(loop_.path)) {
-    loop_.controller.follow(loop_.path, wake);
+    loop_.controller.follow(loop_.path, now);
     planner_bell_.ring();  // room for a path the worker may be holding
   }
-  const bool command = loop_.controller.tick(wake, loop_.have_state ? &loop_.state : nullptr);
+  // A simulator that pauses is waited for: no tick until it speaks again, or until the pause is
+  // longer than the stale limit (the watchdog's tick then finds the state stale).
+  const bool command = !silent_simulator && loop_.controller.tick(now, state);
   int64_t utime = 0;
   if (command) {
     const bool overlay = loop_.command_writer.semantics() == TorqueSemantics::kOverlay;
@@ -268,6 +283,20 @@ int64_t Node::tick(int64_t scheduled) {
     reporter_bell_.ring();
   }
   return next;
+}
+
+// --simulator: the plant's time at the state just read, its utime on this host's clock from the
+// first state on, and the state stamped with it. A utime that does not move forward (a simulation
+// started again from 0) continues the plant's time one period on, as a restarted count does.
+void Node::follow_plant_time(int64_t wake) {
+  const int64_t utime_ns = loop_.state.utime * 1000;
+  if (!loop_.plant_anchored || utime_ns + loop_.plant_offset_ns <= loop_.plant_ns) {
+    loop_.plant_offset_ns = (loop_.plant_anchored ? loop_.plant_ns + period_ns_ : wake) - utime_ns;
+    loop_.plant_anchored = true;
+  }
+  loop_.plant_ns = utime_ns + loop_.plant_offset_ns;
+  loop_.plant_state = loop_.state;
+  loop_.plant_state.arrival_ns = loop_.plant_ns;
 }
 
 // Someone else commands this arm (a second controller, a log replayed onto the live bus): two

@@ -158,6 +158,7 @@ class Node {
   }
   int64_t arrival_ns(const Bus& bus) const;
   void publish_snapshot();
+  void follow_plant_time(int64_t wake);
   void drain();
   void fill_status();
 
@@ -231,6 +232,10 @@ class Node {
     int64_t answered_seq = -1, seq = 0;
     int64_t noticed_rejections = 0, noticed_foreign = 0;  // what the reporter was last rung for
     TrajectoryProgress::Outcome noticed_outcome = TrajectoryProgress::kNone;
+    // --simulator: the latest state with its arrival on the plant's clock, and that clock.
+    JointState plant_state;
+    int64_t plant_ns = 0, plant_offset_ns = 0;
+    bool plant_anchored = false;
   } loop_;
 
   // The IK worker's: plan().

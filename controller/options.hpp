@@ -45,6 +45,12 @@ struct DaemonOptions {
   /// Read the receiving socket on the loop's own thread (Bus::Receive::kDirect, udpm:// only)
   /// rather than through LCM's receive thread.
   bool direct_receive = true;
+  /// The plant is a simulator that may pause (Drake's, paced by Python on a busy host): the
+  /// controller keeps the plant's time — its states' utime — for the motion, the observer and the
+  /// stale rule, so a pause in this host's time is no stale state and the motion waits for it;
+  /// control.stale_ns is then how long a silent simulator is waited for before the FAULT. Never for
+  /// a real arm, whose time does not stop.
+  bool simulator = false;
 };
 
 /// What a run measured; the figures of --summary.

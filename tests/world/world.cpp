@@ -165,8 +165,9 @@ World::~World() {
 
 plant::Simulation& World::start_plant(const Eigen::VectorXd& q0, const plant::SimulationOptions& options) {
   plant_.reset();
+  plant_clock_ = std::make_unique<plant::PausableClock>(clock_);
   plant_ = std::make_unique<plant::Simulation>(model_, options, q0, Eigen::VectorXd::Constant(q0.size(), 0.5), bus_,
-                                               clock_);
+                                               *plant_clock_);
   plant_->start();
   plant_next_ = now() + plant_->period_ns();
   bus_.handle_pending();
@@ -202,6 +203,11 @@ void World::turn(int64_t until) {
     if (plant_ && plant_next_ == next) {
       plant_->step();
       plant_next_ += plant_->period_ns();
+      if (const int64_t stall = plant_->stall_due(); stall > 0) {  // as chasles_plant's loop holds
+        plant_clock_->pause(stall);
+        plant_next_ += stall;
+        ++stalls_;
+      }
       bus_.handle_pending();
       answer_states();
     }

@@ -148,6 +148,8 @@ class World {
   /// The plant stops as a killed process does: no more states, no goodbye.
   void kill_plant();
   plant::Simulation* plant() { return plant_.get(); }
+  /// How many times the plant has stalled (SimulationOptions::stalls).
+  int64_t plant_stalls() const { return stalls_; }
 
   /// A controller whose first tick comes one period plus `phase_ns` from now (state-driven: its
   /// first watchdog tick, unless a state comes first); it has been listening since it was
@@ -183,8 +185,10 @@ class World {
   SimulatedClock clock_;
   Bus bus_;
   std::unique_ptr<Recorder> recorder_;
+  std::unique_ptr<plant::PausableClock> plant_clock_;  // the plant's: it stands while the plant stalls
   std::unique_ptr<plant::Simulation> plant_;
   int64_t plant_next_ = 0;
+  int64_t stalls_ = 0;
   std::vector<std::unique_ptr<Controller>> controllers_;
 };
 

@@ -56,7 +56,7 @@ struct Options {
   std::string damping = "0";
   std::string q0;
   std::vector<std::string> pushes, walls;
-  std::string payload, friction, perturb_inertia, effort_noise;
+  std::string payload, friction, perturb_inertia, effort_noise, stalls;
   std::string armature;
   bool realtime = false;
   std::string protocol = "chasles", torque_semantics;
@@ -169,6 +169,14 @@ EffortNoise effort_noise(const Options& o) {
   }
 }
 
+Stalls stalls(const Options& o) {
+  try {
+    return o.stalls.empty() ? Stalls{} : parse_stalls(o.stalls);
+  } catch (const chasles::ArgumentError& e) {
+    throw InputError(e.what());
+  }
+}
+
 // For the start line: what the plant simulates that its controller's model and sensors lack, as
 // numbers to retake the run with (the seeds above all).
 std::string model_errors(const SimulationOptions& sim) {
@@ -186,15 +194,20 @@ std::string model_errors(const SimulationOptions& sim) {
 
 // Real time: one step per period on an absolute CLOCK_MONOTONIC schedule, with the latest command
 // held. A wake-up more than a period late is an overrun; the schedule restarts from then rather
-// than racing to catch up.
-void run_real_time(Simulation& simulation, Bus& bus, const controller::Clock& clock, int64_t end_ns) {
+// than racing to catch up. A stall (--stall) holds the loop and counts as paused on `clock`, so the
+// schedule goes on from where it stopped.
+void run_real_time(Simulation& simulation, Bus& bus, PausableClock& clock, int64_t end_ns) {
   controller::minimise_timer_slack();  // the default 50 µs slack is most of the wake-up jitter
   const int64_t period_ns = simulation.period_ns();
   int64_t next_ns = clock.now_ns();
+  const auto sleep_until = [&clock](int64_t t_ns) {  // clock's time; a stop signal interrupts it
+    const int64_t at = t_ns + clock.paused();
+    const timespec wake{static_cast<time_t>(at / 1'000'000'000), static_cast<long>(at % 1'000'000'000)};
+    clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &wake, nullptr);
+  };
   while (!g_stop) {
     next_ns += period_ns;
-    const timespec wake{static_cast<time_t>(next_ns / 1'000'000'000), static_cast<long>(next_ns % 1'000'000'000)};
-    clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &wake, nullptr);  // a stop signal interrupts it
+    sleep_until(next_ns);
     const int64_t now_ns = clock.now_ns();
     if (g_stop || now_ns >= end_ns) break;
     if (now_ns - next_ns > period_ns) {
@@ -203,6 +216,12 @@ void run_real_time(Simulation& simulation, Bus& bus, const controller::Clock& cl
     }
     bus.handle_pending();
     simulation.step();
+    if (const int64_t stall_ns = simulation.stall_due(); stall_ns > 0) {
+      const int64_t wake = controller::monotonic_ns() + stall_ns;
+      const timespec until{static_cast<time_t>(wake / 1'000'000'000), static_cast<long>(wake % 1'000'000'000)};
+      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &until, nullptr);
+      clock.pause(stall_ns);
+    }
   }
 }
 
@@ -335,6 +354,11 @@ void add_options(CLI::App& app, Options& o) {
                  "spread along each principal axis scaled by up to +-FRACTION and the axes turned by up to FRACTION "
                  "rad, physically consistent; drawn from SEED (default 0). 0 <= FRACTION < 1, e.g. 0.2")
       ->type_name("FRACTION[,SEED]");
+  app.add_option("--stall", o.stalls,
+                 "Real time: the whole simulation pauses (no step, no state, its clock standing) for a time drawn "
+                 "from [MIN_MS, MAX_MS] every EVERY_S s of simulated time, then goes on where it stopped, as a "
+                 "simulator paced by a busy process (Drake's, in Python) does; drawn from SEED (default 0)")
+      ->type_name("MIN_MS,MAX_MS,EVERY_S[,SEED]");
   app.add_option("--effort-noise", o.effort_noise,
                  "Gaussian noise of standard deviation SIGMA (N*m) on the effort each state reports (robot_state_t "
                  "effort, the Drake statuses' measured torque), independent per joint and state, drawn from SEED "
@@ -440,6 +464,7 @@ int main(int argc, char** argv) {
     const Eigen::VectorXd damping = joint_damping(model, options.damping);
     options.sim.environment = environment(model, options);
     options.sim.faults.effort_noise = effort_noise(options);
+    options.sim.stalls = stalls(options);
 
     // SIGINT and SIGTERM stop the loop. They are blocked while LCM starts its receive thread, which
     // inherits the mask, so they always reach (and interrupt) the simulation thread.
@@ -471,7 +496,8 @@ int main(int argc, char** argv) {
                       "--lcm-url 'udpm://239.255.76.67:7667?ttl=0'",
                   1);
     }
-    const chasles::controller::SystemClock clock;
+    const chasles::controller::SystemClock system_clock;
+    PausableClock clock(system_clock);
     Simulation simulation(model, options.sim, q0, damping, *bus, clock);
     pthread_sigmask(SIG_UNBLOCK, &stop_signals, nullptr);
 

@@ -105,4 +105,22 @@ EffortNoise parse_effort_noise(const std::string& text) {
   return noise;
 }
 
+Stalls parse_stalls(const std::string& text) {
+  const std::vector<double> v = parse_number_list(text, "--stall");
+  if (v.size() != 3 && v.size() != 4) {
+    throw ArgumentError(count_error("--stall takes MIN_MS,MAX_MS,EVERY_S[,SEED]", "3 or 4 numbers: ms, ms, s", v.size()));
+  }
+  Stalls stalls{v[0], v[1], v[2], 0};
+  if (!(stalls.min_ms >= 0.0 && stalls.min_ms <= stalls.max_ms && stalls.max_ms > 0.0 && stalls.every_s > 0.0)) {
+    throw ArgumentError("--stall: 0 <= MIN_MS <= MAX_MS, MAX_MS > 0 and EVERY_S > 0; got '" + text + "'");
+  }
+  if (v.size() == 4) {
+    if (!(v[3] >= 0.0 && v[3] < 9007199254740992.0) || v[3] != static_cast<double>(static_cast<uint64_t>(v[3]))) {
+      throw ArgumentError("--stall: SEED is a whole number from 0 to 2^53");
+    }
+    stalls.seed = static_cast<uint64_t>(v[3]);
+  }
+  return stalls;
+}
+
 }  // namespace chasles::plant

@@ -24,5 +24,7 @@ Friction parse_friction(const std::string& text, const RobotModel& model);
 InertiaPerturbation parse_perturbation(const std::string& text);
 /// "SIGMA[,SEED]" (--effort-noise): SIGMA ≥ 0 in N·m, SEED a whole number (default 0).
 EffortNoise parse_effort_noise(const std::string& text);
+/// "MIN_MS,MAX_MS,EVERY_S[,SEED]" (--stall): 0 ≤ MIN_MS ≤ MAX_MS, MAX_MS > 0, EVERY_S > 0.
+Stalls parse_stalls(const std::string& text);
 
 }  // namespace chasles::plant

@@ -149,6 +149,15 @@ struct EffortNoise {
 /// Throws chasles::ArgumentError "<what>: ..." when sigma is negative or not finite.
 void check_effort_noise(const EffortNoise& noise, const std::string& what);
 
+/// Pauses of a simulator paced by a busy process (Drake's, in Python): every `every_s` of simulated
+/// time the simulation stops — no step, no state, its clock standing — for a time drawn uniformly
+/// from [min_ms, max_ms], then goes on where it stopped.
+struct Stalls {
+  double min_ms = 0.0, max_ms = 0.0, every_s = 0.0;
+  uint64_t seed = 0;
+  bool any() const { return every_s > 0.0 && max_ms > 0.0; }
+};
+
 /// Seeded fault injection on outgoing states.
 struct Faults {
   double drop = 0.0;      ///< probability that a state message is not sent

@@ -60,7 +60,11 @@ Simulation::Simulation(const RobotModel& model, const SimulationOptions& options
       torque_(Eigen::VectorXd::Zero(model.dof())),
       desired_(Eigen::VectorXd::Zero(model.dof())),
       position_commanded_(Eigen::VectorXd::Zero(model.dof())),
-      zero_(Eigen::VectorXd::Zero(model.dof())) {
+      zero_(Eigen::VectorXd::Zero(model.dof())),
+      stall_rng_(options.stalls.seed) {
+  if (options.stalls.any() && !(options.stalls.min_ms >= 0.0 && options.stalls.min_ms <= options.stalls.max_ms)) {
+    throw ArgumentError("stalls: 0 <= min <= max ms");
+  }
   if (options.protocol != controller::Protocol::kChasles && options.rate_hz > 1e6) {
     throw ArgumentError(std::string("a rate of more than 10^6 steps per second for ") +
                         controller::to_string(options.protocol) +
@@ -190,6 +194,17 @@ void Simulation::step() {
   }
   publisher_.flush(now);
   inbox_.report_rejections(now);
+}
+
+int64_t Simulation::stall_due() {
+  const Stalls& stalls = options_.stalls;
+  if (!stalls.any() || options_.lockstep) return 0;
+  const auto every = std::max<int64_t>(1, std::llround(stalls.every_s * options_.rate_hz));
+  if (next_stall_seq_ == 0) next_stall_seq_ = every;
+  if (seq_ < next_stall_seq_) return 0;
+  next_stall_seq_ += every;
+  std::uniform_real_distribution<double> ms(stalls.min_ms, stalls.max_ms);
+  return std::llround(ms(stall_rng_) * 1e6);
 }
 
 int64_t Simulation::serve_lockstep() {

@@ -10,7 +10,9 @@
 #include <Eigen/Core>
 #include <bitset>
 #include <cstdint>
+#include <atomic>
 #include <optional>
+#include <random>
 #include <string>
 
 #include "chasles/controller/protocol.hpp"
@@ -56,6 +58,27 @@ struct SimulationOptions {
   /// Publish chasles.sim_truth_t on PREFIX TRUTH after every state even with an empty environment
   /// (with anything in it, always). Off by default: a fleet of arms pays no extra datagram per step.
   bool truth = false;
+  /// Real time: pauses of the whole simulation (stall_due).
+  Stalls stalls;
+};
+
+/// A clock that stops while the simulation pauses: the base clock's time less every pause so far.
+/// The plant's watchdog, its deadlines and its commands' arrival times then see no gap, and its
+/// states' utime (seq periods from the start) none either: a simulator that stalls resumes where
+/// it stopped, as one paced by a busy process does.
+class PausableClock final : public Clock {
+ public:
+  explicit PausableClock(const Clock& base) : base_(base) {}
+  int64_t now_ns() const override { return base_.now_ns() - paused(); }
+  int64_t utime_us() const override { return base_.utime_us() - paused() / 1000; }
+  void sleep_until(int64_t t_ns) const override { base_.sleep_until(t_ns + paused()); }
+  /// Counts `ns` more as paused (the caller has waited them, or will).
+  void pause(int64_t ns) { paused_ns_.fetch_add(ns, std::memory_order_relaxed); }
+  int64_t paused() const { return paused_ns_.load(std::memory_order_relaxed); }
+
+ private:
+  const Clock& base_;
+  std::atomic<int64_t> paused_ns_{0};
 };
 
 class Simulation {
@@ -85,6 +108,11 @@ class Simulation {
   int64_t serve_lockstep();
   /// Real time: a step that came more than a period late (the caller's schedule slipped).
   void count_overrun() { ++overruns_; }
+  /// Real time, after a step: how long the whole simulation pauses now, ns (0: it goes on). Each
+  /// time the simulated time passes another options.stalls.every_s, a pause drawn uniformly from
+  /// [min_ms, max_ms]; the caller holds its step loop that long and counts it paused on the
+  /// simulation's PausableClock.
+  int64_t stall_due();
 
   int64_t period_ns() const { return period_ns_; }
   controller::Protocol protocol() const { return options_.protocol; }
@@ -168,6 +196,8 @@ class Simulation {
   // had a fresh one.
   std::bitset<100> fresh_steps_;
   int64_t judged_steps_ = 0;
+  std::mt19937_64 stall_rng_;
+  int64_t next_stall_seq_ = 0;
   Bus::Subscription subscription_;  // last: ended before what it feeds
 };
 
