@@ -129,7 +129,9 @@ MotionLimits::MotionLimits(const RobotModel& model, const LimitConfig& config)
     lower(i) = hard_lower(i) + margin;
     upper(i) = hard_upper(i) - margin;
     velocity(i) = joint.limits.velocity > 0.0 ? joint.limits.velocity : kInf;
-    acceleration(i) = config.acceleration.size() ? config.acceleration(i) : velocity(i) / kAccelerationTime;
+    acceleration(i) = config.acceleration.size()               ? config.acceleration(i)
+                      : std::isfinite(joint.limits.acceleration) ? joint.limits.acceleration
+                                                                 : velocity(i) / kAccelerationTime;
     jerk(i) = config.jerk.size() ? config.jerk(i) : acceleration(i) / kJerkTime;
   }
 }

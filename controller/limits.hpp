@@ -1,6 +1,7 @@
 // The arm's motion limits, per joint, and the checks every reference and every measured state
-// pass (docs/controller.md, "Limits"). Position and velocity come from the URDF; acceleration and
-// jerk, which a URDF does not carry, from the configuration, with conservative defaults.
+// pass (docs/controller.md, "Limits"). Position and velocity come from the URDF; acceleration from
+// the configuration, else Drake's drake:acceleration where the URDF has it; jerk, which no URDF
+// carries, from the configuration; conservative defaults for what is given nowhere.
 #pragma once
 
 #include <Eigen/Core>
@@ -17,7 +18,8 @@ constexpr double kAccelerationTime = 0.4;  // s
 constexpr double kJerkTime = 0.02;         // s
 
 struct LimitConfig {
-  /// rad/s² (m/s² for a prismatic joint), one per joint; empty: velocity / kAccelerationTime.
+  /// rad/s² (m/s² for a prismatic joint), one per joint; empty: the URDF's drake:acceleration,
+  /// else velocity / kAccelerationTime.
   Eigen::VectorXd acceleration;
   /// rad/s³ (m/s³), one per joint; empty: acceleration / kJerkTime.
   Eigen::VectorXd jerk;

@@ -5,6 +5,7 @@
 
 #include <Eigen/Cholesky>
 #include <cstdint>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -35,6 +36,9 @@ struct JointLimits {
   double upper = 0.0;
   double velocity = 0.0;
   double effort = 0.0;
+  /// rad/s² (m/s²): Drake's <limit drake:acceleration="..."/>, which plain URDF has no word for;
+  /// infinite when the file gives none.
+  double acceleration = std::numeric_limits<double>::infinity();
 };
 
 /// A body's spatial inertia in its own frame, in the compact form the recursive algorithms use:

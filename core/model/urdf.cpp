@@ -4,6 +4,7 @@
 #include <tinyxml2.h>
 #include <urdf_parser/urdf_parser.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
@@ -163,6 +164,30 @@ std::vector<double> read_armature(const std::string& xml, const std::vector<Join
   return armature;
 }
 
+// Drake's URDF extension for acceleration limits, which urdfdom drops: <limit
+// drake:acceleration="A"/> on a joint of the chain, A > 0 in rad/s² (m/s²).
+void read_acceleration_limits(const std::string& xml, std::vector<Joint>& joints, const std::string& source) {
+  tinyxml2::XMLDocument doc;
+  doc.Parse(xml.c_str(), xml.size());  // check_tree_structure has parsed it already
+  const tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
+  for (auto* j = robot->FirstChildElement("joint"); j; j = j->NextSiblingElement("joint")) {
+    const char* name = j->Attribute("name");
+    const tinyxml2::XMLElement* limit = j->FirstChildElement("limit");
+    const char* text = limit ? limit->Attribute("drake:acceleration") : nullptr;
+    if (!name || !text) continue;
+    auto joint = std::find_if(joints.begin(), joints.end(), [&](const Joint& c) { return c.name == name; });
+    if (joint == joints.end()) continue;  // off the chain
+    char* end = nullptr;
+    const double value = std::strtod(text, &end);
+    while (end != text && std::isspace(static_cast<unsigned char>(*end))) ++end;
+    if (end == text || *end != '\0' || !std::isfinite(value) || value <= 0.0) {
+      fail(source, "joint '" + std::string(name) + "': <limit drake:acceleration=\"" + text + "\"> (line " +
+                       std::to_string(limit->GetLineNum()) + ") is not a positive number (rad/s^2, m/s^2)");
+    }
+    joint->limits.acceleration = value;
+  }
+}
+
 Transform to_transform(const urdf::Pose& pose) {
   const Eigen::Quaterniond q(pose.rotation.w, pose.rotation.x, pose.rotation.y, pose.rotation.z);
   return make_transform(q.normalized().toRotationMatrix(), Vector3d(pose.position.x, pose.position.y, pose.position.z));
@@ -282,7 +307,7 @@ RobotModel load_urdf_string(const std::string& xml, const UrdfOptions& options, 
     joint.axis = axis.normalized();
     const double inf = std::numeric_limits<double>::infinity();
     if (joint.type == JointType::Continuous) {
-      joint.limits = {-kPi, kPi, inf, inf};
+      joint.limits = {-kPi, kPi, inf, inf, inf};
     } else if (!j->limits) {
       fail(source, "joint '" + j->name + "': no <limit>");
     } else {
@@ -308,6 +333,7 @@ RobotModel load_urdf_string(const std::string& xml, const UrdfOptions& options, 
   }
   if (d.joints.empty()) fail(source, "no movable joint between '" + root->name + "' and '" + tip + "'");
   d.armature = read_armature(xml, d.joints, source);
+  read_acceleration_limits(xml, d.joints, source);
 
   // Place every link on a body: a chain joint starts a new body; every other joint is locked at
   // 0, so its child rides on its parent's body.

@@ -109,6 +109,18 @@ TEST(Limits, FromTheUrdfAndTheConfiguration) {
   config.acceleration(3) = std::nan("");
   EXPECT_THROW(MotionLimits(model, config), ArgumentError);
 
+  // Drake's iiwa gives its own acceleration limits (drake:acceleration): they, not the default;
+  // the configuration's still win.
+  UrdfOptions iiwa_options;
+  iiwa_options.tip_link = "iiwa_link_ee";
+  const RobotModel iiwa = load_urdf_file(chasles::testing::data_path("iiwa14.urdf"), iiwa_options);
+  const MotionLimits drake(iiwa, LimitConfig{});
+  EXPECT_EQ(drake.acceleration, (VectorXd(7) << 8.57, 8.57, 8.74, 11.36, 12.23, 15.72, 15.72).finished());
+  EXPECT_EQ(drake.jerk, drake.acceleration / 0.02);
+  LimitConfig slower;
+  slower.acceleration = VectorXd::Constant(7, 2.0);
+  EXPECT_EQ(MotionLimits(iiwa, slower).acceleration, VectorXd::Constant(7, 2.0));
+
   // tests/data/arm.urdf's j3 is continuous and has no velocity limit: nothing bounds it.
   UrdfOptions options;
   options.tip_link = "tip";

@@ -283,6 +283,12 @@ INSTANTIATE_TEST_SUITE_P(
             "InfiniteLimit", swap(kJ1Limit, R"(<limit lower="-inf" upper="2" effort="50" velocity="2"/>)"), {"j1"}},
         BadInput{"HugeNumber", swap(R"(<mass value="1"/>)", R"(<mass value="1e999"/>)"), {"l2"}},
         BadInput{"MissingLimits", swap(kJ1Limit, ""), {"j1", "limits"}},
+        BadInput{"NegativeDrakeAcceleration",
+                 swap(kJ1Limit, R"(<limit drake:acceleration="-3" lower="-2" upper="2" effort="50" velocity="2"/>)"),
+                 {"joint 'j1'", "drake:acceleration=\"-3\"", "not a positive number"}},
+        BadInput{"DrakeAccelerationNotANumber",
+                 swap(kJ1Limit, R"(<limit drake:acceleration="8 rad" lower="-2" upper="2" effort="50" velocity="2"/>)"),
+                 {"joint 'j1'", "drake:acceleration=\"8 rad\""}},
         BadInput{"LowerAboveUpper",
                  swap(kJ1Limit, R"(<limit lower="2" upper="-2" effort="50" velocity="2"/>)"),
                  {"joint 'j1'", "lower limit 2", "above upper limit -2"}},
@@ -322,6 +328,18 @@ TEST(Model, AZeroVelocityOrEffortLimitMeansNone) {
   EXPECT_EQ(model.joint(0).limits.velocity, std::numeric_limits<double>::infinity());
   EXPECT_EQ(model.joint(0).limits.effort, std::numeric_limits<double>::infinity());
   EXPECT_EQ(model.joint(1).limits.effort, 100.0);
+}
+
+// Drake's <limit drake:acceleration="..."/>, as its iiwa14.urdf gives them (the file's numbers,
+// joint by joint); a URDF without them has none.
+TEST(Model, DrakesAccelerationLimitsAreRead) {
+  UrdfOptions options;
+  options.tip_link = "iiwa_link_ee";
+  const RobotModel iiwa = load_urdf_file(chasles::testing::data_path("iiwa14.urdf"), options);
+  const double file[] = {8.57, 8.57, 8.74, 11.36, 12.23, 15.72, 15.72};
+  for (int i = 0; i < 7; ++i) EXPECT_EQ(iiwa.joint(i).limits.acceleration, file[i]) << iiwa.joint(i).name;
+  const RobotModel arm = load_arm(arm_urdf());
+  for (int i = 0; i < arm.dof(); ++i) EXPECT_EQ(arm.joint(i).limits.acceleration, std::numeric_limits<double>::infinity());
 }
 
 // --- inertias: physical within the tolerance of rounding (core/model/inertia.hpp) ---------------
