@@ -11,7 +11,10 @@
 #include <chasles/arm_target_t.hpp>
 #include <chasles/control_mode_t.hpp>
 #include <chasles/controller_status_t.hpp>
+#include <chasles/jog_command_t.hpp>
+#include <chasles/joint_setpoint_t.hpp>
 #include <chasles/joint_torque_command_t.hpp>
+#include <chasles/joint_trajectory_t.hpp>
 #include <chasles/payload_t.hpp>
 #include <chasles/robot_state_t.hpp>
 #include <chasles/sim_truth_t.hpp>
@@ -23,6 +26,7 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -762,6 +766,84 @@ TEST(log, PlotsOfARecordedRun) {
     std::remove((dir + "/" + name).c_str());
   }
   ::rmdir(dir.c_str());
+}
+
+// An LCM log written here, event by event (sync word, number, utime, channel and data lengths,
+// channel, data: big-endian), at the times the test chooses.
+struct LogEvent {
+  int64_t utime;
+  std::string channel;
+  std::vector<uint8_t> data;
+};
+
+template <typename Message>
+LogEvent event_of(int64_t utime, const std::string& channel, const Message& message) {
+  std::vector<uint8_t> bytes(size_t(message.getEncodedSize()));
+  message.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+  return {utime, channel, bytes};
+}
+
+std::string log_bytes(const std::vector<LogEvent>& events) {
+  std::string out;
+  const auto put = [&out](uint64_t v, int n) {
+    for (int k = n - 1; k >= 0; --k) out.push_back(char(uint8_t(v >> (8 * k))));
+  };
+  for (size_t i = 0; i < events.size(); ++i) {
+    put(0xEDA1DA01u, 4), put(i, 8), put(uint64_t(events[i].utime), 8);
+    put(events[i].channel.size(), 4), put(events[i].data.size(), 4);
+    out += events[i].channel;
+    out.append(events[i].data.begin(), events[i].data.end());
+  }
+  return out;
+}
+
+// Every way to set the arm going is marked where it starts, as a target is: a trajectory by its
+// id, a stream and a jog at their first message after half a second of silence, a control mode by
+// its law.
+TEST(log, PlotMarksEverySegmentsStart) {
+  constexpr int64_t t0 = 1'700'000'000'000'000;
+  const auto at = [](double s) { return t0 + std::llround(s * 1e6); };
+  std::vector<LogEvent> events;
+  for (int k = 0; k <= 200; ++k) {  // 2 s of commands: something to plot
+    joint_torque_command_t c{};
+    c.utime = at(0.01 * k), c.seq = k, c.state_seq = k, c.num_joints = 7;
+    c.torque.assign(7, 0.1 * k);
+    events.push_back(event_of(at(0.01 * k), "CHASLES_COMMAND", c));
+  }
+  arm_target_t target = target_message(1);  // JOINT
+  events.push_back(event_of(at(0.1), "CHASLES_TARGET", target));
+  control_mode_t mode{};
+  mode.law = control_mode_t::JOINT_IMPEDANCE;
+  mode.stiffness_frame_quaternion[0] = 1.0;
+  events.push_back(event_of(at(0.3), "CHASLES_MODE", mode));
+  joint_trajectory_t trajectory{};
+  trajectory.id = 7, trajectory.num_joints = 7, trajectory.num_points = 1;
+  trajectory.joint_names = kPandaJoints;
+  trajectory.time_from_start = {1.0};
+  trajectory.positions = {std::vector<double>(7, 0.1)};
+  trajectory.path_tolerance.assign(7, 0.0), trajectory.goal_tolerance.assign(7, 0.0);
+  events.push_back(event_of(at(0.5), "CHASLES_TRAJECTORY", trajectory));
+  joint_setpoint_t setpoint{};
+  setpoint.num_joints = 7;
+  setpoint.position.assign(7, 0.0), setpoint.velocity.assign(7, 0.0);
+  for (double t : {0.8, 0.833, 0.866, 0.9, 1.6, 1.633}) events.push_back(event_of(at(t), "CHASLES_SETPOINT", setpoint));
+  jog_command_t jog{};
+  jog.kind = jog_command_t::TWIST;
+  for (double t : {1.2, 1.22, 1.24}) events.push_back(event_of(at(t), "CHASLES_JOG", jog));
+  std::stable_sort(events.begin(), events.end(), [](const LogEvent& a, const LogEvent& b) { return a.utime < b.utime; });
+  const TempFile log("segments.lcmlog", log_bytes(events));
+  const std::string dir = temp_path("segment_plots");
+  const RunResult r = chasles(concat({"log", "plot", log.path, "--out", dir}, panda()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto marks = nlohmann::json::parse(r.out)["marks"];
+  const std::vector<std::pair<double, std::string>> expected = {
+      {0.1, "JOINT"}, {0.3, "joint impedance"}, {0.5, "TRAJECTORY 7"}, {0.8, "STREAM"}, {1.2, "JOG twist"}, {1.6, "STREAM"}};
+  ASSERT_EQ(marks.size(), expected.size()) << marks.dump();
+  for (size_t i = 0; i < expected.size(); ++i) {
+    EXPECT_DOUBLE_EQ(marks[i]["t"].get<double>(), expected[i].first) << i;
+    EXPECT_EQ(marks[i]["label"], expected[i].second) << i;
+  }
+  std::filesystem::remove_all(dir);
 }
 
 // A run with a push: the plant's truth is in the log, and the plot holds the controller's estimate

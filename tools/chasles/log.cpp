@@ -262,10 +262,34 @@ std::string mode_name(int8_t mode) {
   }
 }
 
+std::string law_name(int8_t law) {
+  switch (law) {
+    case control_mode_t::COMPUTED_TORQUE: return "computed torque";
+    case control_mode_t::JOINT_IMPEDANCE: return "joint impedance";
+    case control_mode_t::CARTESIAN_IMPEDANCE: return "Cartesian impedance";
+    case control_mode_t::FREE_DRIVE: return "free drive";
+    default: return "law " + std::to_string(int{law});
+  }
+}
+
+// A stream or a jog is a run of messages: its first, after this much silence, starts a segment.
+constexpr double kSegmentGap = 0.5;  // s
+
 PlotData collect(const LogOptions& options) {
   const std::string status_channel = options.prefix + "STATUS",
                     command_channel = options.command_channel.empty() ? options.prefix + "COMMAND" : options.command_channel,
                     target_channel = options.prefix + "TARGET", truth_channel = options.prefix + "TRUTH";
+  // Every other way to set the arm going is marked as a target is: the segment's first message.
+  const std::string trajectory_channel = options.prefix + "TRAJECTORY", setpoint_channel = options.prefix + "SETPOINT",
+                    tip_setpoint_channel = options.prefix + "TIP_SETPOINT", jog_channel = options.prefix + "JOG",
+                    mode_channel = options.prefix + "MODE";
+  std::map<std::string, double> last_of_run;  // stream and jog channels: when their latest message came
+  const auto starts_run = [&](const std::string& channel, double t) {
+    const auto last = last_of_run.find(channel);
+    const bool first = last == last_of_run.end() || t - last->second > kSegmentGap;
+    last_of_run[channel] = t;
+    return first;
+  };
   PlotData data;
   LogReader reader(options.log);
   LogEvent event;
@@ -349,6 +373,31 @@ PlotData collect(const LogOptions& options) {
         continue;
       }
       data.targets.push_back({t, mode_name(m.mode)});
+    } else if (event.channel == trajectory_channel) {
+      joint_trajectory_t m;
+      if (std::string why = decode_checked(event.data.data(), event.data.size(), m); !why.empty()) {
+        skip(why);
+        continue;
+      }
+      data.targets.push_back({t, "TRAJECTORY " + std::to_string(m.id)});
+    } else if (event.channel == setpoint_channel || event.channel == tip_setpoint_channel) {
+      if (starts_run(event.channel, t)) data.targets.push_back({t, event.channel == setpoint_channel ? "STREAM" : "TIP STREAM"});
+    } else if (event.channel == jog_channel) {
+      jog_command_t m;
+      if (std::string why = decode_checked(event.data.data(), event.data.size(), m); !why.empty()) {
+        skip(why);
+        continue;
+      }
+      if (starts_run(event.channel, t)) {
+        data.targets.push_back({t, m.kind == jog_command_t::TWIST ? "JOG twist" : "JOG joints"});
+      }
+    } else if (event.channel == mode_channel) {
+      control_mode_t m;
+      if (std::string why = decode_checked(event.data.data(), event.data.size(), m); !why.empty()) {
+        skip(why);
+        continue;
+      }
+      data.targets.push_back({t, law_name(m.law)});
     }
   }
   data.problems.insert(data.problems.begin(), reader.problems().begin(), reader.problems().end());
@@ -699,6 +748,8 @@ Json run_plot(const LogOptions& options) {
   answer["status_messages"] = data.status.t.size();
   answer["command_messages"] = data.commands.t.size();
   answer["targets"] = data.targets.size();
+  answer["marks"] = nlohmann::json::array();
+  for (const TargetMark& mark : data.targets) answer["marks"].push_back({{"t", mark.t}, {"label", mark.label}});
   answer["truth_messages"] = data.truth.t.size();
   return answer;
 }
