@@ -161,6 +161,24 @@ wait_trajectory() {
   done
 }
 
+# wait_holding HOLDS TIMEOUT: waits for the controller's stderr to say HOLDING once more than the
+# HOLDS times it had said it before a move was sent (the move done), checking every 0.05 s that
+# everything still runs; fails the demo after TIMEOUT seconds.
+wait_holding() {
+  local holds=$1 deadline err=$DEMO_DIR/chasles_controller.err
+  deadline=$(awk -v n="$(now)" -v t="$2" 'BEGIN { printf "%.6f", n + t }')
+  while [ "$(grep -c '^chasles_controller: HOLDING' "$err" || true)" -le "$holds" ]; do
+    check_alive
+    if awk -v d="$deadline" -v n="$(now)" 'BEGIN { exit !(n > d) }'; then
+      echo "demo.sh: the controller did not settle after the move within $2 s; the end of its stderr:" >&2
+      stderr_tail chasles_controller
+      stop_all
+      exit 1
+    fi
+    sleep 0.05
+  done
+}
+
 # play WHAT SUBCOMMAND ARGS...: one `chasles stream` or `chasles jog`, which returns once all of it
 # is sent; what it sent goes to streams.jsonl.
 play() {
@@ -325,6 +343,77 @@ PY
   local jog_velocity
   jog_velocity=$(cat "$dir/stream_plan.json.jog")
 
+  # Where the twist jog starts: the joint jog leaves the arm near the edge of its ranges (on the
+  # Panda J_b's condition was 110 there, and the jog stops before 30), so first a JOINT move to a
+  # pose from which the tip can go down: of 64 poses spread over the middle half of every joint's
+  # range, the one whose J_b is best conditioned, its tip at least 10 cm above the table and the
+  # straight joint path to it from where the joint jog ends at least 5 cm above it.
+  local jog_pose jog_condition
+  python3 - "$dir/model.json" "$home" "$jog_velocity" >"$dir/jog_cases.json" <<'PY'
+import json, math, sys
+m = json.load(open(sys.argv[1]))
+home = [float(x) for x in sys.argv[2].split(",")]
+speed = [float(x) for x in sys.argv[3].split(",")]
+ranges = []
+for kind, lo, hi in zip(m["joint_types"], m["limits"]["lower"], m["limits"]["upper"]):
+    ranges.append((-math.pi, math.pi) if kind == "continuous" else (lo, hi))
+jog_end = [q + v * 1.0 for q, v in zip(home, speed)]  # the joint jog: 1 s at these speeds
+# Kronecker points: joint i at the fractional part of k times the i-th prime's square root.
+roots = [math.sqrt(p) for p in (2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37)]
+cases = []
+for k in range(1, 65):
+    q = [lo + (hi - lo) * (0.25 + 0.5 * ((k * roots[i % len(roots)]) % 1.0)) for i, (lo, hi) in enumerate(ranges)]
+    cases.append({"q": q})
+    for s in range(1, 9):  # the path there
+        cases.append({"q": [a + s / 9 * (b - a) for a, b in zip(jog_end, q)]})
+json.dump({"cases": cases}, sys.stdout)
+PY
+  "$DEMO_BUILD/tools/chasles" eval --urdf "$DEMO_URDF" ${DEMO_TIP:+--tip "$DEMO_TIP"} \
+    --cases "$dir/jog_cases.json" >"$dir/jog_poses.json"
+  read -r jog_pose jog_condition < <(python3 - "$dir/jog_cases.json" "$dir/jog_poses.json" "$table" <<'PY'
+import json, math, sys
+cases = json.load(open(sys.argv[1]))["cases"]
+evals = json.load(open(sys.argv[2]))["cases"]
+surface = float(sys.argv[3].split(",")[2])
+
+def eigenvalues(A):
+    """A symmetric matrix's eigenvalues by Jacobi rotations (no numpy on a fresh machine)."""
+    n = len(A)
+    A = [row[:] for row in A]
+    for _ in range(100):
+        off = max((abs(A[i][j]), i, j) for i in range(n) for j in range(i + 1, n))
+        if off[0] < 1e-15:
+            break
+        _, p, q = off
+        theta = 0.5 * math.atan2(2 * A[p][q], A[q][q] - A[p][p])
+        c, s = math.cos(theta), math.sin(theta)
+        for k in range(n):
+            akp, akq = A[k][p], A[k][q]
+            A[k][p], A[k][q] = c * akp - s * akq, s * akp + c * akq
+        for k in range(n):
+            apk, aqk = A[p][k], A[q][k]
+            A[p][k], A[q][k] = c * apk - s * aqk, s * apk + c * aqk
+    return [A[i][i] for i in range(n)]
+
+best = None
+for k in range(0, len(cases), 9):
+    tip_z = evals[k]["T"][2][3]
+    path_z = min(e["T"][2][3] for e in evals[k + 1:k + 9])
+    if tip_z < surface + 0.10 or path_z < surface + 0.05:
+        continue
+    J = evals[k]["J_b"]
+    rows = len(J)
+    JJt = [[sum(J[i][c] * J[j][c] for c in range(len(J[0]))) for j in range(rows)] for i in range(rows)]
+    lam = eigenvalues(JJt)
+    condition = math.sqrt(max(lam) / min(lam)) if min(lam) > 0 else math.inf
+    if best is None or condition < best[0]:
+        best = (condition, cases[k]["q"])
+if best is None:
+    sys.exit("demo.sh: no pose found to start the twist jog from")
+print(",".join(repr(x) for x in best[1]), f"{best[0]:.1f}")
+PY
+  )
+
   # The programme, as fractions of the run: for 16 s, moves of 1.76 s starting at 0.8, 2.7, 4.6
   # and 6.6 s, the push at 8.6 s, the compliant segment from 9.6 s.
   local move t_hold t_a t_b t_cart t_home t_hold2 t_push push_s t_release push
@@ -406,6 +495,11 @@ PY
     stream "$dir/stream_plan.json"
   play "a joint jog: every joint toward the middle of its range at 0.25 rad/s for 1 s (50 commands a second)" \
     jog --joint-velocity "$jog_velocity" --seconds 1 --rate 50
+  local holds
+  holds=$(grep -c '^chasles_controller: HOLDING' "$dir/chasles_controller.err" || true)
+  send "JOINT move to where the tip can go down (J_b condition $jog_condition), [$jog_pose]" "${model[@]}" \
+    --joint "$jog_pose" --duration "$move"
+  wait_holding "$holds" "$(awk -v m="$move" 'BEGIN { print m + 5 }')"
   play "a twist jog: the tip down at 3 cm/s for 1.5 s (in the base frame, 50 commands a second)" \
     jog --twist 0,0,0,0,0,-0.03 --seconds 1.5 --rate 50
   sleep 0.3  # the jog's stop: a brake of a few tens of milliseconds, well inside this
