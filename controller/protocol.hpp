@@ -2,8 +2,8 @@
 // (robot_state_t in, joint_torque_command_t out) or Drake's for the KUKA iiwa and the Franka Panda
 // (lcmt_iiwa_status / lcmt_iiwa_command, lcmt_panda_status / lcmt_panda_command). A protocol is a
 // checked decoder for its status, an encoder for its command and its conventions; inside, the loop
-// sees one JointState and emits one torque, and nothing else knows which robot is on the wire
-// (DESIGN.md, "Protocols are a seam at the edge"). docs/protocols.md is the field-by-field account.
+// sees one JointState and emits one torque, and nothing else knows which robot is on the wire: the
+// protocols are a seam at the edge. docs/protocols.md is the field-by-field account.
 //
 // Drake's conventions, which the translations below apply:
 //  - Torque semantics. chasles's law computes the whole joint torque τ, gravity included. Drake's

@@ -662,8 +662,8 @@ TEST(lcmtypes, TypesAreNotInterchangeable) {
 }
 
 // The fingerprints pin the contracts: a change to a field's name, type or order changes them
-// and fails here. Changing a meaning needs a new type name (DESIGN.md, Messages), not a new
-// number in this test.
+// and fails here. Changing a meaning needs a new type name, so that no reader takes the new
+// meaning for the old, not a new number in this test.
 TEST(lcmtypes, FingerprintsArePinned) {
   EXPECT_EQ(static_cast<uint64_t>(robot_state_t::getHash()), 0xc003a166c618d7eeu);
   EXPECT_EQ(static_cast<uint64_t>(joint_torque_command_t::getHash()), 0xd037d1c904e0e80fu);
