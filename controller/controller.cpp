@@ -441,7 +441,7 @@ void Controller::end_trajectory(TrajectoryProgress::Outcome outcome, const char*
 
 double Controller::least_time_scale(const Waypoints& waypoints) {
   return least_fitting(1.0, kMaxTimeScale, [&](double scale) {
-    spline_candidate_.build(ref_, waypoints, scale);
+    spline_candidate_.build(ref_, waypoints, limits_, scale);
     return !spline_candidate_.excess(limits_);
   });
 }
@@ -500,7 +500,7 @@ bool Controller::set_trajectory(const Waypoints& w, int64_t now_ns) {
   }
   if (mode_ == Mode::kReflex) hold_at(q_);  // a new trajectory ends the reflex, from where the arm is
   double scale = 1.0;
-  spline_candidate_.build(ref_, w, scale);
+  spline_candidate_.build(ref_, w, limits_, scale);
   if (const WaypointExcess e = spline_candidate_.excess(limits_)) {
     const char* name = model_->joint(e.excess.joint).name.c_str();
     const char* quantity = to_string(e.excess.quantity);
@@ -509,7 +509,7 @@ bool Controller::set_trajectory(const Waypoints& w, int64_t now_ns) {
     if (!w.time_scaling || scale == 0.0) {
       if (scale == 0.0) {
         // What stays when it is slowed all it may be: its shape leaves the limits, not its speed.
-        spline_candidate_.build(ref_, w, kMaxTimeScale);
+        spline_candidate_.build(ref_, w, limits_, kMaxTimeScale);
         const WaypointExcess slow = spline_candidate_.excess(limits_);
         std::snprintf(why, sizeof(why), "waypoint %d, joint %s: %s %g %s over its limit %g %s, even slowed %gx",
                       slow.waypoint, model_->joint(slow.excess.joint).name.c_str(), to_string(slow.excess.quantity),
