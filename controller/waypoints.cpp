@@ -172,14 +172,23 @@ void WaypointSpline::build(const Reference& start, const Waypoints& waypoints, c
 }
 
 WaypointExcess WaypointSpline::excess(const MotionLimits& limits) const {
+  WaypointExcess worst;
   for (int k = 0; k + 1 < knots_; ++k) {
     for (int i = 0; i < n_; ++i) {
-      if (const LimitExcess e = quintic_excess(c_.row(k * n_ + i).data(), t_(k + 1) - t_(k), limits, i)) {
-        return {k, e};
-      }
+      const LimitExcess e = quintic_worst_excess(c_.row(k * n_ + i).data(), t_(k + 1) - t_(k), limits, i);
+      if (worse_excess(e, worst.excess)) worst = {k, e};
     }
   }
-  return {};
+  return worst;
+}
+
+bool WaypointSpline::fits(const MotionLimits& limits) const {
+  for (int k = 0; k + 1 < knots_; ++k) {
+    for (int i = 0; i < n_; ++i) {
+      if (quintic_excess(c_.row(k * n_ + i).data(), t_(k + 1) - t_(k), limits, i)) return false;
+    }
+  }
+  return true;
 }
 
 void WaypointSpline::swap(WaypointSpline& other) {

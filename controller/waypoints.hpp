@@ -57,8 +57,10 @@ class WaypointSpline {
   /// joint whose spline would leave its position range in `limits` (or swing far past the
   /// waypoints) keeps the waypoints' shape instead (waypoints.cpp). Allocates nothing.
   void build(const Reference& start, const Waypoints& waypoints, const MotionLimits& limits, double scale = 1.0);
-  /// Where it first leaves `limits` (exact extrema of each quintic). None: false.
+  /// Where it leaves `limits` the most (exact extrema of each quintic; worse_excess). None: false.
   WaypointExcess excess(const MotionLimits& limits) const;
+  /// Whether it keeps `limits`: !excess(limits), sooner where it does not.
+  bool fits(const MotionLimits& limits) const;
   /// The reference at t from the start; past the end, the last waypoint at rest (a trajectory
   /// ends at rest: Controller::set_trajectory refuses a last waypoint that moves).
   void sample(double t, Reference& out) const;

@@ -1,7 +1,8 @@
 // Waypoint trajectories: the C² spline through them (against the smooth paths they sample, and
 // where it keeps their shape instead), its limits, and the controller following one — started
-// from the moving reference without a jump, slowed to fit when allowed, refused naming the
-// waypoint, joint and quantity otherwise, judged against its tolerances.
+// from the moving reference without a jump, slowed to fit when allowed, refused otherwise naming
+// the waypoint, joint and quantity of the largest excess and the duration that fits, judged
+// against its tolerances.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -251,6 +252,92 @@ TEST_F(SmoothPathsPanda, SampledEveryTenthOfASecondAreFollowedAsSent) {
   for (unsigned seed = 1; seed <= 5; ++seed) expect_followed_as_sent(seed);
 }
 
+// The peak of each rate along the spline, found apart from WaypointSpline::excess: every joint's
+// velocity, acceleration and jerk (by differences of the acceleration within the segment) at 101
+// points of each segment, the largest ratio to its limit, and the first segment where any is over.
+struct SampledPeak {
+  int waypoint = -1, joint = -1, first_over = -1;
+  LimitExcess::Quantity quantity = LimitExcess::kNone;
+  double value = 0.0, ratio = 0.0;
+};
+SampledPeak sampled_peak(const WaypointSpline& spline, const Waypoints& w, const MotionLimits& limits) {
+  const int n = w.dof();
+  SampledPeak peak;
+  Reference at(n), next(n);
+  const double dt = 1e-7;
+  for (int k = 0; k < w.count; ++k) {
+    const double from = k == 0 ? 0.0 : w.time(k - 1), to = w.time(k);
+    for (int m = 0; m <= 100; ++m) {
+      const double t = std::min(from + (to - from) * m / 100.0, to - 2 * dt);
+      spline.sample(t, at);
+      spline.sample(t + dt, next);
+      for (int i = 0; i < n; ++i) {
+        const double values[3] = {std::abs(at.qd(i)), std::abs(at.qdd(i)), std::abs(next.qdd(i) - at.qdd(i)) / dt};
+        const double limit[3] = {limits.velocity(i), limits.acceleration(i), limits.jerk(i)};
+        for (int q = 0; q < 3; ++q) {
+          const double ratio = values[q] / limit[q];
+          if (ratio > 1.0 && peak.first_over < 0) peak.first_over = k;
+          if (ratio > peak.ratio) {
+            const auto quantity = static_cast<LimitExcess::Quantity>(LimitExcess::kVelocity + q);
+            peak = {k, i, peak.first_over, quantity, values[q], ratio};
+          }
+        }
+      }
+    }
+  }
+  return peak;
+}
+
+// A trajectory too fast for the arm is refused naming the largest excess over its whole length
+// (not the first segment over a limit) and the duration it fits in: sent at that duration it is
+// taken as it is, sent 1 % faster it is not.
+TEST_F(SmoothPathsUr5, ARefusalNamesThePeakAndADurationThatFits) {
+  Controller controller(model_, config_);
+  ASSERT_TRUE(tick(controller));
+  const MotionLimits& limits = controller.limits();
+  const SmoothPath path(limits, state_.q, 5.0, 7);
+  Waypoints w = path.waypoints(0.1, 5.0);
+  w.time *= 0.5;  // twice as fast: velocity to 1.1 of its limit, acceleration to 2.8
+  Reference rest(6);
+  rest.q = state_.q;
+  WaypointSpline spline(6);
+  spline.build(rest, w, limits);
+  const SampledPeak peak = sampled_peak(spline, w, limits);
+  ASSERT_GE(peak.first_over, 0);
+  ASSERT_NE(peak.first_over, peak.waypoint) << "the case needs a peak after the first excess";
+
+  {
+    // Refused, slowed in search of the duration that fits, and said without allocating.
+    const chasles::testing::AllocationCounter counter;
+    EXPECT_FALSE(controller.set_trajectory(w, now_));
+    EXPECT_EQ(counter.count(), 0);
+  }
+  const std::string why = controller.last_rejection();
+  std::printf("[ refusal ] %s\n", why.c_str());
+  const std::string named = "trajectory 0: waypoint " + std::to_string(peak.waypoint) + ", joint " +
+                            model_.joint(peak.joint).name + ": " + to_string(peak.quantity) + " peaks at ";
+  ASSERT_EQ(why.rfind(named, 0), 0u) << why;
+  EXPECT_NEAR(std::stod(why.substr(named.size())), peak.value, 1e-3 * peak.value) << why;
+  const size_t fits = why.find("; fits in ");
+  ASSERT_NE(fits, std::string::npos) << why;
+  const double duration = std::stod(why.substr(fits + 10));
+  EXPECT_NE(why.find(" s instead of 2.50 s (allow time scaling, or send it slower)"), std::string::npos) << why;
+
+  spline.build(rest, w, limits, duration / 2.5);
+  EXPECT_FALSE(spline.excess(limits));
+  EXPECT_TRUE(spline.fits(limits));
+  spline.build(rest, w, limits, 0.99 * duration / 2.5);
+  EXPECT_TRUE(spline.excess(limits));
+  EXPECT_FALSE(spline.fits(limits));
+
+  Waypoints slower = w;
+  slower.time *= duration / 2.5;
+  ASSERT_TRUE(controller.set_trajectory(slower, now_)) << controller.last_rejection();
+  EXPECT_EQ(controller.trajectory().scale, 1.0);
+  slower.time = w.time * (0.99 * duration / 2.5);
+  EXPECT_FALSE(controller.set_trajectory(slower, now_));
+}
+
 // Waypoints that are not samples of a smooth curve keep their shape, where the C² spline through
 // them would swing far past them: a joint sent to the same position twice stands still between;
 // a 10 ms segment meeting a 2 s one; a waypoint on the edge of the range.
@@ -334,7 +421,7 @@ TEST_F(Following, FiftyTrapezoidTimedWaypointsSlowedToFitAndTracked) {
   EXPECT_FALSE(controller.set_trajectory(w, now_));
   const std::string why = controller.last_rejection();
   EXPECT_NE(why.find("trajectory 11: waypoint "), std::string::npos) << why;
-  EXPECT_NE(why.find("(allow time scaling)"), std::string::npos) << why;
+  EXPECT_NE(why.find(" s (allow time scaling, or send it slower)"), std::string::npos) << why;
   EXPECT_EQ(controller.trajectory().outcome, TrajectoryProgress::kRejected);
   EXPECT_EQ(controller.mode(), Mode::kHolding);
 
@@ -417,7 +504,7 @@ TEST_F(Following, BadTrajectoriesAreRefusedNamingWhatIsWrong) {
     b.q(1, 0) += 0.1;
   });
   refused(hasty, "waypoint 0, joint panda_joint2: ");
-  refused(hasty, "(allow time scaling)");
+  refused(hasty, "(allow time scaling, or send it slower)");
   // None of this disturbed the trajectory taken first, which ends as it was sent.
   while (controller.mode() == Mode::kRunning) {
     ASSERT_TRUE(tick(controller));
