@@ -78,6 +78,14 @@ constexpr double kUnlimitedVelocity = 1e3, kUnlimitedAcceleration = 1e5, kUnlimi
 
 double finite_or(double x, double fallback) { return std::isfinite(x) ? x : fallback; }
 
+// d s with three significant digits and at least two decimals (6.24, 40.43, 0.0123), rounded up
+// or to nearest.
+void format_duration(char (&out)[24], double d, bool up) {
+  const int decimals = std::clamp(2 - static_cast<int>(std::floor(std::log10(d))), 2, 9);
+  const double unit = std::pow(10.0, -decimals);
+  std::snprintf(out, sizeof(out), "%.*f", decimals, up ? std::ceil(d / unit) * unit : d);
+}
+
 void format_into(char (&buffer)[192], const char* format, va_list args) {
   std::vsnprintf(buffer, sizeof(buffer), format, args);
 }
@@ -468,8 +476,8 @@ void Controller::end_trajectory(TrajectoryProgress::Outcome outcome, const char*
 
 double Controller::least_time_scale(const Waypoints& waypoints) {
   return least_fitting(1.0, kMaxTimeScale, [&](double scale) {
-    spline_candidate_.build(ref_, waypoints, scale);
-    return !spline_candidate_.excess(limits_);
+    spline_candidate_.build(ref_, waypoints, limits_, scale);
+    return spline_candidate_.fits(limits_);
   });
 }
 
@@ -527,25 +535,32 @@ bool Controller::set_trajectory(const Waypoints& w, int64_t now_ns) {
   }
   if (mode_ == Mode::kReflex) hold_at(q_);  // a new trajectory ends the reflex, from where the arm is
   double scale = 1.0;
-  spline_candidate_.build(ref_, w, scale);
+  spline_candidate_.build(ref_, w, limits_, scale);
   if (const WaypointExcess e = spline_candidate_.excess(limits_)) {
-    const char* name = model_->joint(e.excess.joint).name.c_str();
-    const char* quantity = to_string(e.excess.quantity);
-    const char* unit = unit_of(e.excess.quantity);
     scale = least_time_scale(w);
     if (!w.time_scaling || scale == 0.0) {
+      WaypointExcess worst = e;
       if (scale == 0.0) {
         // What stays when it is slowed all it may be: its shape leaves the limits, not its speed.
-        spline_candidate_.build(ref_, w, kMaxTimeScale);
-        const WaypointExcess slow = spline_candidate_.excess(limits_);
-        std::snprintf(why, sizeof(why), "waypoint %d, joint %s: %s %g %s over its limit %g %s, even slowed %gx",
-                      slow.waypoint, model_->joint(slow.excess.joint).name.c_str(), to_string(slow.excess.quantity),
-                      slow.excess.value, unit_of(slow.excess.quantity), slow.excess.limit,
-                      unit_of(slow.excess.quantity), kMaxTimeScale);
+        spline_candidate_.build(ref_, w, limits_, kMaxTimeScale);
+        worst = spline_candidate_.excess(limits_);
+      }
+      const LimitExcess& x = worst.excess;
+      const int length = std::snprintf(why, sizeof(why), "waypoint %d, joint %s: %s %s %.4g %s, over its limit %.4g",
+                                       worst.waypoint, model_->joint(x.joint).name.c_str(), to_string(x.quantity),
+                                       x.quantity == LimitExcess::kPosition ? "reaches" : "peaks at", x.value,
+                                       unit_of(x.quantity), x.limit);
+      const size_t at = std::min(static_cast<size_t>(std::max(length, 0)), sizeof(why) - 1);
+      if (scale == 0.0) {
+        std::snprintf(why + at, sizeof(why) - at, ", even slowed %gx", kMaxTimeScale);
       } else {
-        std::snprintf(why, sizeof(why),
-                      "waypoint %d, joint %s: %s %g %s over its limit %g %s; slowed %.4gx it fits (allow time scaling)",
-                      e.waypoint, name, quantity, e.excess.value, unit, e.excess.limit, unit, scale);
+        // Rounded up, so that the duration quoted fits.
+        const double sent = w.time(w.count - 1);
+        char fitting[24], as_sent[24];
+        format_duration(fitting, scale * sent, true);
+        format_duration(as_sent, sent, false);
+        std::snprintf(why + at, sizeof(why) - at,
+                      "; fits in %s s instead of %s s (allow time scaling, or send it slower)", fitting, as_sent);
       }
       return reject(why);
     }

@@ -159,7 +159,8 @@ class Controller {
   /// trajectory() as REJECTED). Checked first: counts, finite values, times increasing from > 0,
   /// every waypoint within the position limits less the margin, a last waypoint at rest, then
   /// the whole interpolated path against every limit — and, if the sender allows it, slowed by
-  /// the least factor that fits. While it runs, a joint off the reference by more than its path
+  /// the least factor that fits; if not, refused naming the largest excess and the duration it
+  /// would fit in. While it runs, a joint off the reference by more than its path
   /// tolerance ABORTS it (the arm holds where it is); at its end each joint must come within its
   /// goal tolerance within goal_time. A new target, law or trajectory PREEMPTS it; a reflex or a
   /// FAULT ABORTS it. Allocates nothing.

@@ -44,6 +44,37 @@ LimitExcess quintic_excess(const double* a, double T, const MotionLimits& limits
   return {};
 }
 
+bool worse_excess(const LimitExcess& a, const LimitExcess& b) {
+  if (!a || !b) return a && !b;
+  const bool a_position = a.quantity == LimitExcess::kPosition, b_position = b.quantity == LimitExcess::kPosition;
+  if (a_position != b_position) return a_position;
+  if (a_position) return std::abs(a.value - a.limit) > std::abs(b.value - b.limit);
+  return a.value / a.limit > b.value / b.limit;
+}
+
+LimitExcess quintic_worst_excess(const double* a, double T, const MotionLimits& limits, int joint) {
+  const int i = joint;
+  LimitExcess worst;
+  if (std::isfinite(limits.lower(i)) || std::isfinite(limits.upper(i))) {
+    double low = 0.0, high = 0.0;
+    polynomial_range(a, 5, T, low, high);
+    const double above = high - limits.upper(i), below = limits.lower(i) - low;
+    if (above > kRounding && above >= below) return {LimitExcess::kPosition, joint, high, limits.upper(i)};
+    if (below > kRounding) return {LimitExcess::kPosition, joint, low, limits.lower(i)};
+  }
+  const double v[5] = {a[1], 2 * a[2], 3 * a[3], 4 * a[4], 5 * a[5]};
+  const double acc[4] = {2 * a[2], 6 * a[3], 12 * a[4], 20 * a[5]};
+  const double jerk[3] = {6 * a[3], 24 * a[4], 60 * a[5]};
+  const LimitExcess rates[3] = {
+      {LimitExcess::kVelocity, joint, max_abs_polynomial(v, 4, T), limits.velocity(i)},
+      {LimitExcess::kAcceleration, joint, max_abs_polynomial(acc, 3, T), limits.acceleration(i)},
+      {LimitExcess::kJerk, joint, max_abs_polynomial(jerk, 2, T), limits.jerk(i)}};
+  for (const LimitExcess& e : rates) {
+    if (e.value > e.limit * (1.0 + kRounding) && worse_excess(e, worst)) worst = e;
+  }
+  return worst;
+}
+
 void quintic_hermite(double p0, double v0, double a0, double p1, double v1, double a1, double h, double* c) {
   const double d = p1 - p0, h2 = h * h, h3 = h2 * h;
   c[0] = p0;

@@ -30,6 +30,13 @@ void sample_quintic(const double* c, double t, double& q, double& qd, double& qd
 /// The first limit of `joint` the quintic c_0..c_5 leaves anywhere in [0, T]: its position range,
 /// velocity, acceleration or jerk (exact: each polynomial's extrema). None: false.
 LimitExcess quintic_excess(const double* c, double T, const MotionLimits& limits, int joint);
+/// The limit of `joint` the quintic c_0..c_5 leaves the most in [0, T] (worse_excess), exact as
+/// quintic_excess. None: false.
+LimitExcess quintic_worst_excess(const double* c, double T, const MotionLimits& limits, int joint);
+/// Whether a leaves its limit more than b: any excess more than none; the position range more
+/// than any rate (slowing down does not bring a curve back into range), the further past the
+/// more; rates by value / limit, whatever the quantity.
+bool worse_excess(const LimitExcess& a, const LimitExcess& b);
 
 /// q(t) = Σ a_k t^k, k = 0..5, per joint, with the boundary conditions (q, q̇, q̈) = start at
 /// t = 0 and (goal, 0, 0) at t = T. With start at rest this is the familiar

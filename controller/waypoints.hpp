@@ -2,8 +2,8 @@
 // takes them) turned into a reference that is C² from the current one: one quintic per joint and
 // segment, joining (position, velocity, acceleration) at every knot. Knot 0 is the reference
 // where the trajectory is taken, so it starts without a jump; the waypoints' velocities and
-// accelerations are the sender's where given, else estimated from the positions so that the
-// curve keeps their shape (waypoints.cpp, knot_derivatives).
+// accelerations are the sender's where given, else the C² cubic spline's through the positions,
+// unless that swings far past them (waypoints.cpp says when, and what instead).
 #pragma once
 
 #include <Eigen/Core>
@@ -53,10 +53,14 @@ class WaypointSpline {
   explicit WaypointSpline(int n = 0);
 
   /// Builds the spline from `start` through `waypoints` with every time multiplied by `scale`
-  /// (≥ 1; their velocities divided by it, accelerations by its square). Allocates nothing.
-  void build(const Reference& start, const Waypoints& waypoints, double scale = 1.0);
-  /// Where it first leaves `limits` (exact extrema of each quintic). None: false.
+  /// (≥ 1; their velocities divided by it, accelerations by its square). Without velocities, a
+  /// joint whose spline would leave its position range in `limits` (or swing far past the
+  /// waypoints) keeps the waypoints' shape instead (waypoints.cpp). Allocates nothing.
+  void build(const Reference& start, const Waypoints& waypoints, const MotionLimits& limits, double scale = 1.0);
+  /// Where it leaves `limits` the most (exact extrema of each quintic; worse_excess). None: false.
   WaypointExcess excess(const MotionLimits& limits) const;
+  /// Whether it keeps `limits`: !excess(limits), sooner where it does not.
+  bool fits(const MotionLimits& limits) const;
   /// The reference at t from the start; past the end, the last waypoint at rest (a trajectory
   /// ends at rest: Controller::set_trajectory refuses a last waypoint that moves).
   void sample(double t, Reference& out) const;
@@ -68,14 +72,18 @@ class WaypointSpline {
 
  private:
   int segment_at(double t) const;
-  // Joint i's velocities and accelerations at the interior knots, from the positions.
-  void knot_derivatives(int i);
+  // Joint i's velocities and accelerations at the inner knots, from the positions
+  // (waypoints.cpp says which and why).
+  void spline_derivatives(int i);
+  bool swings_past(int i, double lower, double upper) const;
+  void shape_keeping_derivatives(int i);
 
   int n_ = 0, knots_ = 0;
   Eigen::VectorXd t_;                                  // knot times, t_0 = 0
   Eigen::MatrixXd p_, v_, a_;                          // n × knots
   Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor> c_;  // (segment · n + joint) × 6
   mutable int cursor_ = 0;                             // the last segment sampled: ticks go forward
+  Eigen::VectorXd solve_;                              // spline_derivatives' scratch, one per knot
 };
 
 }  // namespace chasles::controller

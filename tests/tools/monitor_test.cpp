@@ -142,11 +142,11 @@ TEST(monitor, ATrajectorysProgressIsShownExactly) {
       {9, controller_status_t::TRAJECTORY_SUCCEEDED, 2.5631, 2.5, 1.0, 12, "",
        "\ntrajectory  9 SUCCEEDED, 2.563 of 2.500 s (100.0 %), waypoint 12, time scale 1.000\ncontact     "},
       {5, controller_status_t::TRAJECTORY_REJECTED, 0.0, 0.0, 1.0, 0,
-       "waypoint 2, joint panda_joint4: velocity 3.1 rad/s over its limit 2.175 rad/s; slowed 1.43x it fits "
-       "(allow time scaling)",
+       "waypoint 2, joint panda_joint4: velocity peaks at 3.1 rad/s, over its limit 2.175; fits in 5.72 s instead of "
+       "4.00 s (allow time scaling, or send it slower)",
        "\ntrajectory  5 REJECTED, 0.000 of 0.000 s (-), waypoint 0, time scale 1.000\n"
-       "            waypoint 2, joint panda_joint4: velocity 3.1 rad/s over its limit 2.175 rad/s; slowed 1.43x it fits "
-       "(allow time scaling)\n"},
+       "            waypoint 2, joint panda_joint4: velocity peaks at 3.1 rad/s, over its limit 2.175; fits in 5.72 s "
+       "instead of 4.00 s (allow time scaling, or send it slower)\n"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.expected);

@@ -205,7 +205,7 @@ void run_excite(ExciteOptions o) {
   controller::Reference at_rest(n);
   at_rest.hold(start);
   controller::WaypointSpline spline(n);
-  spline.build(at_rest, waypoints);
+  spline.build(at_rest, waypoints, limits);
   if (const controller::WaypointExcess e = spline.excess(limits)) {
     throw InputError("the controller's spline through " + std::to_string(o.waypoints) + " waypoints leaves the " +
                      controller::to_string(e.excess.quantity) + " limit of joint " + model.joint(e.excess.joint).name +
