@@ -700,8 +700,16 @@ bool Controller::set_setpoint(const Setpoint& setpoint, int64_t now_ns) {
     return false;
   }
   const double age = take_setpoint(setpoint.utime, now_ns, first);
+  // The same goal at rest again (a stream holding its last point) keeps the limits it is planned
+  // with; any other goal is planned under the jerk capped at the pose it starts from.
+  bool held = !first && otg_target_.v.isZero(0.0) && setpoint.qd.isZero(0.0);
   for (int i = 0; i < n; ++i) {
-    otg_target_.p(i) = std::clamp(setpoint.q(i) + setpoint.qd(i) * age, limits_.lower(i), limits_.upper(i));
+    const double p = std::clamp(setpoint.q(i) + setpoint.qd(i) * age, limits_.lower(i), limits_.upper(i));
+    held = held && p == otg_target_.p(i);
+    otg_target_.p(i) = p;
+  }
+  if (!held) cap_jerk_to_torque_rate();
+  for (int i = 0; i < n; ++i) {
     otg_target_.v(i) = velocity_that_stops_in_range(setpoint.qd(i), otg_target_.p(i), limits_.lower(i),
                                                     limits_.upper(i), otg_limits_.velocity(i),
                                                     otg_limits_.acceleration(i), otg_limits_.jerk(i));
@@ -739,6 +747,7 @@ double Controller::take_setpoint(int64_t utime, int64_t now_ns, bool first) {
 }
 
 void Controller::aim_at_stop() {
+  cap_jerk_to_torque_rate();
   for (int i = 0; i < ref_.q.size(); ++i) {
     otg_target_.p(i) = std::clamp(motion::stop_position(ref_.q(i), ref_.qd(i), ref_.qdd(i), otg_limits_.velocity(i),
                                                         otg_limits_.acceleration(i), otg_limits_.jerk(i)),
@@ -794,6 +803,7 @@ bool Controller::set_tip_setpoint(const TipSetpoint& setpoint, int64_t now_ns) {
                     now_ns)) {
     return false;
   }
+  cap_jerk_to_torque_rate();
   const double age = take_setpoint(setpoint.utime, now_ns, first);
   const Eigen::Vector4d& w = setpoint.quaternion;
   tip_twist_ = setpoint.twist;
@@ -813,6 +823,7 @@ bool Controller::set_jog(const Jog& jog, int64_t now_ns) {
     return refuse("jog: of the wrong size or with non-finite values");
   }
   if (!enter_stream(Drive::kJog, jog.utime, jog_utime_, dropped_jogs_, "a jog", now_ns)) return false;
+  cap_jerk_to_torque_rate();
   jog_.utime = jog.utime;
   jog_.kind = jog.kind;
   jog_.frame = jog.frame;
@@ -983,7 +994,6 @@ bool Controller::tick(int64_t now_ns, const JointState* state) {
     }
   }
   q_guarded_ = q_;
-  if (mode_ == Mode::kRunning && follows_generator(drive_)) cap_jerk_to_torque_rate();
   update_reference(now_ns);
   error_ = ref_.q - q_;
   if (progress_.outcome == TrajectoryProgress::kActive) judge_trajectory(now_ns);
@@ -1019,11 +1029,16 @@ void Controller::limit_torque_rate() {
   tau_ = tau_.cwiseMax(tau_prev_ - rate_limit_per_tick_).cwiseMin(tau_prev_ + rate_limit_per_tick_);
 }
 
+// At the pose where the generator takes a new goal (a setpoint, a jog command, a stop), and held
+// until the next: the plan is then time-optimal for limits that stay put, as Ruckig's is for the
+// limits it is given. Capped anew every tick instead, a rest-to-rest move replanned under a jerk
+// that changed with M(q) took up to 1.17 times the time-optimal duration at its limits.
 void Controller::cap_jerk_to_torque_rate() {
   if (!config_.limits.jerk_within_torque_rate) return;
   // τ̇ ≈ M(q) q⃛ is what a reference's jerk asks of the torque; the rate limit allows
   // effort/torque_ramp per joint. One factor for every joint keeps the jerks' proportions (and a
-  // twist's direction through a change).
+  // twist's direction through a change); half the rate leaves room for M(q) to grow along the
+  // way to the next goal.
   double scale = 1.0;
   for (int i = 0; i < torque_rate_.size(); ++i) {
     const double asked = data_.M.row(i).cwiseAbs().dot(jerk_limit_);

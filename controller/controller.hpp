@@ -246,6 +246,10 @@ class Controller {
   const Data& reference_data() const { return data_ref_; }
   /// The limits every reference keeps to and the measured state is guarded by.
   const MotionLimits& limits() const { return limits_; }
+  /// The limits the online generator plans streams, jogs and stops with now: limits_' velocity and
+  /// acceleration (∞ as large finite values) and the jerk capped by the torque rate at the pose of
+  /// the latest goal taken (cap_jerk_to_torque_rate).
+  const motion::Limits& generator_limits() const { return otg_limits_; }
   /// The thresholds and reflex in force (the defaults filled in from the model).
   const ContactConfig& contact_config() const { return contact_.config(); }
   /// Contacts (each time the contact flag rose) and reflexes since start; the largest estimated

@@ -23,7 +23,10 @@ Node::Snapshot::Snapshot(int n)
       q_desired(Eigen::VectorXd::Zero(n)),
       error(Eigen::VectorXd::Zero(n)),
       torque(Eigen::VectorXd::Zero(n)),
-      tau_ext(Eigen::VectorXd::Zero(n)) {}
+      tau_ext(Eigen::VectorXd::Zero(n)),
+      generator_velocity(Eigen::VectorXd::Zero(n)),
+      generator_acceleration(Eigen::VectorXd::Zero(n)),
+      generator_jerk(Eigen::VectorXd::Zero(n)) {}
 
 void Node::Timing::record(const TickRecord& r) {
   jitter.record(r.jitter_us);
@@ -366,6 +369,10 @@ void Node::publish_snapshot() {
   s.jogs = loop_.controller.jogs();
   s.dropped_jogs = loop_.controller.dropped_jogs();
   s.jog = loop_.controller.jog_progress();
+  const motion::Limits& generator = loop_.controller.generator_limits();
+  s.generator_velocity = generator.velocity;
+  s.generator_acceleration = generator.acceleration;
+  s.generator_jerk = generator.jerk;
   snapshots_.publish();
 }
 
@@ -494,6 +501,9 @@ void Node::fill_status() {
   status.tracking_error = copy(s.error);
   status.torque = copy(s.torque);
   status.tau_ext = copy(s.tau_ext);
+  status.generator_velocity_limit = copy(s.generator_velocity);
+  status.generator_acceleration_limit = copy(s.generator_acceleration);
+  status.generator_jerk_limit = copy(s.generator_jerk);
   for (int i = 0; i < 6; ++i) status.tip_wrench_ext[i] = s.wrench_ext(i);
   status.contact = s.contact;
   status.collision = s.collision;

@@ -112,6 +112,7 @@ class Node {
     char rejection[192] = {};
     char reflex[192] = {};
     Eigen::VectorXd q, q_desired, error, torque, tau_ext;
+    Eigen::VectorXd generator_velocity, generator_acceleration, generator_jerk;
     Vector6d wrench_ext = Vector6d::Zero();  // base-aligned at the tip
     bool contact = false, collision = false;
     int64_t contacts = 0, reflexes = 0;

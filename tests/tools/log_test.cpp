@@ -258,6 +258,11 @@ controller_status_t status_message(int k) {
   m.faults = k / 13;
   m.tau_ext.clear();
   for (int j = 0; j < 7; ++j) m.tau_ext.push_back(0.01 * j * k - 0.5);
+  for (int j = 0; j < 7; ++j) {
+    m.generator_velocity_limit.push_back(2.0 + 0.1 * j);
+    m.generator_acceleration_limit.push_back(10.0 + j + 0.5 * k);
+    m.generator_jerk_limit.push_back(3000.0 - 10.0 * j - k);
+  }
   for (int i = 0; i < 6; ++i) m.tip_wrench_ext[i] = 0.5 * i - 0.1 * k;
   m.contact = k % 2 == 1;
   m.collision = k % 4 == 3;

@@ -156,7 +156,9 @@ TEST(monitor, ATrajectorysProgressIsShownExactly) {
     controller_status_t status{};
     status.state = controller_status_t::RUNNING;
     status.num_joints = 2;
-    for (auto* joints : {&status.q, &status.q_desired, &status.tracking_error, &status.torque, &status.tau_ext}) {
+    for (auto* joints : {&status.q, &status.q_desired, &status.tracking_error, &status.torque, &status.tau_ext,
+                         &status.generator_velocity_limit, &status.generator_acceleration_limit,
+                         &status.generator_jerk_limit}) {
       joints->assign(2, 0.0);
     }
     status.tip_quaternion[0] = 1.0;

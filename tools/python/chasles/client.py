@@ -293,6 +293,11 @@ class Status:
     jog_scale: float
     jog_limited_by: int
     jog_joint: int
+    #: the limits streams, jogs and stops are planned with now, per joint: velocity rad/s, acceleration
+    #: rad/s², jerk rad/s³ (the configured jerk capped by the torque rate at the latest goal's pose)
+    generator_velocity_limit: np.ndarray
+    generator_acceleration_limit: np.ndarray
+    generator_jerk_limit: np.ndarray
 
     @property
     def state_name(self) -> str:
