@@ -1,4 +1,4 @@
-"""The model examples of tools/python/examples, run as a user runs them; their outputs checked
+"""The model examples of python/examples, run as a user runs them; their outputs checked
 against references computed here without chasles."""
 
 from __future__ import annotations

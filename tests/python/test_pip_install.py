@@ -16,8 +16,8 @@ DATA = Path(os.environ["CHASLES_TEST_DATA"])
 
 
 def pinned(*names: str) -> list[str]:
-    """The requirement lines of tools/python/requirements.txt for these packages."""
-    lines = (ROOT / "tools" / "python" / "requirements.txt").read_text().splitlines()
+    """The requirement lines of python/requirements.txt for these packages."""
+    lines = (ROOT / "python" / "requirements.txt").read_text().splitlines()
     return [line for line in lines if line.split("==")[0] in names]
 
 
