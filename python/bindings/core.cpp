@@ -450,7 +450,8 @@ void bind_observer(nb::module_& m) {
           },
           nb::arg("q"), nb::arg("qd"), nb::arg("tau"), nb::arg("dt"),
           "Takes the sample (q, q̇) reached dt seconds after the previous one, τ the joint torque applied over that "
-          "step; returns τ̂_ext, N·m or N per joint. Before reset(), or with dt ≤ 0, only starts.")
+          "step; returns τ̂_ext, N·m or N per joint. Before reset(), only starts. A dt that is not positive and finite "
+          "is an ArgumentError.")
       .def_prop_ro("external_torque", [](const Observer& self) { return to_array(self.observer.external_torque()); },
                    "The latest τ̂_ext.")
       .def_prop_ro("started", [](const Observer& self) { return self.observer.started(); });
