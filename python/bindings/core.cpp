@@ -20,7 +20,11 @@
 #include "chasles/core/contact/observer.hpp"
 #include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/kinematics/kinematics.hpp"
+#include "chasles/core/lie/so3.hpp"
+#include "chasles/core/model/payload.hpp"
 #include "chasles/core/model/urdf.hpp"
+// Only LawBounds's and LawDefaults' constants: nothing of the controller library is linked.
+#include "chasles/controller/law.hpp"
 
 namespace chasles::python {
 
@@ -472,6 +476,30 @@ void bind_observer(nb::module_& m) {
       "singularities.");
 }
 
+// The bounds and defaults chasles.client checks and fills a command with before sending, read from
+// the C++ the controller and the CLI use, so that no copy of them can drift: the quaternion norm
+// tolerance (core/lie/so3.hpp), a law's bounds and defaults (controller/law.hpp), the payload's
+// bounds (core/model/payload.hpp).
+void bind_limits(nb::module_& m) {
+  using controller::LawBounds;
+  using controller::LawDefaults;
+  m.attr("QUATERNION_NORM_TOLERANCE") = kQuaternionNormTolerance;
+  m.attr("MAX_JOINT_STIFFNESS") = LawBounds::kMaxJointStiffness;
+  m.attr("MAX_ROTATIONAL_STIFFNESS") = LawBounds::kMaxRotationalStiffness;
+  m.attr("MAX_TRANSLATIONAL_STIFFNESS") = LawBounds::kMaxTranslationalStiffness;
+  m.attr("MAX_NULLSPACE_STIFFNESS") = LawBounds::kMaxNullspaceStiffness;
+  m.attr("MIN_DAMPING_RATIO") = LawBounds::kMinDampingRatio;
+  m.attr("MAX_DAMPING_RATIO") = LawBounds::kMaxDampingRatio;
+  m.attr("MAX_FRAME_OFFSET") = LawBounds::kMaxFrameOffset;
+  m.attr("DEFAULT_DAMPING_RATIO") = LawDefaults::kDampingRatio;
+  m.attr("DEFAULT_ROTATIONAL_STIFFNESS") = LawDefaults::kRotationalStiffness;
+  m.attr("DEFAULT_TRANSLATIONAL_STIFFNESS") = LawDefaults::kTranslationalStiffness;
+  m.attr("DEFAULT_NULLSPACE_STIFFNESS") = LawDefaults::kNullspaceStiffness;
+  m.attr("MAX_PAYLOAD_MASS") = kMaxPayloadMass;
+  m.attr("MAX_PAYLOAD_REACH") = kMaxPayloadReach;
+  m.attr("MAX_PAYLOAD_INERTIA") = kMaxPayloadInertia;
+}
+
 }  // namespace
 
 }  // namespace chasles::python
@@ -484,4 +512,5 @@ NB_MODULE(_core, m) {
   bind_model(m);
   bind_observer(m);
   bind_solvers(m);
+  bind_limits(m);
 }
