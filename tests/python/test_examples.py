@@ -15,7 +15,7 @@ import numpy as np
 import chasles
 
 DATA = Path(os.environ["CHASLES_TEST_DATA"])
-EXAMPLES = Path(__file__).resolve().parents[2] / "tools" / "python" / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "python" / "examples"
 
 
 def run_example(name: str, *args: str) -> dict:
