@@ -312,8 +312,8 @@ TEST(ContactObserver, RefusesGainsAndDampingThatCannotMakeAnObserver) {
 TEST(ContactObserver, RefusesAStepThatIsNotPositiveAndFinite) {
   const RobotModel model = load_urdf_file(testing::data_path("panda.urdf"), UrdfOptions{"panda_hand"});
   Data data(model);
-  const Eigen::VectorXd q = Eigen::VectorXd::Constant(model.dof(), 0.3), qd = Eigen::VectorXd::Constant(model.dof(), 0.1);
-  const Eigen::VectorXd tau = Eigen::VectorXd::Ones(model.dof());
+  const Eigen::VectorXd q = Eigen::VectorXd::Constant(model.dof(), 0.3);
+  const Eigen::VectorXd qd = Eigen::VectorXd::Constant(model.dof(), 0.1), tau = Eigen::VectorXd::Ones(model.dof());
   momentum_terms(model, data, q, qd);
   MomentumObserver observer(model, Eigen::VectorXd::Constant(model.dof(), 10.0));
   for (const bool started : {false, true}) {

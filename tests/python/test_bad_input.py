@@ -139,7 +139,8 @@ def test_an_observer_step_that_is_not_positive_and_finite_is_an_argument_error(
     observer = chasles.MomentumObserver(ur5, np.full(6, 10.0))
     q, qd, tau = np.full(6, 0.3), np.full(6, 0.1), np.ones(6)
     observer.reset(q, qd)
-    with pytest.raises(chasles.ArgumentError, match=rf"^the observer's step dt = {shown} s; it must be positive and finite$"):
+    expected = rf"^the observer's step dt = {shown} s; it must be positive and finite$"
+    with pytest.raises(chasles.ArgumentError, match=expected):
         observer.update(q, qd, tau, dt)
     assert np.all(np.isfinite(observer.update(q, qd, tau, 1e-3)))
 
