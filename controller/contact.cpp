@@ -128,7 +128,7 @@ void ContactMonitor::update(const Data& data, const Eigen::VectorXd& q, const Ei
   const Matrix6Xd& J_b = data.J_b;
   estimate_.tip_position = data.T_sb.translation();
   remember(q);
-  if (!started_ || !(dt > 0.0)) {
+  if (!started_ || !(dt > 0.0 && std::isfinite(dt))) {
     observer_.reset(data, qd);
     started_ = true;
     estimate_.tau_ext.setZero();

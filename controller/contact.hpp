@@ -65,8 +65,8 @@ class ContactMonitor {
 
   /// Takes a state — `data` holding the terms at its (q, q̇) (compute_tick_terms), `effort` the
   /// torque applied over the interval that ended at it — `dt` seconds after the previous state
-  /// taken. dt ≤ 0 (a first state, a gap, a sender that restarted) starts the observer again,
-  /// reporting no contact until it has run one step. Allocates nothing.
+  /// taken. dt ≤ 0 or not finite (a first state, a gap, a sender that restarted) starts the
+  /// observer again, reporting no contact until it has run one step. Allocates nothing.
   void update(const Data& data, const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& effort,
               double dt);
   const ContactEstimate& estimate() const { return estimate_; }

@@ -33,10 +33,6 @@ constexpr double kMaxTipStep = 0.05, kMaxTipRotationStep = 0.3;
 
 bool is_impedance(Law law) { return law == Law::kJointImpedance || law == Law::kCartesianImpedance; }
 
-// A quaternion typed or computed in single precision is off unit norm by far less; one further
-// off is a mistake (a missing component, (x, y, z, w) order), refused rather than normalised.
-constexpr double kQuaternionNormTolerance = 1e-3;
-
 // A gap between states longer than this many periods restarts the observer: the torque held over
 // it is not known.
 constexpr double kMaxGapPeriods = 10.5;

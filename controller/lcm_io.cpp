@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "chasles/core/lie/so3.hpp"
 #include "chasles/lcmtypes/checked.hpp"
 
 namespace chasles::controller {
@@ -211,7 +212,7 @@ std::string law_from_message(const control_mode_t& m, int n, LawSettings& s) {
     for (int c = 0; c < 6; ++c) s.cartesian_stiffness(r, c) = m.cartesian_stiffness[r][c];
   }
   const Eigen::Vector4d wxyz = Eigen::Map<const Eigen::Vector4d>(m.stiffness_frame_quaternion);
-  if (s.law == Law::kCartesianImpedance && std::abs(wxyz.norm() - 1.0) > 1e-3) {
+  if (s.law == Law::kCartesianImpedance && std::abs(wxyz.norm() - 1.0) > kQuaternionNormTolerance) {
     return "stiffness_frame_quaternion (w, x, y, z) has norm " + std::to_string(wxyz.norm()) + ", not 1";
   }
   const Eigen::Quaterniond q(wxyz(0), wxyz(1), wxyz(2), wxyz(3));

@@ -13,7 +13,7 @@ chasles_packages_build=(
   iproute2 util-linux python3
 )
 
-# The Python package (tools/python, built by tools/test.sh): Debian's CPython with its headers and
+# The Python package (python/, built by tools/test.sh): Debian's CPython with its headers and
 # venv; the pinned PyPI packages go into the venv tools/python.sh makes.
 chasles_packages_python=(python3-dev python3-venv)
 

@@ -10,13 +10,11 @@
 #include <map>
 #include <sstream>
 
+#include "chasles/core/lie/so3.hpp"
+
 namespace chasles {
 
 namespace {
-
-// A quaternion typed or exported with few digits is off unit norm by ~1e-5; further than this is
-// a mistake, not rounding (the same tolerance as chasles ik and chasles target).
-constexpr double kQuaternionNormTolerance = 1e-3;
 
 const char* const kPoseColumns[] = {"x", "y", "z", "qw", "qx", "qy", "qz"};
 

@@ -3,6 +3,8 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <sstream>
 #include <string>
 
 
@@ -47,7 +49,12 @@ void MomentumObserver::reset(const Data& data, const JointVector& qd) {
 
 const Eigen::VectorXd& MomentumObserver::update(const Data& data, const JointVector& qd, const JointVector& tau,
                                                 double dt) {
-  if (!started_ || !(dt > 0.0)) {
+  if (!(dt > 0.0 && dt <= std::numeric_limits<double>::max())) {  // NaN fails both
+    std::ostringstream text;
+    text << "the observer's step dt = " << dt << " s; it must be positive and finite";
+    throw ArgumentError(text.str());
+  }
+  if (!started_) {
     reset(data, qd);
     return r_;
   }

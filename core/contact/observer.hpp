@@ -56,7 +56,8 @@ class MomentumObserver {
 
   /// Takes the sample in `data` (p, Cᵀq̇ and g at (q, q̇)) reached `dt` seconds after the previous
   /// one, with τ the joint torque applied over that interval; returns τ̂_ext = r. Before reset(),
-  /// or with dt ≤ 0, only starts.
+  /// only starts. Throws ArgumentError for a dt that is not positive and finite, whatever the state:
+  /// no step of that length can be integrated (reset() starts again).
   const Eigen::VectorXd& update(const Data& data, const JointVector& qd, const JointVector& tau, double dt);
 
   /// τ̂_ext: N·m or N per joint, the torque the environment applies, positive along the joint axis.

@@ -8,6 +8,13 @@
 
 namespace chasles {
 
+/// How far from 1 a quaternion's norm may be for it to be taken as a rotation (and normalised):
+/// one typed by hand or written with few digits is off by ~1e-5; one further off is a mistake (a
+/// missing component, Euler angles, (x, y, z, w) order with a typo), refused rather than guessed
+/// at. Every reader of a quaternion (the controller, the CLI, calibration datasets, the Python
+/// client) holds it to this.
+inline constexpr double kQuaternionNormTolerance = 1e-3;
+
 /// The angle in (−π, π] equal to x modulo 2π: where a continuous joint at x is.
 inline double wrap_angle(double x) {
   x = std::remainder(x, 2.0 * kPi);  // [−π, π]

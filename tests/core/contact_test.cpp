@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "chasles/core/dynamics/dynamics.hpp"
@@ -303,6 +304,27 @@ TEST(ContactObserver, RefusesGainsAndDampingThatCannotMakeAnObserver) {
   EXPECT_THROW(MomentumObserver(model, nan), ObserverError);
   EXPECT_THROW(MomentumObserver(model, ok, -ok), ObserverError);
   EXPECT_NO_THROW(MomentumObserver(model, ok, ok));
+}
+
+// A step of no length, a negative one, an infinite one (which made the estimate the last sample's
+// mean alone) and NaN (which started the observer again unsaid) are a caller's mistake, refused
+// before the observer has started and after.
+TEST(ContactObserver, RefusesAStepThatIsNotPositiveAndFinite) {
+  const RobotModel model = load_urdf_file(testing::data_path("panda.urdf"), UrdfOptions{"panda_hand"});
+  Data data(model);
+  const Eigen::VectorXd q = Eigen::VectorXd::Constant(model.dof(), 0.3);
+  const Eigen::VectorXd qd = Eigen::VectorXd::Constant(model.dof(), 0.1), tau = Eigen::VectorXd::Ones(model.dof());
+  momentum_terms(model, data, q, qd);
+  MomentumObserver observer(model, Eigen::VectorXd::Constant(model.dof(), 10.0));
+  for (const bool started : {false, true}) {
+    if (started) observer.reset(data, qd);
+    for (const double dt : {0.0, -1e-3, std::numeric_limits<double>::infinity(), std::nan("")}) {
+      EXPECT_THROW(observer.update(data, qd, tau, dt), ArgumentError) << dt;
+      EXPECT_EQ(observer.started(), started) << dt;
+    }
+  }
+  EXPECT_NO_THROW(observer.update(data, qd, tau, 1e-3));
+  EXPECT_TRUE(observer.external_torque().allFinite());
 }
 
 }  // namespace

@@ -133,6 +133,18 @@ def test_observer_gains_must_be_positive(ur5: chasles.Model) -> None:
         chasles.MomentumObserver(ur5, np.ones(5))
 
 
+@pytest.mark.parametrize("dt, shown", [(np.inf, "inf"), (np.nan, "nan"), (0.0, "0"), (-1e-3, "-0.001")])
+def test_an_observer_step_that_is_not_positive_and_finite_is_an_argument_error(
+        ur5: chasles.Model, dt: float, shown: str) -> None:
+    observer = chasles.MomentumObserver(ur5, np.full(6, 10.0))
+    q, qd, tau = np.full(6, 0.3), np.full(6, 0.1), np.ones(6)
+    observer.reset(q, qd)
+    expected = rf"^the observer's step dt = {shown} s; it must be positive and finite$"
+    with pytest.raises(chasles.ArgumentError, match=expected):
+        observer.update(q, qd, tau, dt)
+    assert np.all(np.isfinite(observer.update(q, qd, tau, 1e-3)))
+
+
 def test_a_dataset_with_an_unknown_column_names_its_line(ur5: chasles.Model) -> None:
     with pytest.raises(chasles.CalibrationError, match="data.csv:1: .*nope"):
         chasles.parse_dataset("nope,x,y,z\n1,2,3,4\n", ur5, "data.csv")

@@ -1,4 +1,4 @@
-"""The model examples of tools/python/examples, run as a user runs them; their outputs checked
+"""The model examples of python/examples, run as a user runs them; their outputs checked
 against references computed here without chasles."""
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import numpy as np
 import chasles
 
 DATA = Path(os.environ["CHASLES_TEST_DATA"])
-EXAMPLES = Path(__file__).resolve().parents[2] / "tools" / "python" / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "python" / "examples"
 
 
 def run_example(name: str, *args: str) -> dict:

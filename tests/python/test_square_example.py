@@ -1,4 +1,4 @@
-"""tools/python/examples/square.py run against the simulated arm (arm_processes.py, in the test's
+"""python/examples/square.py run against the simulated arm (arm_processes.py, in the test's
 network namespace): it exits 0 having written its PNG, and the log it wrote holds a tip path that
 passes within 1 mm (the C++ daemon tests' lockstep Cartesian tolerance) of each corner of the
 square, the corners known by construction from where this test saw the tip before it started."""

@@ -6,15 +6,12 @@
 #include <vector>
 
 #include "chasles/core/ik/ik.hpp"
+#include "chasles/core/lie/so3.hpp"
 #include "chasles/tools/cli/cases.hpp"
 #include "command.hpp"
 
 namespace chasles::cli {
 namespace {
-
-// A quaternion typed by hand is off unit norm by ~1e-5; further than this is a mistake, not rounding
-// (the same tolerance as chasles target).
-constexpr double kQuaternionNormTolerance = 1e-3;
 
 struct IkCommandOptions {
   ModelOptions model;

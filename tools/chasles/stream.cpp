@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "chasles/controller/realtime/clock.hpp"
+#include "chasles/core/lie/so3.hpp"
 #include "command.hpp"
 #include "lcm_start.hpp"
 
@@ -54,7 +55,9 @@ std::vector<Timed> read_stream(const std::string& path, bool& tip) {
       const Eigen::VectorXd position = parse_vector(member(p, "position", where), 3, where + ".position", "x, y, z");
       const Eigen::VectorXd quaternion =
           parse_vector(member(p, "quaternion", where), 4, where + ".quaternion", "w, x, y, z");
-      if (std::abs(quaternion.norm() - 1.0) > 1e-3) throw InputError(where + ": the quaternion is not of unit norm");
+      if (std::abs(quaternion.norm() - 1.0) > kQuaternionNormTolerance) {
+        throw InputError(where + ": the quaternion is not of unit norm");
+      }
       const Eigen::VectorXd twist = p.contains("twist") ? parse_vector(p["twist"], 6, where + ".twist", "wx..vz")
                                                         : Eigen::VectorXd::Zero(6);
       for (int i = 0; i < 3; ++i) timed.tip.position[i] = position(i);

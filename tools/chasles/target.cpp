@@ -15,15 +15,11 @@
 #include <optional>
 
 #include "chasles/controller/realtime/clock.hpp"
+#include "chasles/core/lie/so3.hpp"
 #include "command.hpp"
 
 namespace chasles::cli {
 namespace {
-
-// A quaternion typed by hand ("0.7071,0,0.7071,0") is off unit norm by ~1e-5; one with a norm
-// further than this from 1 is a mistake (a missing component, Euler angles, (x,y,z,w) order with
-// a typo), not rounding, and is refused rather than guessed at.
-constexpr double kQuaternionNormTolerance = 1e-3;
 
 struct TargetOptions {
   enum class Mode { Hold, Joint, Pose, Trajectory } mode = Mode::Hold;  ///< which of the four was given

@@ -20,7 +20,11 @@
 #include "chasles/core/contact/observer.hpp"
 #include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/kinematics/kinematics.hpp"
+#include "chasles/core/lie/so3.hpp"
+#include "chasles/core/model/payload.hpp"
 #include "chasles/core/model/urdf.hpp"
+// Only LawBounds's and LawDefaults' constants: nothing of the controller library is linked.
+#include "chasles/controller/law.hpp"
 
 namespace chasles::python {
 
@@ -450,7 +454,8 @@ void bind_observer(nb::module_& m) {
           },
           nb::arg("q"), nb::arg("qd"), nb::arg("tau"), nb::arg("dt"),
           "Takes the sample (q, q̇) reached dt seconds after the previous one, τ the joint torque applied over that "
-          "step; returns τ̂_ext, N·m or N per joint. Before reset(), or with dt ≤ 0, only starts.")
+          "step; returns τ̂_ext, N·m or N per joint. Before reset(), only starts. A dt that is not positive and finite "
+          "is an ArgumentError.")
       .def_prop_ro("external_torque", [](const Observer& self) { return to_array(self.observer.external_torque()); },
                    "The latest τ̂_ext.")
       .def_prop_ro("started", [](const Observer& self) { return self.observer.started(); });
@@ -471,6 +476,30 @@ void bind_observer(nb::module_& m) {
       "singularities.");
 }
 
+// The bounds and defaults chasles.client checks and fills a command with before sending, read from
+// the C++ the controller and the CLI use, so that no copy of them can drift: the quaternion norm
+// tolerance (core/lie/so3.hpp), a law's bounds and defaults (controller/law.hpp), the payload's
+// bounds (core/model/payload.hpp).
+void bind_limits(nb::module_& m) {
+  using controller::LawBounds;
+  using controller::LawDefaults;
+  m.attr("QUATERNION_NORM_TOLERANCE") = kQuaternionNormTolerance;
+  m.attr("MAX_JOINT_STIFFNESS") = LawBounds::kMaxJointStiffness;
+  m.attr("MAX_ROTATIONAL_STIFFNESS") = LawBounds::kMaxRotationalStiffness;
+  m.attr("MAX_TRANSLATIONAL_STIFFNESS") = LawBounds::kMaxTranslationalStiffness;
+  m.attr("MAX_NULLSPACE_STIFFNESS") = LawBounds::kMaxNullspaceStiffness;
+  m.attr("MIN_DAMPING_RATIO") = LawBounds::kMinDampingRatio;
+  m.attr("MAX_DAMPING_RATIO") = LawBounds::kMaxDampingRatio;
+  m.attr("MAX_FRAME_OFFSET") = LawBounds::kMaxFrameOffset;
+  m.attr("DEFAULT_DAMPING_RATIO") = LawDefaults::kDampingRatio;
+  m.attr("DEFAULT_ROTATIONAL_STIFFNESS") = LawDefaults::kRotationalStiffness;
+  m.attr("DEFAULT_TRANSLATIONAL_STIFFNESS") = LawDefaults::kTranslationalStiffness;
+  m.attr("DEFAULT_NULLSPACE_STIFFNESS") = LawDefaults::kNullspaceStiffness;
+  m.attr("MAX_PAYLOAD_MASS") = kMaxPayloadMass;
+  m.attr("MAX_PAYLOAD_REACH") = kMaxPayloadReach;
+  m.attr("MAX_PAYLOAD_INERTIA") = kMaxPayloadInertia;
+}
+
 }  // namespace
 
 }  // namespace chasles::python
@@ -483,4 +512,5 @@ NB_MODULE(_core, m) {
   bind_model(m);
   bind_observer(m);
   bind_solvers(m);
+  bind_limits(m);
 }

@@ -40,6 +40,28 @@ import lcm
 import numpy as np
 
 from chasles._core import ArgumentError, Error
+# The bounds and defaults of the C++ that judges the same commands (the controller, the CLI), read
+# from it: a quaternion's norm tolerance (core/lie/so3.hpp), a law's bounds and defaults
+# (controller/law.hpp LawBounds, LawDefaults: control_mode_t documents them), the payload's bounds
+# (core/model/payload.hpp). The payload's principal moments are judged with core/model/inertia.cpp's
+# tolerance: 2e-3 × the largest + m·(1 µm)².
+from chasles._core import (
+    DEFAULT_DAMPING_RATIO,
+    DEFAULT_NULLSPACE_STIFFNESS,
+    DEFAULT_ROTATIONAL_STIFFNESS,
+    DEFAULT_TRANSLATIONAL_STIFFNESS,
+    MAX_DAMPING_RATIO,
+    MAX_FRAME_OFFSET,
+    MAX_JOINT_STIFFNESS,
+    MAX_NULLSPACE_STIFFNESS,
+    MAX_PAYLOAD_INERTIA,
+    MAX_PAYLOAD_MASS,
+    MAX_PAYLOAD_REACH,
+    MAX_ROTATIONAL_STIFFNESS,
+    MAX_TRANSLATIONAL_STIFFNESS,
+    MIN_DAMPING_RATIO,
+    QUATERNION_NORM_TOLERANCE,
+)
 from chasles.lcmtypes import (
     arm_target_t,
     control_mode_t,
@@ -54,25 +76,7 @@ from chasles.lcmtypes import (
 
 ArrayLike = Union[Sequence[float], np.ndarray]
 
-#: A quaternion typed by hand is off unit norm by ~1e-5 and is normalised; one further than this
-#: from 1 is a mistake (a missing component, (x, y, z, w) order), refused as the CLI refuses it.
-QUATERNION_NORM_TOLERANCE = 1e-3
-
-#: The bounds control_mode_t documents (controller/law.hpp LawBounds), checked before sending.
-MAX_JOINT_STIFFNESS = 5000.0  # N·m/rad or N/m
-MAX_ROTATIONAL_STIFFNESS = 500.0  # N·m/rad, eigenvalues of K_c's ω block
-MAX_TRANSLATIONAL_STIFFNESS = 5000.0  # N/m, eigenvalues of K_c's v block
-MAX_NULLSPACE_STIFFNESS = 500.0  # N·m/rad
-DAMPING_RATIO_RANGE = (0.1, 2.0)
-MAX_FRAME_OFFSET = 1.0  # m from the tip link's origin
-#: The defaults `chasles mode` sends (controller/law.hpp LawDefaults).
-DEFAULT_DAMPING_RATIO = 1.0
-DEFAULT_ROTATIONAL_STIFFNESS = 50.0
-DEFAULT_TRANSLATIONAL_STIFFNESS = 1000.0
-DEFAULT_NULLSPACE_STIFFNESS = 10.0
-#: A payload beyond these is no arm's load (core/model/payload.hpp); the principal moments are
-#: judged with core/model/inertia.cpp's tolerance: 2e-3 × the largest + m·(1 µm)².
-MAX_PAYLOAD_MASS, MAX_PAYLOAD_REACH, MAX_PAYLOAD_INERTIA = 1000.0, 5.0, 1000.0
+DAMPING_RATIO_RANGE = (MIN_DAMPING_RATIO, MAX_DAMPING_RATIO)
 #: joint_trajectory_t holds 1 to this many waypoints.
 MAX_WAYPOINTS = 1000
 
