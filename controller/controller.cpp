@@ -793,7 +793,9 @@ bool Controller::set_tip_setpoint(const TipSetpoint& setpoint, int64_t now_ns) {
     return refuse("tip setpoint: with non-finite values");
   }
   const double norm = setpoint.quaternion.norm();
-  if (std::abs(norm - 1.0) > 1e-3) return refuse("tip setpoint: a quaternion of norm %g, not a unit one", norm);
+  if (std::abs(norm - 1.0) > kQuaternionNormTolerance) {
+    return refuse("tip setpoint: a quaternion of norm %g, not a unit one", norm);
+  }
   const bool first = !driven_by(Drive::kTipStream);
   if (!enter_stream(Drive::kTipStream, setpoint.utime, setpoint_utime_, dropped_setpoints_, "a Cartesian stream",
                     now_ns)) {
