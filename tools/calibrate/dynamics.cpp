@@ -47,6 +47,12 @@ JointSamples samples_of(const cli::StateLog& log) {
 
 Json optional_number(bool present, double x) { return present ? cli::number(x) : Json(nullptr); }
 
+Json moving_share(const RobotModel& model, const LogUse& use) {
+  Json shares = Json::object();
+  for (int i = 0; i < model.dof(); ++i) shares[model.joint(i).name] = use.moving_share[i];
+  return shares;
+}
+
 Json report_json(const DynamicsOptions& o, const RobotModel& nominal, const cli::StateLog& log,
                  const DynamicFitResult& r) {
   const int n = nominal.dof();
@@ -63,20 +69,25 @@ Json report_json(const DynamicsOptions& o, const RobotModel& nominal, const cli:
                        {"damaged_or_undecodable_left_out", static_cast<int>(log.problems.size())},
                        {"rate_hz", r.log.sample_rate_hz},
                        {"duration_s", r.log.duration_s},
+                       {"motion_s", r.log.motion_seconds},
+                       {"rest_s", r.log.rest_seconds},
+                       {"moving_share", moving_share(nominal, r.log)},
                        {"segments", r.log.segments},
                        {"in_segments_too_short", r.log.dropped_samples},
                        {"decimation", r.log.decimation},
                        {"fit", r.log.fit_samples},
-                       {"fit_torques", r.log.fit_samples * n},
+                       {"fit_torques", r.log.fit_torques},
                        {"held_out", r.log.holdout_samples},
                        {"held_out_s", r.log.holdout_seconds},
                        {"held_out_blocks", r.log.holdout_blocks},
                        {"blocks", o.fit.holdout_blocks},
                        {"note",
-                        "the log is cut in time into 'blocks' equal blocks and 'held_out_blocks' of them are held "
-                        "out whole; the fit uses every 'decimation'-th sample of the others (2.5 x the cut-off); "
-                        "each segment between gaps loses 2 / cutoff s at either end, where the filter sees its "
-                        "own reflection"}};
+                        "a joint's torque counts, in the fit and the held-out RMS, where the joint moves at "
+                        "min_speed or faster and did so 1 / cutoff s either side (moving_share: of the motion); "
+                        "samples where no joint moves are rest, left out whole; the motion is cut into 'blocks' "
+                        "equal blocks and the last ones ('held_out_blocks') are held out whole; the fit uses every "
+                        "'decimation'-th sample of the others (2.5 x the cut-off); each segment between gaps loses "
+                        "2 / cutoff s at either end, where the filter sees its own reflection"}};
   report["filter"] = {{"type", "Butterworth low-pass, run forwards and backwards (zero phase)"},
                       {"order", o.fit.filter_order},
                       {"cutoff_hz", o.fit.cutoff_hz},
@@ -137,7 +148,8 @@ Json report_json(const DynamicsOptions& o, const RobotModel& nominal, const cli:
   report["held_out_torque_rms"] = torques;
   report["held_out_note"] =
       "RMS of the logged effort less each model's prediction of the torque applied over each step, at every "
-      "held-out sample; fit_sigma is the identified model's residual on the filtered, decimated torques it was "
+      "held-out sample (the last blocks of the motion) where the joint moves; "
+      "fit_sigma is the identified model's residual on the filtered, decimated torques it was "
       "fitted to";
   report["options"] = {{"holdout", o.fit.holdout},
                        {"huber_sigma", o.fit.huber},
@@ -145,6 +157,7 @@ Json report_json(const DynamicsOptions& o, const RobotModel& nominal, const cli:
                        {"prior_length_m", o.fit.prior_length},
                        {"max_condition", o.fit.max_condition},
                        {"min_range", o.fit.min_range},
+                       {"min_speed", o.fit.min_speed},
                        {"seed", o.fit.seed}};
   report["solver"] = {{"converged", r.converged},
                       {"termination", r.termination},
@@ -161,6 +174,10 @@ void print_summary(const DynamicsOptions& o, const RobotModel& nominal, const Dy
             << nominal.tip_link() << "), " << r.log.samples << " states on " << o.channel;
   std::snprintf(line, sizeof line, " at %.0f Hz over %.1f s: %d fitted (every %d), %d held out\n", r.log.sample_rate_hz,
                 r.log.duration_s, r.log.fit_samples, r.log.decimation, r.log.holdout_samples);
+  std::cout << line;
+  std::snprintf(line, sizeof line, "motion %.1f s, rest %.1f s left out; joints moving in %.0f-%.0f %% of the motion\n",
+                r.log.motion_seconds, r.log.rest_seconds, 100.0 * r.log.moving_share.minCoeff(),
+                100.0 * r.log.moving_share.maxCoeff());
   std::cout << line;
   std::snprintf(line, sizeof line,
                 "base parameters: %d of %d (theory), condition number %.3g (%.3g with unit columns)\n", r.rank,
@@ -298,6 +315,12 @@ void add_log_options(CLI::App& command, std::string& channel, DynamicFitOptions&
       ->capture_default_str();
   command.add_option("--cutoff", fit.cutoff_hz, "Cut-off of the zero-phase low-pass on velocity and torque (Hz)")
       ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  command
+      .add_option("--min-speed", fit.min_speed,
+                  "A joint's torque is left out where it moves slower (rad/s or m/s) and 1 / cutoff s around: at "
+                  "rest or stuck, static friction holds a torque no model tells")
+      ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
 }
 
