@@ -217,6 +217,11 @@ TEST(dynamicFit, BadInputIsRefusedSayingWhat) {
             std::string::npos)
       << short_log;
 
+  // 3 s once passed, 7 torques per parameter, and its report claimed 0.05–0.1 N·m where another
+  // motion showed 0.39: the fit follows a short motion and nothing else.
+  const std::string three = error_of([&] { identify_dynamics(panda(), samples); });
+  EXPECT_NE(three.find("the log is too short: 3 s at 500 Hz hold 2.6 s of motion"), std::string::npos) << three;
+
   const JointSamples still = testing::synthetic_run(testing::perturbed_panda(7), 12.0, 500.0, kNoise, 11, 4);
   EXPECT_EQ(error_of([&] { identify_dynamics(panda(), still); }),
             "the log does not excite the arm: joints that barely move: 'panda_joint5' (range 0), under 0.0175 rad or "
