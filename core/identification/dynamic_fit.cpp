@@ -643,10 +643,11 @@ Eigen::JacobiSVD<Eigen::MatrixXd> unit_column_svd(const Eigen::HouseholderQR<Eig
 // Step 7: the held-out torque RMS of two models (π_a, π_b) against the logged τ, each predicting
 // the torque applied over each step: the trapezoid ½ (τ̂_{k−1} + τ̂_k) for every smooth term, and
 // Coulomb's mean taken up to the crossing over a step where q̇ changes sign. Each joint over the
-// samples where it moves (Prepared::moving), the torques the fit claims to explain.
+// samples where it moves (Prepared::moving), the torques the fit claims to explain, or over all of
+// `columns` when `every_sample`.
 std::pair<Eigen::VectorXd, Eigen::VectorXd> holdout_rms(const RobotModel& model, const Prepared& data,
                                                         const std::vector<int>& columns, const Eigen::VectorXd& pi_a,
-                                                        const Eigen::VectorXd& pi_b) {
+                                                        const Eigen::VectorXd& pi_b, bool every_sample = false) {
   const int n = model.dof();
   const ParameterLayout layout = parameter_layout(model);
   RegressorWorkspace workspace(model);
@@ -668,7 +669,8 @@ std::pair<Eigen::VectorXd, Eigen::VectorXd> holdout_rms(const RobotModel& model,
     const auto coulomb = [&](const Eigen::VectorXd& pi) {
       return Eigen::VectorXd(pi.segment(layout.coulomb(0), n).cwiseProduct(step));
     };
-    const Eigen::ArrayXd moving = data.moving.col(c).cast<double>();
+    const Eigen::ArrayXd moving =
+        every_sample ? Eigen::ArrayXd::Ones(n) : Eigen::ArrayXd(data.moving.col(c).cast<double>());
     sum_a.array() += moving * (data.tau.col(c) - 0.5 * (previous_a + now_a) - coulomb(pi_a)).array().abs2();
     sum_b.array() += moving * (data.tau.col(c) - 0.5 * (previous_b + now_b) - coulomb(pi_b)).array().abs2();
     count += moving.matrix();
@@ -856,6 +858,7 @@ DynamicFitResult identify_dynamics(const RobotModel& nominal, const JointSamples
       standard_errors(W_b, y, result.beta, result.sigma, joint_of, result.correlation_inflation);
   std::tie(result.holdout_rms_nominal, result.holdout_rms) =
       holdout_rms(nominal, data, holdout_columns, pi_nominal, result.pi);
+  result.holdout_rms_every_sample = holdout_rms(nominal, data, holdout_columns, result.pi, result.pi, true).second;
   result.seconds = timer.seconds();
   return result;
 }

@@ -136,6 +136,9 @@ struct DynamicFitResult {
   Eigen::VectorXd sigma;           ///< n: residual RMS of each joint at the fit, N·m (filtered torques)
   Eigen::VectorXd holdout_rms_nominal;  ///< n: N·m, against the logged torques where the joint moves
   Eigen::VectorXd holdout_rms;          ///< n
+  /// n: the identified model's over every held-out sample of the motion, the joint slow or stuck
+  /// included: what stiction and the Stribeck effect, which no fitted model has, add to it.
+  Eigen::VectorXd holdout_rms_every_sample;
   double condition_number = 0.0;        ///< of the stacked base regressor W_b as it is (SI units)
   double condition_number_scaled = 0.0; ///< of W_b weighted by 1/σ_i and with unit columns
   LogUse log;                      ///< how the log was used

@@ -143,12 +143,14 @@ Json report_json(const DynamicsOptions& o, const RobotModel& nominal, const cli:
                        {"unit", nominal.joint(i).type == JointType::Prismatic ? "N" : "N*m"},
                        {"nominal", optional_number(held, r.holdout_rms_nominal[i])},
                        {"identified", optional_number(held, r.holdout_rms[i])},
+                       {"identified_every_sample", optional_number(held, r.holdout_rms_every_sample[i])},
                        {"fit_sigma", r.sigma[i]}});
   }
   report["held_out_torque_rms"] = torques;
   report["held_out_note"] =
       "RMS of the logged effort less each model's prediction of the torque applied over each step, at every "
-      "held-out sample (the last blocks of the motion) where the joint moves; "
+      "held-out sample (the last blocks of the motion) where the joint moves (identified_every_sample: at every "
+      "one, the joint slow or stuck included, where static friction holds what no model tells); "
       "fit_sigma is the identified model's residual on the filtered, decimated torques it was "
       "fitted to";
   report["options"] = {{"holdout", o.fit.holdout},
