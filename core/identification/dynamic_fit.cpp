@@ -437,8 +437,8 @@ struct LogSplit {
 // excitation.
 constexpr int kTorquesPerParameter = 15;
 
-// Joint i, in order, where the log could not show the joint's torque: it sits still or stuck in all
-// but `share` of the log's motion.
+// The joints, in order, that move in less than `below` of the motion, each with its share: a
+// joint stuck or still that long leaves too few of its torques to fit.
 std::string stuck_joints(const RobotModel& model, const Eigen::VectorXd& share, double below) {
   std::string text;
   for (int i = 0; i < share.size(); ++i) {
