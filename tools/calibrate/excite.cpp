@@ -116,6 +116,14 @@ double spline_deviation(const controller::WaypointSpline& spline, const FourierT
   return worst;
 }
 
+// An arm not identified yet reads its own model error as external torque, and the excitation is as
+// fast and far as the limits allow: under the default collision thresholds (a 15 N tip force) the
+// reflex aborts it.
+const char* const kCollisionAdvice =
+    "until the arm is identified, run the controller with its collision thresholds off while the excitation runs "
+    "(its model error reads as external force): chasles_controller ... --collision-torque inf --collision-force 1e9 "
+    "--collision-moment 1e9";
+
 Json trajectory_json(const RobotModel& model, const controller::Waypoints& w) {
   Json points = Json::array();
   for (int k = 0; k < w.count; ++k) {
@@ -249,7 +257,8 @@ void run_excite(ExciteOptions o) {
     std::snprintf(value, sizeof(value), "%.10g", start(i));
     pose += (i ? "," : "") + std::string(value);
   }
-  std::cout << "\nthe arm must be at rest at the start first: chasles target --joint " << pose << "\n";
+  std::cout << "\nthe arm must be at rest at the start first: chasles target --joint " << pose << "\n"
+            << kCollisionAdvice << "\n";
 }
 
 }  // namespace
@@ -305,7 +314,9 @@ Command register_excite(CLI::App& app) {
       "number of the base regressor W_b stacked along a period, within the controller's position, velocity, "
       "acceleration and jerk limits (checked every 1 ms, and through the controller's own spline).\n"
       "The file holds at most 1000 waypoints with positions, velocities and accelerations, the first after "
-      "t = 0: the arm must first be brought to rest at the start (chasles target --joint START).\n"
+      "t = 0: the arm must first be brought to rest at the start (chasles target --joint START). It asks for time "
+      "scaling, so that the controller slows rather than refuses it when the arm is not quite at the start.\n" +
+      std::string(kCollisionAdvice) + ".\n"
       "Files are written atomically (temporary file, fsync, rename); on any error nothing is written.\n"
       "Example:\n"
       "  chasles_calibrate excite --urdf panda.urdf --tip panda_hand --out excitation.json --report excitation_report.json\n"
