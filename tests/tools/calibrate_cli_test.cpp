@@ -284,8 +284,8 @@ std::array<double, 4> swevers_series(const json& report, int i, double t) {
   return x;
 }
 
-// excite writes the series as waypoints — each one the series' q, q̇, q̈ at its time, the last
-// exactly at rest at the start — within the controller's default limits every millisecond: the
+// excite writes the series as waypoints — the first the start at rest after a 1 s lead-in, each
+// other one the series' q, q̇, q̈ at its time, the last exactly at rest at the start — within the controller's default limits every millisecond: the
 // URDF's positions less 0.01 rad, its velocities, velocity / 0.4 s and that / 0.02 s
 // (docs/controller.md, "Limits"). A short optimisation, as CI affords.
 TEST(calibrateCli, ExciteWritesTheSeriesAsWaypointsWithinTheLimits) {
@@ -321,7 +321,8 @@ TEST(calibrateCli, ExciteWritesTheSeriesAsWaypointsWithinTheLimits) {
     before = t;
     for (const char* key : {"positions", "velocities", "accelerations"}) ASSERT_EQ(point.at(key).size(), 7u) << key;
     for (int i = 0; i < n; ++i) {
-      const std::array<double, 4> x = swevers_series(report, i, t);
+      // The first holds the start for the lead-in (1 s), at rest: the series' value at its t = 0.
+      const std::array<double, 4> x = swevers_series(report, i, k == 0 ? 0.0 : t - 1.0);
       for (int d = 0; d < 3; ++d) {
         const char* key = d == 0 ? "positions" : d == 1 ? "velocities" : "accelerations";
         worst = std::max(worst, std::abs(point.at(key).at(i).get<double>() - x[d]));
@@ -329,7 +330,9 @@ TEST(calibrateCli, ExciteWritesTheSeriesAsWaypointsWithinTheLimits) {
     }
   }
   EXPECT_LT(worst, 1e-12);
-  EXPECT_EQ(before, 8.0);
+  EXPECT_EQ(points[0].at("time_from_start"), 1.0);
+  EXPECT_EQ(report.at("lead_in"), 1.0);
+  EXPECT_EQ(before, 9.0);
   const json& last = points.back();
   for (int i = 0; i < n; ++i) {
     EXPECT_EQ(last.at("positions").at(i), report.at("start").at(i));

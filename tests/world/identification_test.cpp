@@ -70,8 +70,10 @@ controller::DaemonOptions controller_for(const RobotModel& model, const VectorXd
 }
 
 // The series as the controller takes it: `points` waypoints with positions, velocities and
-// accelerations, the last exactly at rest at the start (as chasles_calibrate excite writes them).
+// accelerations, the first the start at rest after a 1 s lead-in, the last exactly at rest at the
+// start, time scaling allowed (as chasles_calibrate excite writes them).
 joint_trajectory_t trajectory_message(const RobotModel& model, const FourierTrajectory& series, int points) {
+  constexpr double kLeadIn = 1.0;
   const int n = model.dof();
   joint_trajectory_t t{};
   t.id = 1;
@@ -80,10 +82,10 @@ joint_trajectory_t trajectory_message(const RobotModel& model, const FourierTraj
   for (const Joint& joint : model.joints()) t.joint_names.push_back(joint.name);
   VectorXd q(n), qd(n), qdd(n), qddd(n);
   for (int k = 0; k < points; ++k) {
-    const double time = series.duration() * (k + 1) / points;
+    const double time = series.duration() * k / (points - 1);
     sample_fourier(series, time, q, qd, qdd, qddd);
-    if (k == points - 1) q = series.start, qd.setZero(), qdd.setZero();
-    t.time_from_start.push_back(time);
+    if (k == 0 || k == points - 1) q = series.start, qd.setZero(), qdd.setZero();
+    t.time_from_start.push_back(kLeadIn + time);
     t.positions.emplace_back(q.data(), q.data() + n);
     t.velocities.emplace_back(qd.data(), qd.data() + n);
     t.accelerations.emplace_back(qdd.data(), qdd.data() + n);
@@ -171,10 +173,11 @@ TEST_P(Identification, AnArmsOwnLogIdentifiesItsHiddenModelError) {
   const BaseParameters base = base_parameters(nominal, 50, 1);
   const ExcitationResult designed = optimize_excitation(nominal, base, bounds, start, excitation);
 
-  // The run: the plant starts where the excitation does; the controller knows the URDF and D.
+  // The run: the plant starts 0.02 rad off where the excitation does, as an arm that sagged there
+  // (the lead-in brings it back); the controller knows the URDF and D.
   const VectorXd damping = VectorXd::Constant(n, 0.5);
   World world(nominal);
-  world.start_plant(start, hidden_error(n));
+  world.start_plant(start + VectorXd::Constant(n, 0.02), hidden_error(n));
   world.add_controller(controller_for(nominal, damping, VectorXd()));
   ASSERT_TRUE(world.run_until([&] { return world.recorder().status_is(controller_status_t::HOLDING); }, 1.0));
   world.recorder().keep_states();
