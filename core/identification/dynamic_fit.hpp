@@ -99,8 +99,8 @@ struct DynamicFitOptions {
   double min_speed = 0.1;
   double max_condition = 1e6;  ///< of the column-scaled, weighted W_b: above, the log does not excite
   /// Of the solver; a fit that needs more is refused. The UR5 of tests/world/identification_test
-  /// takes 321 (4.5 s) along the prior's shallow valley, the Panda fewer than 100.
-  int max_iterations = 500;
+  /// takes 320–470 (3–5 s) along the prior's shallow valley, the Panda fewer than 50.
+  int max_iterations = 1000;
   int threads = 2;
   uint64_t seed = 1;           ///< of the random states base_parameters factors
 };
