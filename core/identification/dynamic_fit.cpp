@@ -53,11 +53,13 @@ void check_options(const DynamicFitOptions& o) {
 }
 
 // An arm cannot leave its joints' ranges: a log that does is another arm's, or the URDF is the
-// wrong one. (A hair of slack, 0.02 rad or m, for encoders read at the stops.)
+// wrong one. (A hair of slack, 0.02 rad or m, for encoders read at the stops; a continuous joint,
+// whose model gives ±π, may turn any number of times.)
 void check_limits(const RobotModel& model, const Eigen::MatrixXd& q) {
   constexpr double kSlack = 0.02;
   std::string outside;
   for (int i = 0; i < model.dof(); ++i) {
+    if (model.joint(i).type == JointType::Continuous) continue;
     const JointLimits& limits = model.joint(i).limits;
     const double low = q.row(i).minCoeff(), high = q.row(i).maxCoeff();
     if (low >= limits.lower - kSlack && high <= limits.upper + kSlack) continue;

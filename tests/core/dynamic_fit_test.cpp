@@ -287,6 +287,20 @@ TEST(dynamicFit, AnotherArmsLogIsRefused) {
             std::string::npos)
       << message;
   EXPECT_NE(message.find("a log of another arm, or the wrong URDF or tip link?"), std::string::npos) << message;
+
+  // A continuous joint, whose model says ±π, may turn any number of times: two turns of j3 pass the
+  // check (and the log is refused for what it is: j1 and j2 stand still).
+  const RobotModel arm = load_urdf_file(testing::data_path("arm.urdf"), UrdfOptions{"tip"});
+  JointSamples turning;
+  turning.t = Eigen::VectorXd::LinSpaced(1000, 0.0, 1.998);
+  turning.q = Eigen::MatrixXd::Zero(3, 1000);
+  turning.q.row(1).setConstant(0.25);
+  turning.q.row(2) = 2.0 * kPi * turning.t.transpose();
+  turning.qd = Eigen::MatrixXd::Zero(3, 1000);
+  turning.qd.row(2).setConstant(2.0 * kPi);
+  turning.tau = Eigen::MatrixXd::Zero(3, 1000);
+  const std::string turns = error_of([&] { identify_dynamics(arm, turning); });
+  EXPECT_NE(turns.find("joints that barely move: 'j1' (range 0), 'j2' (range 0)"), std::string::npos) << turns;
 }
 
 // A fit stopped before it converged is a guess at the bodies: refused, not written.
