@@ -567,6 +567,43 @@ TEST(calibrateCli, PayloadOnTheIdentifiedArm) {
   }
 }
 
+// "over the joints: X" of check's output.
+double rms_over_joints(const std::string& out) {
+  const size_t at = out.find("over the joints: ");
+  return at == std::string::npos ? -1.0 : std::stod(out.substr(at + 17));
+}
+
+// What the report's held-out RMS claims, against what the identified URDF does on another motion
+// of the same arm (other sines, other noise): within 20 %, and the URDF as given far worse there.
+TEST(calibrateCli, CheckMeasuresTheIdentifiedUrdfOnAnotherMotion) {
+  const ScratchDir dir;
+  const TrueArm truth = perturbed_panda(7);
+  write_state_log(dir / "run.lcmlog", synthetic_run(truth, 12.0, 500.0, kEffortNoise, 11), "CHASLES_STATE");
+  write_state_log(dir / "other.lcmlog", synthetic_run(truth, 12.0, 500.0, kEffortNoise, 17), "CHASLES_STATE");
+  ASSERT_EQ(run({"dynamics", "--urdf", kPandaTcp.urdf, "--tip", kPandaTcp.tip, "--log", dir / "run.lcmlog", "--out",
+                 dir / "identified.urdf", "--report", dir / "identified.json"})
+                .exit_code,
+            0);
+  double claimed = 0.0;
+  const json report = read_json(dir / "identified.json");
+  for (const json& joint : report.at("held_out_torque_rms")) {
+    claimed += std::pow(joint.at("identified").get<double>(), 2);
+  }
+  claimed = std::sqrt(claimed / 7.0);
+  const RunResult identified =
+      run({"check", "--urdf", dir / "identified.urdf", "--tip", kPandaTcp.tip, "--log", dir / "other.lcmlog"});
+  ASSERT_EQ(identified.exit_code, 0) << identified.err;
+  const RunResult as_given =
+      run({"check", "--urdf", kPandaTcp.urdf, "--tip", kPandaTcp.tip, "--log", dir / "other.lcmlog"});
+  ASSERT_EQ(as_given.exit_code, 0) << as_given.err;
+  const double measured = rms_over_joints(identified.out), nominal = rms_over_joints(as_given.out);
+  EXPECT_NEAR(claimed, measured, 0.2 * measured) << identified.out;
+  EXPECT_LE(measured, 1.5 * kEffortNoise) << identified.out;
+  EXPECT_GE(nominal, 10.0 * measured) << as_given.out;
+  std::printf("held-out RMS claimed %.4f, on another motion %.4f (the URDF as given %.3f) N*m\n", claimed, measured,
+              nominal);
+}
+
 // A log the fit cannot use: exit 1, one line naming what, and nothing written.
 TEST(calibrateCli, DynamicsRefusesALogItCannotUse) {
   const ScratchDir dir;

@@ -1,7 +1,8 @@
 // chasles_calibrate dynamics: an LCM log of the arm moving in, its identified URDF and a JSON report
 // out, a summary on stdout (chasles::identification's identify_dynamics, calibration's
 // identified_urdf). chasles_calibrate payload: a log of the arm moving with a load in, the arm
-// known, the load `chasles payload` sends out (identify_payload).
+// known, the load `chasles payload` sends out (identify_payload). chasles_calibrate check: a URDF's
+// torque RMS on a log it was not identified from (prediction_rms).
 #include <cmath>
 #include <cstdio>
 #include <initializer_list>
@@ -307,7 +308,32 @@ void run_payload(const DynamicsOptions& o) {
   std::cout << "send it: " << command << "\nwrote " << o.out << "\n";
 }
 
-// What both commands read of the log and how they filter and judge it.
+// ---- check ----
+
+// A URDF's torques against a log it was not identified from, judged as dynamics judges its held-out
+// blocks: what its report's held-out RMS claims, measured on another motion.
+void run_check(const DynamicsOptions& o) {
+  const Inputs in = read_inputs(o);
+  const int n = in.model.dof();
+  const JointFriction friction = joint_friction_from_urdf(in.xml, in.model);
+  const ParameterLayout layout = parameter_layout(in.model);
+  Eigen::VectorXd pi = model_parameters(in.model);
+  pi.segment(layout.viscous(0), n) = friction.viscous;
+  pi.segment(layout.coulomb(0), n) = friction.coulomb;
+  const Eigen::VectorXd rms = prediction_rms(in.model, pi, samples_of(in.log), o.fit);
+  std::cout << "torque RMS of " << o.urdf << " on " << o.log << ", each joint where it moves:\n";
+  char line[160];
+  double sum = 0.0;
+  for (int i = 0; i < n; ++i) {
+    std::snprintf(line, sizeof line, "  %-18s %.4f\n", in.model.joint(i).name.c_str(), rms[i]);
+    std::cout << line;
+    sum += rms[i] * rms[i];
+  }
+  std::snprintf(line, sizeof line, "over the joints: %.4f\n", std::sqrt(sum / n));
+  std::cout << line;
+}
+
+// What the commands read of the log and how they filter and judge it.
 void add_log_options(CLI::App& command, std::string& channel, DynamicFitOptions& fit) {
   command.add_option("--state-channel", channel, "The channel of its chasles.robot_state_t messages")
       ->type_name("CHANNEL")
@@ -351,6 +377,28 @@ Command register_payload(CLI::App& app) {
       "Example:\n"
       "  chasles_calibrate payload --urdf identified.urdf --tip panda_hand --log with_box.lcmlog --out box.json");
   return {command, [options]() { run_payload(*options); }};
+}
+
+Command register_check(CLI::App& app) {
+  auto options = std::make_shared<DynamicsOptions>();
+  DynamicsOptions& o = *options;
+  CLI::App* command = app.add_subcommand(
+      "check", "How well a URDF (as dynamics identified it) predicts the torques of a log it was not fitted to");
+  command->add_option("--urdf", o.urdf, "The arm's URDF: bodies, rotors, <dynamics> friction")
+      ->required()
+      ->type_name("FILE");
+  command->add_option("--tip", o.tip, "Link that ends the chain; needed with several leaves")->type_name("LINK");
+  command->add_option("--log", o.log, "LCM log of the arm moving, another than the one identified")
+      ->required()
+      ->type_name("LOG");
+  add_log_options(*command, o.channel, o.fit);
+  command->footer(
+      "Prints each joint's RMS of the logged effort less the URDF's prediction of the torque applied over each "
+      "step, where the joint moves (--min-speed), as dynamics reports its held-out blocks. Refuses the logs "
+      "dynamics refuses for what they hold.\n"
+      "Example:\n"
+      "  chasles_calibrate check --urdf identified.urdf --tip panda_hand --log another_run.lcmlog");
+  return {command, [options]() { run_check(*options); }};
 }
 
 Command register_dynamics(CLI::App& app) {
