@@ -284,8 +284,9 @@ std::string identified_urdf(const std::string& original_xml, const RobotModel& i
                     identified.body_inertia(i).mass - G.mass);
       throw CalibrationError(source + ": the identified body moved by joint '" + identified.joint(i).name +
                              "' weighs " + masses + " of the links riding on it in the URDF (" + list +
-                             "): their <inertial>s are not what the arm carries; correct them, or remove them to "
-                             "leave the whole body on '" + name + "'");
+                             "): either their <inertial>s are not what the arm carries — correct them, or remove "
+                             "them to leave the whole body on '" + name + "' — or the log did not determine the "
+                             "body well enough: run a longer or faster excitation");
     }
     const Vector3d c = G.h / G.mass;
     const Matrix3d I_c = G.I - G.mass * (c.squaredNorm() * Matrix3d::Identity() - c * c.transpose());

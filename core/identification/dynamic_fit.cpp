@@ -52,6 +52,26 @@ void check_options(const DynamicFitOptions& o) {
   require(o.threads >= 1, "the solver needs at least one thread");
 }
 
+// An arm cannot leave its joints' ranges: a log that does is another arm's, or the URDF is the
+// wrong one. (A hair of slack, 0.02 rad or m, for encoders read at the stops; a continuous joint,
+// whose model gives ±π, may turn any number of times.)
+void check_limits(const RobotModel& model, const Eigen::MatrixXd& q) {
+  constexpr double kSlack = 0.02;
+  std::string outside;
+  for (int i = 0; i < model.dof(); ++i) {
+    if (model.joint(i).type == JointType::Continuous) continue;
+    const JointLimits& limits = model.joint(i).limits;
+    const double low = q.row(i).minCoeff(), high = q.row(i).maxCoeff();
+    if (low >= limits.lower - kSlack && high <= limits.upper + kSlack) continue;
+    outside += (outside.empty() ? "'" : ", '") + joint_name(model, i) + "' spans [" + number(low) + ", " +
+               number(high) + "] against [" + number(limits.lower) + ", " + number(limits.upper) + "]";
+  }
+  if (!outside.empty()) {
+    throw IdentificationError("the log's joints leave the URDF's limits: " + outside + " (rad or m); a log of "
+                              "another arm, or the wrong URDF or tip link?");
+  }
+}
+
 void check_samples(const RobotModel& model, const JointSamples& s) {
   const int n = model.dof();
   const Eigen::Index N = s.t.size();
@@ -88,6 +108,7 @@ void check_samples(const RobotModel& model, const JointSamples& s) {
                                 number(s.t[k - 1], 9) + " s): times must increase");
     }
   }
+  check_limits(model, s.q);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -103,6 +124,9 @@ struct Prepared {
   Eigen::MatrixXd tau;            ///< as logged (applied over the step ending at t)
   Eigen::MatrixXd tau_filtered;   ///< centred on t, then filtered
   Eigen::MatrixXd coulomb;        ///< sign(q̇) filtered as τ is
+  /// Whether joint i's torque at the column is one the model can explain: the joint moves at
+  /// |q̇| ≥ min_speed there and within 1 / f_c s either side (joint_moves).
+  Eigen::Array<bool, Eigen::Dynamic, Eigen::Dynamic> moving;
   std::vector<int> segment;       ///< first column of each segment, then the column count
   int dropped = 0;
 };
@@ -133,7 +157,27 @@ Eigen::VectorXd at_the_instant(Eigen::VectorXd x) {
   return x;
 }
 
-Prepared prepare(const JointSamples& s, const LowPassFilter& filter, double dt) {
+// Whether a joint's torque at each sample is one the model explains: not while the joint is slow
+// (|q̇| < min_speed), nor within `reach` samples of it. At rest or stuck, static friction holds
+// whatever torque the rest of the arm leaves, up to its breakaway, and at creeping speeds the
+// Stribeck effect lifts friction above Coulomb's f_c; the filter spreads either over its reach.
+Eigen::Array<bool, Eigen::Dynamic, 1> joint_moves(const Eigen::VectorXd& qd, double min_speed, Eigen::Index reach) {
+  const Eigen::Index L = qd.size();
+  Eigen::Array<bool, Eigen::Dynamic, 1> moves = Eigen::Array<bool, Eigen::Dynamic, 1>::Constant(L, true);
+  Eigen::Index last_slow = -reach - 1;
+  for (Eigen::Index k = 0; k < L; ++k) {
+    if (std::abs(qd[k]) < min_speed) last_slow = k;
+    if (k - last_slow <= reach) moves[k] = false;
+  }
+  Eigen::Index next_slow = L + reach + 1;
+  for (Eigen::Index k = L - 1; k >= 0; --k) {
+    if (std::abs(qd[k]) < min_speed) next_slow = k;
+    if (next_slow - k <= reach) moves[k] = false;
+  }
+  return moves;
+}
+
+Prepared prepare(const JointSamples& s, const LowPassFilter& filter, double dt, double min_speed) {
   const Eigen::Index N = s.t.size(), n = s.q.rows();
   const Eigen::Index trim = static_cast<Eigen::Index>(std::ceil(2.0 * filter.sample_rate_hz / filter.cutoff_hz));
   const Eigen::Index shortest = 2 * trim + std::max<Eigen::Index>(4, trim / 2);  // 5 / f_c s
@@ -155,6 +199,8 @@ Prepared prepare(const JointSamples& s, const LowPassFilter& filter, double dt) 
   p.dropped = dropped;
   p.t.resize(columns);
   for (Eigen::MatrixXd* m : {&p.q, &p.qd, &p.qdd, &p.tau, &p.tau_filtered, &p.coulomb}) m->resize(n, columns);
+  p.moving.resize(n, columns);
+  const Eigen::Index reach = static_cast<Eigen::Index>(std::ceil(filter.sample_rate_hz / filter.cutoff_hz));
   Eigen::Index column = 0;
   for (const auto& [a, b] : spans) {
     // The segment's last sample has no successor to centre its torque with.
@@ -176,6 +222,7 @@ Prepared prepare(const JointSamples& s, const LowPassFilter& filter, double dt) 
         sign[k] = 0.5 * (mean_sign(before, qd[k]) + mean_sign(qd[k], after));
       }
       p.qd.row(i).segment(column, kept) = qd.segment(trim, kept).transpose();
+      p.moving.row(i).segment(column, kept) = joint_moves(qd, min_speed, reach).segment(trim, kept).transpose();
       p.qdd.row(i).segment(column, kept) = central_difference(qd, dt).segment(trim, kept).transpose();
       p.tau_filtered.row(i).segment(column, kept) =
           at_the_instant(zero_phase_filter(filter, centred)).segment(trim, kept).transpose();
@@ -381,7 +428,27 @@ struct LogSplit {
   LowPassFilter filter;
   Prepared data;
   std::vector<int> fit, holdout;  ///< columns of data; each held-out one has its predecessor in data
+  /// The fit's torque rows: fit column s's joints that move (Prepared::moving), s after s.
+  std::vector<int> row_sample, row_joint;
 };
+
+// The log must give kTorquesPerParameter torques per fitted parameter, and something to judge the
+// fit on. Three, as before, let a 3 s log of a Panda with stiction through (62 base parameters from
+// 420 torques) whose report claimed 0.05-0.1 N·m where a different motion showed 0.39: the fit
+// follows that short motion and nothing else. Fifteen is most of one 10 s period of the default
+// excitation.
+constexpr int kTorquesPerParameter = 15;
+
+// The joints, in order, that move in less than `below` of the motion, each with its share: a
+// joint stuck or still that long leaves too few of its torques to fit.
+std::string stuck_joints(const RobotModel& model, const Eigen::VectorXd& share, double below) {
+  std::string text;
+  for (int i = 0; i < share.size(); ++i) {
+    if (share[i] >= below) continue;
+    text += (text.empty() ? "'" : ", '") + joint_name(model, i) + "' (moving " + number(100.0 * share[i], 2) + " %)";
+  }
+  return text;
+}
 
 LogSplit split_log(const RobotModel& model, const JointSamples& samples, const DynamicFitOptions& options,
                    LogUse& use) {
@@ -419,7 +486,7 @@ LogSplit split_log(const RobotModel& model, const JointSamples& samples, const D
 
   LogSplit split;
   split.filter = butterworth_low_pass(options.filter_order, options.cutoff_hz, use.sample_rate_hz);
-  split.data = prepare(samples, split.filter, dt);
+  split.data = prepare(samples, split.filter, dt, options.min_speed);
   const Prepared& data = split.data;
   use.segments = static_cast<int>(data.segment.size()) - 1;
   use.dropped_samples = data.dropped;
@@ -427,48 +494,88 @@ LogSplit split_log(const RobotModel& model, const JointSamples& samples, const D
   // makes the rate 499.99999 Hz.)
   use.decimation = std::max(1, static_cast<int>(std::floor(use.sample_rate_hz / (2.5 * options.cutoff_hz) + 1e-6)));
 
-  // Held-out blocks, H of B spread evenly: block b holds t in [t0 + b T / B, t0 + (b + 1) T / B).
+  // The motion: columns where some joint moves. Rest says nothing and is left out whole; the
+  // blocks are cut in the motion alone, so that rest does not fill the held-out share.
+  const Eigen::Index columns = data.t.size();
+  std::vector<int> rank(static_cast<size_t>(columns), -1);
+  int motion = 0;
+  Eigen::VectorXd moving_count = Eigen::VectorXd::Zero(n);
+  for (Eigen::Index c = 0; c < columns; ++c) {
+    if (!data.moving.col(c).any()) continue;
+    rank[static_cast<size_t>(c)] = motion++;
+    for (int i = 0; i < n; ++i) moving_count[i] += data.moving(i, c) ? 1.0 : 0.0;
+  }
+  use.motion_seconds = motion * dt;
+  use.rest_seconds = static_cast<double>(columns - motion) * dt;
+  use.moving_share = moving_count / std::max(1.0, static_cast<double>(motion));
+  if (columns > 0 && motion == 0) {  // (a log too short to filter has no columns: check_length says so)
+    throw IdentificationError("the log holds no motion: no joint moves at " + number(options.min_speed) +
+                              " rad/s or m/s or faster (over " + number(use.duration_s) +
+                              " s); log the arm while it runs an excitation trajectory");
+  }
+  constexpr double kLeastShare = 0.2;
+  if (const std::string stuck = stuck_joints(model, use.moving_share, kLeastShare); motion > 0 && !stuck.empty()) {
+    throw IdentificationError(
+        "joints stuck or still for most of the motion: " + stuck + " of its " + number(use.motion_seconds) +
+        " s at " + number(options.min_speed) + " rad/s or m/s or faster; while a joint sticks, static friction holds "
+        "a torque no model of the log can tell, so those torques are left out and too few remain (every joint must "
+        "move in " + number(100.0 * kLeastShare) + " % of it): stiffen the controller's joint gains or run the "
+        "excitation faster (a shorter --period) so that the joints break away");
+  }
+
+  // Held-out blocks: the last H of B blocks of the motion, so that the judgement is made on motion
+  // the fit never saw nor neighbours.
   const int B = options.holdout_blocks;
   const int H = static_cast<int>(std::lround(options.holdout * B));
-  std::vector<bool> held(static_cast<size_t>(B), false);
-  for (int h = 0; h < H; ++h) {
-    const int b = static_cast<int>(std::floor((h + 0.5) * B / H));
-    held[static_cast<size_t>(b)] = true;
-    use.holdout_blocks.push_back(b);
-  }
-  const auto block_of = [&](double t) {
-    const double u = (t - samples.t[0]) / use.duration_s;
-    return std::min(B - 1, static_cast<int>(std::floor(u * B)));
-  };
+  for (int b = B - H; b < B; ++b) use.holdout_blocks.push_back(b);
   for (size_t s = 0; s + 1 < data.segment.size(); ++s) {
     for (int c = data.segment[s]; c < data.segment[s + 1]; ++c) {
-      if (held[static_cast<size_t>(block_of(data.t[c]))]) {
+      const int r = rank[static_cast<size_t>(c)];
+      if (r < 0) continue;
+      const int block = std::min(B - 1, static_cast<int>(static_cast<int64_t>(r) * B / motion));
+      if (block >= B - H) {
         if (c > data.segment[s]) split.holdout.push_back(c);  // its predecessor is needed
       } else if ((c - data.segment[s]) % use.decimation == 0) {
+        for (int i = 0; i < n; ++i) {
+          if (!data.moving(i, c)) continue;
+          split.row_sample.push_back(static_cast<int>(split.fit.size()));
+          split.row_joint.push_back(i);
+        }
         split.fit.push_back(c);
       }
     }
   }
   use.fit_samples = static_cast<int>(split.fit.size());
+  use.fit_torques = static_cast<int>(split.row_joint.size());
   use.holdout_samples = static_cast<int>(split.holdout.size());
   use.holdout_seconds = use.holdout_samples * dt;
   return split;
 }
 
-// The log must give 3 torques per fitted parameter, and something to judge the fit on.
+// Refuses a log that gives too few torques for `parameters` (kTorquesPerParameter), or nothing to
+// judge the fit on, saying how long a log would do.
 void check_length(const LogUse& use, int joints, int parameters, const std::string& what,
                   const DynamicFitOptions& options) {
-  const int rows = use.fit_samples * joints;
-  if (rows >= 3 * parameters && (use.holdout_blocks.empty() || use.holdout_samples > 0)) return;
+  const int rows = use.fit_torques;
+  if (rows >= kTorquesPerParameter * parameters && (use.holdout_blocks.empty() || use.holdout_samples > 0)) return;
   const double dt = 1.0 / use.sample_rate_hz;
-  const double needed = std::ceil(3.0 * parameters / joints) * use.decimation * dt / (1.0 - options.holdout) +
-                        4.0 / options.cutoff_hz;
+  const double used = use.fit_samples > 0 ? static_cast<double>(rows) / (use.fit_samples * joints) : 1.0;
+  const double needed =
+      std::ceil(kTorquesPerParameter * parameters / (joints * std::max(used, 0.5))) * use.decimation * dt /
+          (1.0 - options.holdout) +
+      4.0 / options.cutoff_hz;
+  const std::string left_out =
+      use.rest_seconds > 0.0 || used < 1.0
+          ? "; left out: " + number(use.rest_seconds) + " s of rest and, in the motion, " +
+                number(100.0 * (1.0 - used), 2) + " % of the joints' torques where they were slow or stuck"
+          : "";
   throw IdentificationError("the log is too short: " + number(use.duration_s) + " s at " + number(use.sample_rate_hz) +
-                            " Hz give " + std::to_string(use.fit_samples) + " samples to fit (" + std::to_string(rows) +
+                            " Hz hold " + number(use.motion_seconds) + " s of motion, which give " +
+                            std::to_string(use.fit_samples) + " samples to fit (" + std::to_string(rows) +
                             " torques) for " + std::to_string(parameters) + " " + what + ", and " +
-                            std::to_string(use.holdout_samples) +
-                            " held out; the fit needs 3 torques per parameter: log at least " +
-                            number(std::max(needed, 4.0 * options.holdout_blocks * dt)) + " s" +
+                            std::to_string(use.holdout_samples) + " held out" + left_out + "; the fit needs " +
+                            std::to_string(kTorquesPerParameter) + " torques per parameter: log at least " +
+                            number(std::max(needed, 4.0 * options.holdout_blocks * dt)) + " s of motion" +
                             (use.dropped_samples > 0 ? ", in stretches without gaps of at least " +
                                                            number(5.0 / options.cutoff_hz) + " s (" +
                                                            std::to_string(use.dropped_samples) +
@@ -476,19 +583,22 @@ void check_length(const LogUse& use, int joints, int parameters, const std::stri
                                                      : ""));
 }
 
-// Each joint's RMS of e, rows stacked sample after sample, n per sample.
-Eigen::VectorXd joint_rms(const Eigen::VectorXd& e, int n) {
-  Eigen::VectorXd rms = Eigen::VectorXd::Zero(n);
-  for (Eigen::Index row = 0; row < e.size(); ++row) rms[row % n] += e[row] * e[row];
-  return (rms / static_cast<double>(e.size() / n)).cwiseSqrt();
+// Each joint's RMS of e, row k being joint joint_of[k]'s.
+Eigen::VectorXd joint_rms(const Eigen::VectorXd& e, const std::vector<int>& joint_of, int n) {
+  Eigen::VectorXd sum = Eigen::VectorXd::Zero(n), count = Eigen::VectorXd::Zero(n);
+  for (Eigen::Index row = 0; row < e.size(); ++row) {
+    sum[joint_of[static_cast<size_t>(row)]] += e[row] * e[row];
+    count[joint_of[static_cast<size_t>(row)]] += 1.0;
+  }
+  return sum.cwiseQuotient(count.cwiseMax(1.0)).cwiseSqrt();
 }
 
 // σ_i floored, so that a joint the model fits exactly does not weigh infinitely.
 Eigen::VectorXd floored(const Eigen::VectorXd& sigma) { return sigma.cwiseMax(1e-9 + 1e-6 * sigma.maxCoeff()); }
 
 // W with each row divided by its joint's σ.
-Eigen::MatrixXd whitened(Eigen::MatrixXd W, const Eigen::VectorXd& sigma) {
-  for (Eigen::Index row = 0; row < W.rows(); ++row) W.row(row) /= sigma[row % sigma.size()];
+Eigen::MatrixXd whitened(Eigen::MatrixXd W, const Eigen::VectorXd& sigma, const std::vector<int>& joint_of) {
+  for (Eigen::Index row = 0; row < W.rows(); ++row) W.row(row) /= sigma[joint_of[static_cast<size_t>(row)]];
   return W;
 }
 
@@ -514,10 +624,10 @@ double correlation_inflation(const LowPassFilter& filter, int decimation) {
 // Standard errors of x in W x ≈ y, each joint's rows weighed by its σ: √diag(κ s² (W̃ᵀ W̃)⁻¹), κ the
 // inflation for correlated rows above.
 Eigen::VectorXd standard_errors(const Eigen::MatrixXd& W, const Eigen::VectorXd& y, const Eigen::VectorXd& x,
-                                const Eigen::VectorXd& sigma, double kappa) {
+                                const Eigen::VectorXd& sigma, const std::vector<int>& joint_of, double kappa) {
   const Eigen::Index rows = W.rows(), r = W.cols();
-  const Eigen::MatrixXd Wt = whitened(W, sigma);
-  const Eigen::VectorXd e = whitened(Eigen::MatrixXd(W * x - y), sigma);
+  const Eigen::MatrixXd Wt = whitened(W, sigma, joint_of);
+  const Eigen::VectorXd e = whitened(Eigen::MatrixXd(W * x - y), sigma, joint_of);
   const double s2 = e.squaredNorm() / static_cast<double>(rows - r);
   const Eigen::HouseholderQR<Eigen::MatrixXd> qr(Wt);
   const Eigen::MatrixXd R_inverse =
@@ -534,15 +644,17 @@ Eigen::JacobiSVD<Eigen::MatrixXd> unit_column_svd(const Eigen::HouseholderQR<Eig
 
 // Step 7: the held-out torque RMS of two models (π_a, π_b) against the logged τ, each predicting
 // the torque applied over each step: the trapezoid ½ (τ̂_{k−1} + τ̂_k) for every smooth term, and
-// Coulomb's mean taken up to the crossing over a step where q̇ changes sign.
+// Coulomb's mean taken up to the crossing over a step where q̇ changes sign. Each joint over the
+// samples where it moves (Prepared::moving), the torques the fit claims to explain, or over all of
+// `columns` when `every_sample`.
 std::pair<Eigen::VectorXd, Eigen::VectorXd> holdout_rms(const RobotModel& model, const Prepared& data,
                                                         const std::vector<int>& columns, const Eigen::VectorXd& pi_a,
-                                                        const Eigen::VectorXd& pi_b) {
+                                                        const Eigen::VectorXd& pi_b, bool every_sample = false) {
   const int n = model.dof();
   const ParameterLayout layout = parameter_layout(model);
   RegressorWorkspace workspace(model);
   Eigen::VectorXd sum_a = Eigen::VectorXd::Zero(n), sum_b = Eigen::VectorXd::Zero(n);
-  Eigen::VectorXd previous_a(n), previous_b(n), now_a(n), now_b(n), step(n);
+  Eigen::VectorXd previous_a(n), previous_b(n), now_a(n), now_b(n), step(n), count = Eigen::VectorXd::Zero(n);
   const auto predict = [&](int c, Eigen::VectorXd& tau_a, Eigen::VectorXd& tau_b) {
     const Eigen::MatrixXd& Y = joint_torque_regressor(model, workspace, data.q.col(c), data.qd.col(c), data.qdd.col(c));
     tau_a.noalias() = Y * pi_a;
@@ -559,14 +671,17 @@ std::pair<Eigen::VectorXd, Eigen::VectorXd> holdout_rms(const RobotModel& model,
     const auto coulomb = [&](const Eigen::VectorXd& pi) {
       return Eigen::VectorXd(pi.segment(layout.coulomb(0), n).cwiseProduct(step));
     };
-    sum_a += (data.tau.col(c) - 0.5 * (previous_a + now_a) - coulomb(pi_a)).cwiseAbs2();
-    sum_b += (data.tau.col(c) - 0.5 * (previous_b + now_b) - coulomb(pi_b)).cwiseAbs2();
+    const Eigen::ArrayXd moving =
+        every_sample ? Eigen::ArrayXd::Ones(n) : Eigen::ArrayXd(data.moving.col(c).cast<double>());
+    sum_a.array() += moving * (data.tau.col(c) - 0.5 * (previous_a + now_a) - coulomb(pi_a)).array().abs2();
+    sum_b.array() += moving * (data.tau.col(c) - 0.5 * (previous_b + now_b) - coulomb(pi_b)).array().abs2();
+    count += moving.matrix();
     previous_a.swap(now_a);
     previous_b.swap(now_b);
     previous_column = c;
   }
-  const double count = std::max<double>(1.0, static_cast<double>(columns.size()));
-  return {(sum_a / count).cwiseSqrt(), (sum_b / count).cwiseSqrt()};
+  count = count.cwiseMax(1.0);
+  return {sum_a.cwiseQuotient(count).cwiseSqrt(), sum_b.cwiseQuotient(count).cwiseSqrt()};
 }
 
 ceres::Solver::Options solver_options(const DynamicFitOptions& options, int rows) {
@@ -604,25 +719,33 @@ DynamicFitResult identify_dynamics(const RobotModel& nominal, const JointSamples
   const BaseParameters& base = result.base;
   const int r = base.count;
   check_length(result.log, n, r, "base parameters", options);
-  const int rows = result.log.fit_samples * n;
+  const std::vector<int>& joint_of = split.row_joint;
+  const int rows = result.log.fit_torques;
 
-  // Step 4: the stacked regressor, Coulomb's columns filtered as τ is.
+  // Step 4: the stacked regressor, Coulomb's columns filtered as τ is; a row for each joint that
+  // moves at each fit sample.
   RegressorWorkspace workspace(nominal);
   RowMajorMatrix W(rows, p);
   Eigen::VectorXd y(rows);
-  for (int s = 0; s < result.log.fit_samples; ++s) {
+  for (int row = 0; row < rows;) {
+    const int s = split.row_sample[static_cast<size_t>(row)];
     const int c = fit_columns[static_cast<size_t>(s)];
-    W.middleRows(s * n, n) = joint_torque_regressor(nominal, workspace, data.q.col(c), data.qd.col(c), data.qdd.col(c));
-    for (int i = 0; i < n; ++i) W(s * n + i, layout.coulomb(i)) = data.coulomb(i, c);
-    y.segment(s * n, n) = data.tau_filtered.col(c);
+    const Eigen::MatrixXd& Y =
+        joint_torque_regressor(nominal, workspace, data.q.col(c), data.qd.col(c), data.qdd.col(c));
+    for (; row < rows && split.row_sample[static_cast<size_t>(row)] == s; ++row) {
+      const int i = joint_of[static_cast<size_t>(row)];
+      W.row(row) = Y.row(i);
+      W(row, layout.coulomb(i)) = data.coulomb(i, c);
+      y[row] = data.tau_filtered(i, c);
+    }
   }
   Eigen::MatrixXd W_b(rows, r);
   for (int k = 0; k < r; ++k) W_b.col(k) = W.col(base.independent[static_cast<size_t>(k)]);
 
   const Eigen::HouseholderQR<Eigen::MatrixXd> ols(W_b);
-  const Eigen::VectorXd sigma = floored(joint_rms(y - W_b * ols.solve(y), n));
-  const Eigen::HouseholderQR<Eigen::MatrixXd> wls(whitened(W_b, sigma));
-  result.beta_wls = wls.solve(whitened(y, sigma));
+  const Eigen::VectorXd sigma = floored(joint_rms(y - W_b * ols.solve(y), joint_of, n));
+  const Eigen::HouseholderQR<Eigen::MatrixXd> wls(whitened(W_b, sigma, joint_of));
+  result.beta_wls = wls.solve(whitened(y, sigma, joint_of));
 
   // Excitation: the singular values of the weighted W_b with unit columns (those of R D⁻¹).
   {
@@ -688,14 +811,12 @@ DynamicFitResult identify_dynamics(const RobotModel& nominal, const JointSamples
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
   ceres::HuberLoss huber(options.huber);
-  for (int s = 0; s < result.log.fit_samples; ++s) {
-    for (int i = 0; i < n; ++i) {
-      const int row = s * n + i;
-      std::vector<double*> blocks;
-      for (int j = i; j < n; ++j) blocks.push_back(theta[static_cast<size_t>(j)].data());
-      blocks.push_back(phi[static_cast<size_t>(i)].data());
-      problem.AddResidualBlock(new TorqueRow(W.row(row).data(), layout, i, y[row], 1.0 / sigma[i]), &huber, blocks);
-    }
+  for (int row = 0; row < rows; ++row) {
+    const int i = joint_of[static_cast<size_t>(row)];
+    std::vector<double*> blocks;
+    for (int j = i; j < n; ++j) blocks.push_back(theta[static_cast<size_t>(j)].data());
+    blocks.push_back(phi[static_cast<size_t>(i)].data());
+    problem.AddResidualBlock(new TorqueRow(W.row(row).data(), layout, i, y[row], 1.0 / sigma[i]), &huber, blocks);
   }
   for (int i = 0; i < n; ++i) {
     for (int k = 0; k < 3; ++k) problem.SetParameterLowerBound(phi[static_cast<size_t>(i)].data(), k, 0.0);
@@ -717,8 +838,10 @@ DynamicFitResult identify_dynamics(const RobotModel& nominal, const JointSamples
   result.iterations = static_cast<int>(summary.iterations.size()) - 1;
   result.converged = summary.termination_type == ceres::CONVERGENCE;
   result.termination = summary.message;
-  if (!summary.IsSolutionUsable()) {
-    throw IdentificationError("dynamic identification: the solver failed: " + summary.message);
+  if (!result.converged) {
+    throw IdentificationError("dynamic identification: the fit did not converge (" + std::to_string(result.iterations) +
+                              " iterations: " + summary.message + "); its bodies would be a guess. A log of "
+                              "another arm, or one the model cannot explain (a load it does not know of, contact)?");
   }
 
   result.pi = Eigen::VectorXd(p);
@@ -731,13 +854,28 @@ DynamicFitResult identify_dynamics(const RobotModel& nominal, const JointSamples
   result.beta = base_parameter_values(base, result.pi);
 
   // Step 6: standard errors at the fit, each joint weighed by its own residual σ.
-  result.sigma = floored(joint_rms(W_b * result.beta - y, n));
+  result.sigma = floored(joint_rms(W_b * result.beta - y, joint_of, n));
   result.correlation_inflation = correlation_inflation(split.filter, result.log.decimation);
-  result.beta_standard_error = standard_errors(W_b, y, result.beta, result.sigma, result.correlation_inflation);
+  result.beta_standard_error =
+      standard_errors(W_b, y, result.beta, result.sigma, joint_of, result.correlation_inflation);
   std::tie(result.holdout_rms_nominal, result.holdout_rms) =
       holdout_rms(nominal, data, holdout_columns, pi_nominal, result.pi);
+  result.holdout_rms_every_sample = holdout_rms(nominal, data, holdout_columns, result.pi, result.pi, true).second;
   result.seconds = timer.seconds();
   return result;
+}
+
+Eigen::VectorXd prediction_rms(const RobotModel& model, const Eigen::VectorXd& pi, const JointSamples& samples,
+                               const DynamicFitOptions& options) {
+  LogUse use;
+  const LogSplit split = split_log(model, samples, options, use);  // its checks; its split is not used
+  std::vector<int> columns;
+  for (size_t s = 0; s + 1 < split.data.segment.size(); ++s) {
+    for (int c = split.data.segment[s] + 1; c < split.data.segment[s + 1]; ++c) {
+      if (split.data.moving.col(c).any()) columns.push_back(c);
+    }
+  }
+  return holdout_rms(model, split.data, columns, pi, pi).second;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -785,23 +923,29 @@ PayloadFitResult identify_payload(const RobotModel& arm, const Eigen::VectorXd& 
   pi_arm.segment(layout.coulomb(0), n) = coulomb;
 
   // The rows: what the known arm leaves of each filtered torque, against the last body's columns.
-  const int rows = result.log.fit_samples * n;
+  const std::vector<int>& joint_of = split.row_joint;
+  const int rows = result.log.fit_torques;
   RegressorWorkspace workspace(arm);
   Eigen::MatrixXd Y(n, layout.size());
   RowMajorMatrix W(rows, 10);
   Eigen::VectorXd y(rows);
-  for (int s = 0; s < result.log.fit_samples; ++s) {
+  for (int row = 0; row < rows;) {
+    const int s = split.row_sample[static_cast<size_t>(row)];
     const int c = split.fit[static_cast<size_t>(s)];
     Y = joint_torque_regressor(arm, workspace, data.q.col(c), data.qd.col(c), data.qdd.col(c));
     for (int i = 0; i < n; ++i) Y(i, layout.coulomb(i)) = data.coulomb(i, c);
-    W.middleRows(s * n, n) = Y.middleCols<10>(layout.inertial(n - 1));
-    y.segment(s * n, n) = data.tau_filtered.col(c) - Y * pi_arm;
+    const Eigen::VectorXd left = data.tau_filtered.col(c) - Y * pi_arm;
+    for (; row < rows && split.row_sample[static_cast<size_t>(row)] == s; ++row) {
+      const int i = joint_of[static_cast<size_t>(row)];
+      W.row(row) = Y.row(i).segment<10>(layout.inertial(n - 1));
+      y[row] = left[i];
+    }
   }
   const Eigen::MatrixXd W_dense = W;
   const Eigen::HouseholderQR<Eigen::MatrixXd> ols(W_dense);
-  const Eigen::VectorXd sigma = floored(joint_rms(y - W_dense * ols.solve(y), n));
-  const Eigen::HouseholderQR<Eigen::MatrixXd> wls(whitened(W_dense, sigma));
-  result.pi_ls = wls.solve(whitened(y, sigma));
+  const Eigen::VectorXd sigma = floored(joint_rms(y - W_dense * ols.solve(y), joint_of, n));
+  const Eigen::HouseholderQR<Eigen::MatrixXd> wls(whitened(W_dense, sigma, joint_of));
+  result.pi_ls = wls.solve(whitened(y, sigma, joint_of));
   {
     const Eigen::JacobiSVD<Eigen::MatrixXd> svd = unit_column_svd(wls, 10);
     const Eigen::VectorXd& s = svd.singularValues();
@@ -842,7 +986,8 @@ PayloadFitResult identify_payload(const RobotModel& arm, const Eigen::VectorXd& 
   ceres::Problem problem(problem_options);
   ceres::HuberLoss huber(options.huber);
   for (int row = 0; row < rows; ++row) {
-    problem.AddResidualBlock(new PayloadRow(W.row(row).data(), y[row], 1.0 / sigma[row % n]), &huber, theta.data());
+    problem.AddResidualBlock(new PayloadRow(W.row(row).data(), y[row], 1.0 / sigma[joint_of[static_cast<size_t>(row)]]),
+                             &huber, theta.data());
   }
   ceres::Matrix A = ceres::Matrix::Zero(10, 10);
   for (int k = 0; k < 10; ++k) A(k, k) = options.prior_weight / (k < 4 ? 1.0 : options.prior_length);
@@ -857,9 +1002,9 @@ PayloadFitResult identify_payload(const RobotModel& arm, const Eigen::VectorXd& 
   }
   result.pi = inertia_from_log_cholesky(theta);
   result.payload = payload_from_parameters(arm, result.pi);
-  result.sigma = floored(joint_rms(W_dense * result.pi - y, n));
+  result.sigma = floored(joint_rms(W_dense * result.pi - y, joint_of, n));
   result.correlation_inflation = correlation_inflation(split.filter, result.log.decimation);
-  result.standard_error = standard_errors(W_dense, y, result.pi, result.sigma, result.correlation_inflation);
+  result.standard_error = standard_errors(W_dense, y, result.pi, result.sigma, joint_of, result.correlation_inflation);
   result.mass_standard_error = result.standard_error[0];
 
   Eigen::VectorXd pi_with = pi_arm;

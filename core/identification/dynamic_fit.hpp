@@ -18,10 +18,16 @@
 //      linear between samples), centred, filtered (Gautier's parallel filtering) — so that the
 //      fit compares a smoothed step with a smoothed step. Every other column is a smooth function
 //      of q, q̇, q̈.
-//   3. Rows are kept every 1 / (2.5 f_c) s (Gautier's decimation: nothing above f_c is left to
-//      lose, and rows that far apart share little of the filtered noise). The log is cut in time
-//      into `holdout_blocks` equal blocks, and a fraction of them, spread evenly, is held out:
-//      whole blocks, since neighbouring samples are correlated.
+//   3. A joint's torque is one the model explains only while the joint moves: at rest or stuck,
+//      static friction holds whatever the rest of the arm leaves, up to its breakaway, and at a
+//      creep the Stribeck effect lifts friction above Coulomb's. So joint i's torque at a sample is
+//      left out, of the fit and of the judgement, where its filtered |q̇_i| is under `min_speed` or
+//      was within 1 / f_c s (the filter's reach); samples where no joint moves are rest, left out
+//      whole. Rows are kept every 1 / (2.5 f_c) s (Gautier's decimation: nothing above f_c is left
+//      to lose, and rows that far apart share little of the filtered noise). The motion (the log
+//      less its rest) is cut into `holdout_blocks` equal blocks and the last `holdout` of them are
+//      held out: whole blocks at the end, motion the fit neither saw nor neighboured, so that a
+//      log too short to cover the arm's motion shows it there.
 //   4. Ordinary least squares for the base parameters β (base_parameters.hpp), then weighted least
 //      squares with each joint's rows scaled by its residual σ (Gautier and Poignet 2001): the start
 //      of the fit, and the check that the log excites every base parameter.
@@ -51,7 +57,7 @@
 //   7. Held out: the torque RMS of the nominal and the identified model against the logged τ, each
 //      predicting the torque applied over the step, ½ (τ̂(t_{k−1}) + τ̂(t_k)) — but for Coulomb
 //      friction, whose mean over a step where q̇ changes sign is taken up to the crossing (q̇
-//      linear over the step) — at every held-out sample.
+//      linear over the step) — at every held-out sample, each joint where it moves (step 3).
 #pragma once
 
 #include <cstdint>
@@ -81,14 +87,20 @@ struct JointSamples {
 struct DynamicFitOptions {
   double cutoff_hz = 10.0;     ///< the low-pass's −3 dB point: an arm's excitation stays below a few Hz
   int filter_order = 4;        ///< Butterworth order (even, 2–8); filtfilt doubles it
-  double holdout = 0.2;        ///< fraction of the log held out, in [0, 0.5]
-  int holdout_blocks = 10;     ///< blocks the log is cut into for the split
+  double holdout = 0.2;        ///< fraction of the motion held out, its end, in [0, 0.5]
+  int holdout_blocks = 10;     ///< blocks the motion is cut into for the split
   double huber = 1.345;        ///< Huber's δ, in multiples of each joint's residual σ
   double prior_length = 0.1;   ///< ℓ, m: the prior's unit for θ's centre of mass and shape terms
   double prior_weight = 1.0;   ///< w: multiplies the prior's residuals
   double min_range = 0.0175;   ///< a joint that moves less (rad or m) does not excite the arm
+  /// rad/s or m/s: joint i's torque is left out of the fit and of the held-out judgement where
+  /// |q̇_i| (filtered) is below this, and within 1 / f_c s of it — at rest or stuck, static friction
+  /// holds an unknown torque up to its breakaway, and creeping, Stribeck friction exceeds Coulomb's
+  double min_speed = 0.1;
   double max_condition = 1e6;  ///< of the column-scaled, weighted W_b: above, the log does not excite
-  int max_iterations = 100;    ///< Levenberg-Marquardt
+  /// Of the solver; a fit that needs more is refused. The UR5 of tests/world/identification_test
+  /// takes 320–470 (3–5 s) along the prior's shallow valley, the Panda fewer than 50.
+  int max_iterations = 1000;
   int threads = 2;
   uint64_t seed = 1;           ///< of the random states base_parameters factors
 };
@@ -98,13 +110,17 @@ struct LogUse {
   double sample_rate_hz = 0.0;     ///< of the log (median step)
   double duration_s = 0.0;
   int samples = 0;                 ///< in the log
+  double motion_seconds = 0.0;     ///< of the used segments, where some joint moves (min_speed)
+  double rest_seconds = 0.0;       ///< of the used segments, where none does: left out
+  Eigen::VectorXd moving_share;    ///< n: the share of the motion in which each joint moves
   int segments = 0;                ///< stretches between gaps that were used
   int dropped_samples = 0;         ///< in segments too short to filter (under 5 / f_c s)
   int decimation = 0;              ///< one fit row every this many samples
-  int fit_samples = 0;             ///< samples whose n torques the fit used
-  int holdout_samples = 0;         ///< samples judged on held-out data
+  int fit_samples = 0;             ///< samples whose torques the fit used
+  int fit_torques = 0;             ///< their torques of joints that move: the fit's rows
+  int holdout_samples = 0;         ///< samples judged on held-out data (each joint where it moves)
   double holdout_seconds = 0.0;
-  std::vector<int> holdout_blocks; ///< which of the blocks were held out
+  std::vector<int> holdout_blocks; ///< which of the blocks of the motion were held out: the last
 };
 
 struct DynamicFitResult {
@@ -118,8 +134,11 @@ struct DynamicFitResult {
   Eigen::VectorXd beta_standard_error;  ///< r
   double correlation_inflation = 1.0;   ///< κ, by which the rows' correlated noise grows the covariance
   Eigen::VectorXd sigma;           ///< n: residual RMS of each joint at the fit, N·m (filtered torques)
-  Eigen::VectorXd holdout_rms_nominal;  ///< n: N·m, against the logged torques
+  Eigen::VectorXd holdout_rms_nominal;  ///< n: N·m, against the logged torques where the joint moves
   Eigen::VectorXd holdout_rms;          ///< n
+  /// n: the identified model's over every held-out sample of the motion, the joint slow or stuck
+  /// included: what stiction and the Stribeck effect, which no fitted model has, add to it.
+  Eigen::VectorXd holdout_rms_every_sample;
   double condition_number = 0.0;        ///< of the stacked base regressor W_b as it is (SI units)
   double condition_number_scaled = 0.0; ///< of W_b weighted by 1/σ_i and with unit columns
   LogUse log;                      ///< how the log was used
@@ -132,11 +151,21 @@ struct DynamicFitResult {
 
 /// The fit of the file comment. Throws IdentificationError for samples of the wrong shape (the
 /// count names the model's joints), a non-finite value (naming the sample, its time and the joint),
-/// times that do not increase, options out of range, too few samples, or a log that does not
-/// excite the arm (naming the joints that barely move, or else the worst-determined combination).
+/// times that do not increase, positions outside the model's joint limits (another arm's log),
+/// options out of range, a log without motion, joints stuck for most of it, too few torques of
+/// moving joints (saying how much rest and stuck time was left out), a log that does not excite the
+/// arm (naming the joints that barely move, or else the worst-determined combination), or a fit
+/// that does not converge.
 /// Allocates: offline.
 DynamicFitResult identify_dynamics(const RobotModel& nominal, const JointSamples& samples,
                                    const DynamicFitOptions& options = {});
+
+/// The torque RMS per joint (N·m or N) of the model π (13 n, regressor.hpp's layout) against a whole
+/// log as step 7 judges held-out samples: each joint where it moves, the log filtered and trimmed as
+/// the fit's. What a fit's held_out RMS claims, measured on another log. Throws IdentificationError
+/// as identify_dynamics does for samples it cannot use, or a log without motion.
+Eigen::VectorXd prediction_rms(const RobotModel& model, const Eigen::VectorXd& pi, const JointSamples& samples,
+                               const DynamicFitOptions& options = {});
 
 /// A payload fitted with the arm known (issue [Q], item 4): what the tip carries, in the form
 /// `chasles payload` and payload_t give it, and how well it explains the torques.

@@ -77,6 +77,17 @@ void check_friction(const Friction& friction, const RobotModel& model, const std
       refuse(what, joint + ": Coulomb friction " + number(friction.coulomb[i]) + (prismatic ? " N" : " N*m") +
                        " is negative");
     }
+    if (friction.stiction.size() > 0 && !(friction.stiction[i] >= friction.coulomb[i])) {
+      refuse(what, joint + ": stiction " + number(friction.stiction[i]) + (prismatic ? " N" : " N*m") +
+                       " is below Coulomb friction " + number(friction.coulomb[i]) + " (or not finite)");
+    }
+  }
+  if (friction.stiction.size() > 0 && friction.stiction.size() != n) {
+    refuse(what, "has " + std::to_string(friction.stiction.size()) + " stiction values; the arm has " +
+                     std::to_string(n) + " joints");
+  }
+  if (!(friction.stribeck_velocity > 0.0) || !std::isfinite(friction.stribeck_velocity)) {
+    refuse(what, "the Stribeck velocity " + number(friction.stribeck_velocity) + " is not a positive number");
   }
 }
 

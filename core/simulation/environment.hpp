@@ -49,12 +49,23 @@ struct Wall {
 using chasles::Payload;
 using chasles::with_payload;
 
-/// Joint friction the controller's model does not have, on top of the known viscous damping:
-/// τ_f = −b q̇ − f_c tanh(q̇ / v_s) per joint (v_s: Plant::friction_velocity()).
+/// Joint friction the controller's model does not have, on top of the known viscous damping, with
+/// stiction and the Stribeck effect as a real joint's (Olsson et al. 1998, "Friction models and
+/// friction compensation", eq. 6):
+///   τ_f = −b q̇ − (f_c + (f_s − f_c) exp(−(q̇ / v_st)²)) tanh(q̇ / v_s)
+/// per joint (v_s: Plant::friction_velocity()). Breaking away takes f_s; once moving, friction falls
+/// to f_c within a few v_st. Below v_s the joint creeps instead of sticking: it holds any torque
+/// under f_s while it moves slower than about v_s.
 struct Friction {
   Eigen::VectorXd viscous;  ///< b, N·m·s/rad or N·s/m, one per joint; empty: no friction
   Eigen::VectorXd coulomb;  ///< f_c, N·m or N, one per joint; empty: no friction
+  /// f_s ≥ f_c, the breakaway torque, one per joint; empty: f_c (none). (Initialised, so that
+  /// {viscous, coulomb} still says all a friction without stiction needs.)
+  Eigen::VectorXd stiction = Eigen::VectorXd();
+  double stribeck_velocity = 0.05;  ///< v_st, rad/s or m/s, > 0
   bool empty() const { return viscous.size() == 0 && coulomb.size() == 0; }
+  /// f_s where given, else f_c: the largest friction a joint sees.
+  double breakaway(Eigen::Index i) const { return stiction.size() > 0 ? stiction[i] : coulomb[i]; }
 };
 
 /// The arm's own inertias off its model's, as a real arm's are off its CAD's: every body's mass,
@@ -94,7 +105,8 @@ EnvironmentOptions checked_environment(const EnvironmentOptions& options, const 
 void check_push(const Push& push, const std::string& what);
 /// A wall's numbers finite, its normal not zero (normalised here), K > 0, D ≥ 0.
 void check_wall(Wall& wall, const std::string& what);
-/// One viscous and one Coulomb coefficient per joint of `model`, finite and ≥ 0.
+/// One viscous and one Coulomb coefficient per joint of `model`, finite and ≥ 0; stiction, if
+/// given, one per joint and no less than Coulomb's; the Stribeck velocity finite and > 0.
 void check_friction(const Friction& friction, const RobotModel& model, const std::string& what);
 /// FRACTION in [0, 1): at 1 a body's mass or spread could vanish.
 void check_perturbation(const InertiaPerturbation& perturbation, const std::string& what);

@@ -63,7 +63,9 @@ Plant::Plant(const RobotModel& model, const Eigen::VectorXd& q0, const Eigen::Ve
   friction_velocity_.setZero(n);
   if (has_friction_) {
     const double h = dt / substeps;
-    friction_velocity_ = (h * largest_inverse_inertia(q0)) * environment_.friction.coulomb;
+    const Friction& friction = environment_.friction;
+    const double kappa = largest_inverse_inertia(q0);
+    for (Eigen::Index i = 0; i < n; ++i) friction_velocity_[i] = h * kappa * friction.breakaway(i);
   }
 }
 
@@ -128,7 +130,11 @@ const Eigen::VectorXd& Plant::acceleration(double t, const Eigen::VectorXd& q, c
     const Friction& friction = environment_.friction;
     tau_stage_ -= friction.viscous.cwiseProduct(qd);
     for (Eigen::Index i = 0; i < qd.size(); ++i) {
-      if (friction.coulomb[i] > 0.0) tau_stage_[i] -= friction.coulomb[i] * std::tanh(qd[i] / friction_velocity_[i]);
+      if (!(friction_velocity_[i] > 0.0)) continue;
+      const double stribeck = qd[i] / friction.stribeck_velocity;
+      const double level =
+          friction.coulomb[i] + (friction.breakaway(i) - friction.coulomb[i]) * std::exp(-stribeck * stribeck);
+      tau_stage_[i] -= level * std::tanh(qd[i] / friction_velocity_[i]);
     }
   }
   Vector6d F_tip = Vector6d::Zero();  // what the tip applies to the environment, tip frame

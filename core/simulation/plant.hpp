@@ -79,7 +79,7 @@ class Plant {
   /// Allocates nothing.
   Vector6d contact_wrench(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& qd, bool& contact);
   /// v_s of the Coulomb friction's tanh, per joint (0 where there is none), rad/s or m/s: the
-  /// largest slope f_c / v_s of every joint is 1 / (h κ), h = dt / substeps and κ the largest
+  /// largest slope f_s / v_s of every joint (f_s the breakaway, f_c without stiction) is 1 / (h κ), h = dt / substeps and κ the largest
   /// eigenvalue of M_true(q)⁻¹ over the configurations sampled at construction, so that the stiffest
   /// mode friction adds decays at |λ| ≤ 1/h: RK4 resolves it (stable to |λ h| ≤ 2.79 on the real
   /// axis) with room for the configurations not sampled and the damping on top. Smaller with

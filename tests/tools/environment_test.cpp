@@ -451,20 +451,23 @@ TEST(environment, AHiddenPayloadIsExternalTorqueToTheNominalModel) {
   }
 }
 
-// Hidden friction is exactly the law at every sample, τ_ext = −b q̇ − f_c tanh(q̇ / v_s) with the
-// state's q̇, while the joints run through both signs and both regimes of the tanh (|q̇| well below
-// and well above v_s). v_s keeps the stiffest mode friction adds resolved: at every configuration
-// the arm passes through, f_c / v_s ≤ λ_min(M(q)) / h, so h λ ≤ 1 for λ of M⁻¹ times the friction's
-// slope, well inside RK4's real-axis limit of 2.79.
+// Hidden friction is exactly the law at every sample, τ_ext = −b q̇ − (f_c + (f_s − f_c)
+// exp(−(q̇ / v_st)²)) tanh(q̇ / v_s) with the state's q̇ (Olsson et al. 1998's stiction and Stribeck
+// effect, written out here), while the joints run through both signs and both regimes of the tanh
+// (|q̇| well below and well above v_s). v_s keeps the stiffest mode friction adds resolved: at every
+// configuration the arm passes through, f_s / v_s ≤ λ_min(M(q)) / h, so h λ ≤ 1 for λ of M⁻¹ times
+// the friction's slope, well inside RK4's real-axis limit of 2.79.
 TEST(environment, HiddenFrictionIsTheFrictionLaw) {
   const Arm arm = panda_arm();
   Data data(arm.model);
-  Eigen::VectorXd b(7), f_c(7), wobble(7);
+  Eigen::VectorXd b(7), f_c(7), f_s(7), wobble(7);
   b << 0.3, 0.3, 0.2, 0.2, 0.05, 0.05, 0.02;
   f_c << 1.0, 1.0, 0.8, 0.8, 0.3, 0.3, 0.1;
+  f_s << 1.5, 1.0, 1.2, 0.8, 0.45, 0.3, 0.15;
   wobble << 6, -5, 4, 6, -1.5, 1.2, 0.8;
+  const double v_st = 0.2;
   EnvironmentOptions env;
-  env.friction = {b, f_c};
+  env.friction = {b, f_c, f_s, v_st};
   Rig rig(arm.model, arm.q0, lockstep(env));
   const Eigen::VectorXd v_s = rig.plant().friction_velocity();
   EXPECT_TRUE((v_s.array() > 0.0).all());
@@ -478,12 +481,15 @@ TEST(environment, HiddenFrictionIsTheFrictionLaw) {
     const Eigen::VectorXd q = position(rig.states()[k]), qd = velocity(rig.states()[k]);
     const sim_truth_t& truth = rig.truths()[k];
     Eigen::VectorXd expected(7);
-    for (int i = 0; i < 7; ++i) expected[i] = -b[i] * qd[i] - f_c[i] * std::tanh(qd[i] / v_s[i]);
+    for (int i = 0; i < 7; ++i) {
+      const double level = f_c[i] + (f_s[i] - f_c[i]) * std::exp(-(qd[i] / v_st) * (qd[i] / v_st));
+      expected[i] = -b[i] * qd[i] - level * std::tanh(qd[i] / v_s[i]);
+    }
     ASSERT_TRUE(matrices_near(as_vector(truth.tau_ext.data(), truth.num_joints), expected, 1e-9)) << "seq " << k;
     EXPECT_FALSE(truth.contact);
     const double lambda_min =
         test::symmetric_eigenvalues(mass_matrix(arm.model, data, q))[0];
-    ASSERT_LE((f_c.array() / v_s.array()).maxCoeff(), lambda_min / kDt) << "seq " << k;
+    ASSERT_LE((f_s.array() / v_s.array()).maxCoeff(), lambda_min / kDt) << "seq " << k;
     for (int i = 0; i < 7; ++i) {
       slow += std::abs(qd[i]) > 0.0 && std::abs(qd[i]) < 0.3 * v_s[i];
       fast += std::abs(qd[i]) > 3.0 * v_s[i];
@@ -835,6 +841,9 @@ TEST(environment, SpecsAreParsedAndCheckedWithSpecificMessages) {
   const plant::Friction each = plant::parse_friction("1,2,3,4,5,6,7,8,9,10,11,12,13,14", model);
   EXPECT_EQ(each.viscous[2], 5.0);
   EXPECT_EQ(each.coulomb[6], 14.0);
+  EXPECT_EQ(each.stiction.size(), 0);
+  const plant::Friction sticking = plant::parse_friction("0.1,0.5,0.8", model);
+  EXPECT_EQ(sticking.stiction, Eigen::VectorXd::Constant(7, 0.8));
 
   const auto refuses = [](const std::function<void()>& parse, const std::string& needle) {
     try {
@@ -862,8 +871,10 @@ TEST(environment, SpecsAreParsedAndCheckedWithSpecificMessages) {
   refuses([] { plant::parse_payload("-0.5"); }, "--payload: mass -0.5 kg is negative");
   refuses([] { plant::parse_payload("nan"); }, "--payload: entry 0 ('nan') is not finite");
   refuses([] { plant::parse_payload("1,0,0"); }, "--payload takes KG[,CX,CY,CZ] (1 or 4 numbers");
-  refuses([&] { plant::parse_friction("0.1", model); }, "(2 or 14 numbers for 7 joints");
-  refuses([&] { plant::parse_friction("0.1,0.2,0.3", model); }, "got 3");
+  refuses([&] { plant::parse_friction("0.1", model); }, "(2, 3, 14 or 21 numbers for 7 joints");
+  refuses([&] { plant::parse_friction("0.1,0.2,0.3,0.4", model); }, "got 4");
+  refuses([&] { plant::parse_friction("0.1,0.5,0.2", model); },
+          "--friction: joint panda_joint1: stiction 0.2 N*m is below Coulomb friction 0.5");
   refuses([&] { plant::parse_friction("-0.1,0.5", model); }, "--friction: joint panda_joint1: viscous friction -0.1");
   refuses([&] { plant::parse_friction("1,2,3,4,5,6,7,8,9,10,11,12,13,-14", model); },
           "--friction: joint panda_joint7: Coulomb friction -14 N*m is negative");

@@ -528,7 +528,8 @@ TEST(plant, RefusesBadEnvironmentSpecs) {
   expect_refusal({"--payload", "-2"}, "--payload: mass -2 kg is negative");
   expect_refusal({"--payload", "inf"}, "--payload: entry 0 ('inf') is not finite");
   expect_refusal({"--friction", "0.1,-0.5"}, "--friction: joint panda_joint1: Coulomb friction -0.5 N*m is negative");
-  expect_refusal({"--friction", "0.1,0.5,0.2"}, "--friction takes VISCOUS,COULOMB for every joint or a pair per joint");
+  expect_refusal({"--friction", "0.1,0.5,0.2,0.3"},
+                 "--friction takes VISCOUS,COULOMB[,STICTION] for every joint or one such pair or triple per joint");
   expect_refusal({"--perturb-inertia", "1"}, "--perturb-inertia: FRACTION 1 is not in [0, 1)");
   expect_refusal({"--perturb-inertia", "0.2,x"}, "--perturb-inertia: SEED 'x' is not a whole number");
   expect_refusal({"--effort-noise", "-0.1"}, "--effort-noise: SIGMA -0.1 N*m is not a standard deviation");

@@ -29,6 +29,7 @@ Command register_synth(CLI::App& app);
 Command register_excite(CLI::App& app);
 Command register_dynamics(CLI::App& app);
 Command register_payload(CLI::App& app);
+Command register_check(CLI::App& app);
 
 /// Writes every (path, content) pair or none: each goes to a temporary file in its target's
 /// directory, is flushed to disk (fsync), and only when all are written are they renamed into

@@ -1,7 +1,8 @@
 // chasles_calibrate dynamics: an LCM log of the arm moving in, its identified URDF and a JSON report
 // out, a summary on stdout (chasles::identification's identify_dynamics, calibration's
 // identified_urdf). chasles_calibrate payload: a log of the arm moving with a load in, the arm
-// known, the load `chasles payload` sends out (identify_payload).
+// known, the load `chasles payload` sends out (identify_payload). chasles_calibrate check: a URDF's
+// torque RMS on a log it was not identified from (prediction_rms).
 #include <cmath>
 #include <cstdio>
 #include <initializer_list>
@@ -47,6 +48,12 @@ JointSamples samples_of(const cli::StateLog& log) {
 
 Json optional_number(bool present, double x) { return present ? cli::number(x) : Json(nullptr); }
 
+Json moving_share(const RobotModel& model, const LogUse& use) {
+  Json shares = Json::object();
+  for (int i = 0; i < model.dof(); ++i) shares[model.joint(i).name] = use.moving_share[i];
+  return shares;
+}
+
 Json report_json(const DynamicsOptions& o, const RobotModel& nominal, const cli::StateLog& log,
                  const DynamicFitResult& r) {
   const int n = nominal.dof();
@@ -63,20 +70,25 @@ Json report_json(const DynamicsOptions& o, const RobotModel& nominal, const cli:
                        {"damaged_or_undecodable_left_out", static_cast<int>(log.problems.size())},
                        {"rate_hz", r.log.sample_rate_hz},
                        {"duration_s", r.log.duration_s},
+                       {"motion_s", r.log.motion_seconds},
+                       {"rest_s", r.log.rest_seconds},
+                       {"moving_share", moving_share(nominal, r.log)},
                        {"segments", r.log.segments},
                        {"in_segments_too_short", r.log.dropped_samples},
                        {"decimation", r.log.decimation},
                        {"fit", r.log.fit_samples},
-                       {"fit_torques", r.log.fit_samples * n},
+                       {"fit_torques", r.log.fit_torques},
                        {"held_out", r.log.holdout_samples},
                        {"held_out_s", r.log.holdout_seconds},
                        {"held_out_blocks", r.log.holdout_blocks},
                        {"blocks", o.fit.holdout_blocks},
                        {"note",
-                        "the log is cut in time into 'blocks' equal blocks and 'held_out_blocks' of them are held "
-                        "out whole; the fit uses every 'decimation'-th sample of the others (2.5 x the cut-off); "
-                        "each segment between gaps loses 2 / cutoff s at either end, where the filter sees its "
-                        "own reflection"}};
+                        "a joint's torque counts, in the fit and the held-out RMS, where the joint moves at "
+                        "min_speed or faster and did so 1 / cutoff s either side (moving_share: of the motion); "
+                        "samples where no joint moves are rest, left out whole; the motion is cut into 'blocks' "
+                        "equal blocks and the last ones ('held_out_blocks') are held out whole; the fit uses every "
+                        "'decimation'-th sample of the others (2.5 x the cut-off); each segment between gaps loses "
+                        "2 / cutoff s at either end, where the filter sees its own reflection"}};
   report["filter"] = {{"type", "Butterworth low-pass, run forwards and backwards (zero phase)"},
                       {"order", o.fit.filter_order},
                       {"cutoff_hz", o.fit.cutoff_hz},
@@ -132,12 +144,15 @@ Json report_json(const DynamicsOptions& o, const RobotModel& nominal, const cli:
                        {"unit", nominal.joint(i).type == JointType::Prismatic ? "N" : "N*m"},
                        {"nominal", optional_number(held, r.holdout_rms_nominal[i])},
                        {"identified", optional_number(held, r.holdout_rms[i])},
+                       {"identified_every_sample", optional_number(held, r.holdout_rms_every_sample[i])},
                        {"fit_sigma", r.sigma[i]}});
   }
   report["held_out_torque_rms"] = torques;
   report["held_out_note"] =
       "RMS of the logged effort less each model's prediction of the torque applied over each step, at every "
-      "held-out sample; fit_sigma is the identified model's residual on the filtered, decimated torques it was "
+      "held-out sample (the last blocks of the motion) where the joint moves (identified_every_sample: at every "
+      "one, the joint slow or stuck included, where static friction holds what no model tells); "
+      "fit_sigma is the identified model's residual on the filtered, decimated torques it was "
       "fitted to";
   report["options"] = {{"holdout", o.fit.holdout},
                        {"huber_sigma", o.fit.huber},
@@ -145,6 +160,7 @@ Json report_json(const DynamicsOptions& o, const RobotModel& nominal, const cli:
                        {"prior_length_m", o.fit.prior_length},
                        {"max_condition", o.fit.max_condition},
                        {"min_range", o.fit.min_range},
+                       {"min_speed", o.fit.min_speed},
                        {"seed", o.fit.seed}};
   report["solver"] = {{"converged", r.converged},
                       {"termination", r.termination},
@@ -161,6 +177,10 @@ void print_summary(const DynamicsOptions& o, const RobotModel& nominal, const Dy
             << nominal.tip_link() << "), " << r.log.samples << " states on " << o.channel;
   std::snprintf(line, sizeof line, " at %.0f Hz over %.1f s: %d fitted (every %d), %d held out\n", r.log.sample_rate_hz,
                 r.log.duration_s, r.log.fit_samples, r.log.decimation, r.log.holdout_samples);
+  std::cout << line;
+  std::snprintf(line, sizeof line, "motion %.1f s, rest %.1f s left out; joints moving in %.0f-%.0f %% of the motion\n",
+                r.log.motion_seconds, r.log.rest_seconds, 100.0 * r.log.moving_share.minCoeff(),
+                100.0 * r.log.moving_share.maxCoeff());
   std::cout << line;
   std::snprintf(line, sizeof line,
                 "base parameters: %d of %d (theory), condition number %.3g (%.3g with unit columns)\n", r.rank,
@@ -288,7 +308,32 @@ void run_payload(const DynamicsOptions& o) {
   std::cout << "send it: " << command << "\nwrote " << o.out << "\n";
 }
 
-// What both commands read of the log and how they filter and judge it.
+// ---- check ----
+
+// A URDF's torques against a log it was not identified from, judged as dynamics judges its held-out
+// blocks: what its report's held-out RMS claims, measured on another motion.
+void run_check(const DynamicsOptions& o) {
+  const Inputs in = read_inputs(o);
+  const int n = in.model.dof();
+  const JointFriction friction = joint_friction_from_urdf(in.xml, in.model);
+  const ParameterLayout layout = parameter_layout(in.model);
+  Eigen::VectorXd pi = model_parameters(in.model);
+  pi.segment(layout.viscous(0), n) = friction.viscous;
+  pi.segment(layout.coulomb(0), n) = friction.coulomb;
+  const Eigen::VectorXd rms = prediction_rms(in.model, pi, samples_of(in.log), o.fit);
+  std::cout << "torque RMS of " << o.urdf << " on " << o.log << ", each joint where it moves:\n";
+  char line[160];
+  double sum = 0.0;
+  for (int i = 0; i < n; ++i) {
+    std::snprintf(line, sizeof line, "  %-18s %.4f\n", in.model.joint(i).name.c_str(), rms[i]);
+    std::cout << line;
+    sum += rms[i] * rms[i];
+  }
+  std::snprintf(line, sizeof line, "over the joints: %.4f\n", std::sqrt(sum / n));
+  std::cout << line;
+}
+
+// What the commands read of the log and how they filter and judge it.
 void add_log_options(CLI::App& command, std::string& channel, DynamicFitOptions& fit) {
   command.add_option("--state-channel", channel, "The channel of its chasles.robot_state_t messages")
       ->type_name("CHANNEL")
@@ -298,6 +343,12 @@ void add_log_options(CLI::App& command, std::string& channel, DynamicFitOptions&
       ->capture_default_str();
   command.add_option("--cutoff", fit.cutoff_hz, "Cut-off of the zero-phase low-pass on velocity and torque (Hz)")
       ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  command
+      .add_option("--min-speed", fit.min_speed,
+                  "A joint's torque is left out where it moves slower (rad/s or m/s) and 1 / cutoff s around: at "
+                  "rest or stuck, static friction holds a torque no model tells")
+      ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
 }
 
@@ -326,6 +377,28 @@ Command register_payload(CLI::App& app) {
       "Example:\n"
       "  chasles_calibrate payload --urdf identified.urdf --tip panda_hand --log with_box.lcmlog --out box.json");
   return {command, [options]() { run_payload(*options); }};
+}
+
+Command register_check(CLI::App& app) {
+  auto options = std::make_shared<DynamicsOptions>();
+  DynamicsOptions& o = *options;
+  CLI::App* command = app.add_subcommand(
+      "check", "How well a URDF (as dynamics identified it) predicts the torques of a log it was not fitted to");
+  command->add_option("--urdf", o.urdf, "The arm's URDF: bodies, rotors, <dynamics> friction")
+      ->required()
+      ->type_name("FILE");
+  command->add_option("--tip", o.tip, "Link that ends the chain; needed with several leaves")->type_name("LINK");
+  command->add_option("--log", o.log, "LCM log of the arm moving, another than the one identified")
+      ->required()
+      ->type_name("LOG");
+  add_log_options(*command, o.channel, o.fit);
+  command->footer(
+      "Prints each joint's RMS of the logged effort less the URDF's prediction of the torque applied over each "
+      "step, where the joint moves (--min-speed), as dynamics reports its held-out blocks. Refuses the logs "
+      "dynamics refuses for what they hold.\n"
+      "Example:\n"
+      "  chasles_calibrate check --urdf identified.urdf --tip panda_hand --log another_run.lcmlog");
+  return {command, [options]() { run_check(*options); }};
 }
 
 Command register_dynamics(CLI::App& app) {

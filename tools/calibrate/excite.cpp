@@ -28,6 +28,7 @@ struct ExciteOptions {
   std::string urdf, tip, out, report, start, acceleration_limit, jerk_limit;
   double position_margin = 0.01;  // the controller's default (--position-margin)
   double duration = 0.0;          // 0: three periods
+  double lead_in = 1.0;           // s at rest at the start before the series
   int waypoints = controller::Waypoints::kMaxPoints;
   bool unscaled = false;
   ExcitationOptions excitation;
@@ -80,28 +81,37 @@ Eigen::VectorXd start_pose(const ExciteOptions& o, const RobotModel& model, cons
   return Eigen::Map<const Eigen::VectorXd>(values.data(), n);
 }
 
-// The series at `count` waypoints, the last at its end: positions, velocities and accelerations,
-// so that the controller's quintic pieces, matching all three, follow the series itself.
-controller::Waypoints waypoints_of(const FourierTrajectory& series, int count) {
+// The start at rest after `lead_in` s, then the series at `count` − 1 waypoints, the last at its
+// end: positions, velocities and accelerations, so that the controller's quintic pieces, matching
+// all three, follow the series itself. The lead-in is what an arm a little off the start (one that
+// sags under a model not yet identified) is brought back over: straight into the series' first
+// piece, a few tens of ms long, the controller refused it at waypoint 0 (jerk over its limit).
+controller::Waypoints waypoints_of(const FourierTrajectory& series, int count, double lead_in) {
   const int n = series.dof();
   controller::Waypoints w(n);
   w.count = count;
   w.has_velocities = w.has_accelerations = true;
+  w.time(0) = lead_in;
+  w.q.col(0) = series.start;
+  w.qd.col(0).setZero();
+  w.qdd.col(0).setZero();
   Eigen::VectorXd qddd(n);
-  for (int k = 0; k < count; ++k) {
-    w.time(k) = series.duration() * (k + 1) / count;
-    sample_fourier(series, w.time(k), w.q.col(k), w.qd.col(k), w.qdd.col(k), qddd);
+  for (int k = 1; k < count; ++k) {
+    const double t = series.duration() * k / (count - 1);
+    w.time(k) = lead_in + t;
+    sample_fourier(series, t, w.q.col(k), w.qd.col(k), w.qdd.col(k), qddd);
   }
   // At rest there to rounding (1e-13); the controller takes only an exact rest as the end.
-  w.time(count - 1) = series.duration();
+  w.time(count - 1) = lead_in + series.duration();
   w.q.col(count - 1) = series.start;
   w.qd.col(count - 1).setZero();
   w.qdd.col(count - 1).setZero();
   return w;
 }
 
-// The largest distance, every millisecond, between the controller's spline and the series.
-double spline_deviation(const controller::WaypointSpline& spline, const FourierTrajectory& series) {
+// The largest distance, every millisecond, between the controller's spline after the lead-in and
+// the series.
+double spline_deviation(const controller::WaypointSpline& spline, const FourierTrajectory& series, double lead_in) {
   const int n = series.dof();
   controller::Reference ref(n);
   Eigen::VectorXd q(n), qd(n), qdd(n), qddd(n);
@@ -109,12 +119,20 @@ double spline_deviation(const controller::WaypointSpline& spline, const FourierT
   const long steps = std::lround(series.duration() * 1e3);
   for (long k = 0; k <= steps; ++k) {
     const double t = 1e-3 * k;
-    spline.sample(t, ref);
+    spline.sample(lead_in + t, ref);
     sample_fourier(series, t, q, qd, qdd, qddd);
     worst = std::max(worst, (ref.q - q).cwiseAbs().maxCoeff());
   }
   return worst;
 }
+
+// An arm not identified yet reads its own model error as external torque, and the excitation is as
+// fast and far as the limits allow: under the default collision thresholds (a 15 N tip force) the
+// reflex aborts it.
+const char* const kCollisionAdvice =
+    "until the arm is identified, run the controller with its collision thresholds off while the excitation runs "
+    "(its model error reads as external force): chasles_controller ... --collision-torque inf --collision-force 1e9 "
+    "--collision-moment 1e9";
 
 Json trajectory_json(const RobotModel& model, const controller::Waypoints& w) {
   Json points = Json::array();
@@ -126,7 +144,10 @@ Json trajectory_json(const RobotModel& model, const controller::Waypoints& w) {
   }
   Json names = Json::array();
   for (const Joint& joint : model.joints()) names.push_back(joint.name);
-  return {{"id", 1}, {"joint_names", names}, {"points", points}, {"time_scaling", false}};
+  // Time scaling on: an arm that is not quite at rest at the start (one that sags under a model
+  // not yet identified) makes the first quintic steeper than planned, which the controller refuses
+  // outright without it; slowed by a few per cent, the excitation identifies as well.
+  return {{"id", 1}, {"joint_names", names}, {"points", points}, {"time_scaling", true}};
 }
 
 Json report_json(const RobotModel& model, const BaseParameters& base, const ExcitationResult& r,
@@ -158,6 +179,7 @@ Json report_json(const RobotModel& model, const BaseParameters& base, const Exci
           {"period", s.period},
           {"periods", s.periods},
           {"duration", s.duration()},
+          {"lead_in", o.lead_in},
           {"seed", o.excitation.seed},
           {"iterations", r.iterations},
           {"seconds", r.seconds},
@@ -201,7 +223,7 @@ void run_excite(ExciteOptions o) {
   const BaseParameters base = base_parameters(model, 50, 1);
   const ExcitationResult result = optimize_excitation(model, base, excitation_limits, start, o.excitation);
 
-  const controller::Waypoints waypoints = waypoints_of(result.trajectory, o.waypoints);
+  const controller::Waypoints waypoints = waypoints_of(result.trajectory, o.waypoints, o.lead_in);
   controller::Reference at_rest(n);
   at_rest.hold(start);
   controller::WaypointSpline spline(n);
@@ -212,7 +234,7 @@ void run_excite(ExciteOptions o) {
                      " before waypoint " + std::to_string(e.waypoint) + " (" + text(e.excess.value) + " against " +
                      text(e.excess.limit) + "): give more --waypoints or a shorter --duration");
   }
-  const double deviation = spline_deviation(spline, result.trajectory);
+  const double deviation = spline_deviation(spline, result.trajectory, o.lead_in);
 
   std::vector<std::pair<std::string, std::string>> files{
       {o.out, cli::dump(trajectory_json(model, waypoints), false) + "\n"}};
@@ -246,7 +268,8 @@ void run_excite(ExciteOptions o) {
     std::snprintf(value, sizeof(value), "%.10g", start(i));
     pose += (i ? "," : "") + std::string(value);
   }
-  std::cout << "\nthe arm must be at rest at the start first: chasles target --joint " << pose << "\n";
+  std::cout << "\nthe arm must be at rest at the start first: chasles target --joint " << pose << "\n"
+            << kCollisionAdvice << "\n";
 }
 
 }  // namespace
@@ -263,6 +286,11 @@ Command register_excite(CLI::App& app) {
       ->type_name("FILE");
   excite->add_option("--duration", o.duration, "Length of the run, a whole number of periods, s (default: 3 periods)")
       ->check(CLI::PositiveNumber);
+  excite->add_option("--lead-in", o.lead_in,
+                     "Time the first waypoint holds the start, s: the arm is brought back there if it is a little "
+                     "off (its series then starts at this time)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   excite->add_option("--period", o.excitation.period, "Period of the Fourier series, s (base frequency 1/period)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
@@ -301,8 +329,11 @@ Command register_excite(CLI::App& app) {
       "rest at the start and at the end of every period, its coefficients chosen to minimise the condition "
       "number of the base regressor W_b stacked along a period, within the controller's position, velocity, "
       "acceleration and jerk limits (checked every 1 ms, and through the controller's own spline).\n"
-      "The file holds at most 1000 waypoints with positions, velocities and accelerations, the first after "
-      "t = 0: the arm must first be brought to rest at the start (chasles target --joint START).\n"
+      "The file holds at most 1000 waypoints with positions, velocities and accelerations, the first the start at "
+      "rest after --lead-in s: the arm must first be brought to rest at the start (chasles target --joint START), "
+      "and a little off it is brought back. It asks for time "
+      "scaling, so that the controller slows rather than refuses it when the arm is not quite at the start.\n" +
+      std::string(kCollisionAdvice) + ".\n"
       "Files are written atomically (temporary file, fsync, rename); on any error nothing is written.\n"
       "Example:\n"
       "  chasles_calibrate excite --urdf panda.urdf --tip panda_hand --out excitation.json --report excitation_report.json\n"

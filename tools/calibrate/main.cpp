@@ -39,7 +39,7 @@ int main(int argc, char** argv) {
       "  chasles_calibrate payload --urdf identified.urdf --tip panda_hand --log with_box.lcmlog --out box.json\n"
       "Run 'chasles_calibrate COMMAND --help' for a command's input and output.");
   const std::vector<Command> commands = {register_fit(app), register_synth(app), register_excite(app),
-                                         register_dynamics(app), register_payload(app)};
+                                         register_dynamics(app), register_payload(app), register_check(app)};
 
   try {
     app.parse(argc, argv);

@@ -345,9 +345,10 @@ void add_options(CLI::App& app, Options& o) {
                  "model, like --damping: the truth does not count it as external; give the controller the same")
       ->type_name("A,A,...");
   app.add_option("--friction", o.friction,
-                 "Hidden joint friction on top of --damping: tau_f = -b*qd - fc*tanh(qd/v_s), one pair for every "
-                 "joint or a pair per joint (N*m*s/rad, N*m); v_s is set for the RK4 step (see the docs)")
-      ->type_name("B,FC[,B,FC...]");
+                 "Hidden joint friction on top of --damping: tau_f = -b*qd - (fc + (fs - fc)*exp(-(qd/0.05)^2))*"
+                 "tanh(qd/v_s), one pair (no stiction: fs = fc) or triple for every joint or one per joint (N*m*s/rad, "
+                 "N*m, N*m); v_s is set for the RK4 step (see the docs)")
+      ->type_name("B,FC[,FS][,B,FC...]");
   app.add_option("--perturb-inertia", o.perturb_inertia,
                  "Simulate inertias off the URDF's (which the controller keeps): every body's mass scaled by up to "
                  "+-FRACTION, its centre of mass moved by up to FRACTION times its radius of gyration per axis, its "

@@ -73,19 +73,26 @@ Payload parse_payload(const std::string& text) { return chasles::parse_payload(t
 
 Friction parse_friction(const std::string& text, const RobotModel& model) {
   const std::vector<double> v = parse_number_list(text, "--friction");
-  const int n = model.dof();
-  if (v.size() != 2 && v.size() != 2 * static_cast<size_t>(n)) {
+  const size_t n = static_cast<size_t>(model.dof());
+  // Pairs (no stiction) or triples, for every joint or one per joint: 2, 3, 2n and 3n never clash.
+  const size_t width = v.size() == 3 || v.size() == 3 * n ? 3 : 2;
+  if (v.size() != width && v.size() != width * n) {
     throw ArgumentError(count_error(
-        "--friction takes VISCOUS,COULOMB for every joint or a pair per joint",
-        "2 or " + std::to_string(2 * n) + " numbers for " + std::to_string(n) + " joints: N*m*s/rad, N*m", v.size()));
+        "--friction takes VISCOUS,COULOMB[,STICTION] for every joint or one such pair or triple per joint",
+        "2, 3, " + std::to_string(2 * n) + " or " + std::to_string(3 * n) + " numbers for " + std::to_string(n) +
+            " joints: N*m*s/rad, N*m, N*m",
+        v.size()));
   }
   Friction friction;
-  friction.viscous.resize(n);
-  friction.coulomb.resize(n);
-  for (int i = 0; i < n; ++i) {
-    const size_t pair = v.size() == 2 ? 0 : 2 * static_cast<size_t>(i);
-    friction.viscous[i] = v[pair];
-    friction.coulomb[i] = v[pair + 1];
+  friction.viscous.resize(static_cast<Eigen::Index>(n));
+  friction.coulomb.resize(static_cast<Eigen::Index>(n));
+  if (width == 3) friction.stiction.resize(static_cast<Eigen::Index>(n));
+  for (size_t i = 0; i < n; ++i) {
+    const size_t first = v.size() == width ? 0 : width * i;
+    const auto joint = static_cast<Eigen::Index>(i);
+    friction.viscous[joint] = v[first];
+    friction.coulomb[joint] = v[first + 1];
+    if (width == 3) friction.stiction[joint] = v[first + 2];
   }
   check_friction(friction, model, "--friction");
   return friction;

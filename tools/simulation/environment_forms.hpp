@@ -18,7 +18,8 @@ Push parse_push(const std::string& text);
 Wall parse_wall(const std::string& text);
 /// "KG[,CX,CY,CZ]" (--payload).
 Payload parse_payload(const std::string& text);
-/// "VISCOUS,COULOMB" for every joint, or one such pair per joint, root to tip (--friction).
+/// "VISCOUS,COULOMB[,STICTION]" for every joint, or one such pair or triple per joint, root to tip
+/// (--friction).
 Friction parse_friction(const std::string& text, const RobotModel& model);
 /// "FRACTION[,SEED]" (--perturb-inertia): 0 ≤ FRACTION < 1, SEED a whole number (default 0).
 InertiaPerturbation parse_perturbation(const std::string& text);
