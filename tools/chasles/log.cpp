@@ -300,6 +300,12 @@ PlotData collect(const LogOptions& options) {
                             " on " + event.channel + " is " + (why.rfind("not a", 0) == 0 ? "" : "a message ") + why +
                             "; skipped");
   };
+  // The event as a message of its channel's type; false (and the event skipped) when it is not one.
+  const auto decoded = [&](auto& message) {
+    const std::string why = decode_checked(event.data.data(), event.data.size(), message);
+    if (!why.empty()) skip(why);
+    return why.empty();
+  };
   // Every joint-space message must have the first status's joint count.
   const auto joints_ok = [&](int n) {
     if (data.joints == 0) data.joints = n;
@@ -313,10 +319,7 @@ PlotData collect(const LogOptions& options) {
     const double t = double(event.utime - *first_utime) * 1e-6;
     if (event.channel == status_channel) {
       controller_status_t m;
-      if (std::string why = decode_checked(event.data.data(), event.data.size(), m); !why.empty()) {
-        skip(why);
-        continue;
-      }
+      if (!decoded(m)) continue;
       if (m.num_joints == 0 || !joints_ok(m.num_joints)) continue;  // WAITING: no joint values yet
       std::vector<double> row;
       for (const auto* v : {&m.q, &m.q_desired, &m.tracking_error}) row.insert(row.end(), v->begin(), v->end());
@@ -360,43 +363,28 @@ PlotData collect(const LogOptions& options) {
       data.command_utimes.push_back(utime);
     } else if (event.channel == truth_channel) {
       sim_truth_t m;
-      if (std::string why = decode_checked(event.data.data(), event.data.size(), m); !why.empty()) {
-        skip(why);
-        continue;
-      }
+      if (!decoded(m)) continue;
       data.truth.t.push_back(t);
       data.truth.rows.emplace_back(m.tip_wrench_ext, m.tip_wrench_ext + 6);
     } else if (event.channel == target_channel) {
       arm_target_t m;
-      if (std::string why = decode_checked(event.data.data(), event.data.size(), m); !why.empty()) {
-        skip(why);
-        continue;
-      }
+      if (!decoded(m)) continue;
       data.targets.push_back({t, mode_name(m.mode)});
     } else if (event.channel == trajectory_channel) {
       joint_trajectory_t m;
-      if (std::string why = decode_checked(event.data.data(), event.data.size(), m); !why.empty()) {
-        skip(why);
-        continue;
-      }
+      if (!decoded(m)) continue;
       data.targets.push_back({t, "TRAJECTORY " + std::to_string(m.id)});
     } else if (event.channel == setpoint_channel || event.channel == tip_setpoint_channel) {
       if (starts_run(event.channel, t)) data.targets.push_back({t, event.channel == setpoint_channel ? "STREAM" : "TIP STREAM"});
     } else if (event.channel == jog_channel) {
       jog_command_t m;
-      if (std::string why = decode_checked(event.data.data(), event.data.size(), m); !why.empty()) {
-        skip(why);
-        continue;
-      }
+      if (!decoded(m)) continue;
       if (starts_run(event.channel, t)) {
         data.targets.push_back({t, m.kind == jog_command_t::TWIST ? "JOG twist" : "JOG joints"});
       }
     } else if (event.channel == mode_channel) {
       control_mode_t m;
-      if (std::string why = decode_checked(event.data.data(), event.data.size(), m); !why.empty()) {
-        skip(why);
-        continue;
-      }
+      if (!decoded(m)) continue;
       data.targets.push_back({t, law_name(m.law)});
     }
   }
