@@ -493,9 +493,11 @@ PY
     "$(awk -v n="$seconds" -v t="$trajectory_s" 'BEGIN { printf "%.3f", n + 3 * t + 1 + 2 }')"
   play "a stream of joint setpoints, 30 Hz for 4 s: every joint swings toward the middle of its range and back, twice" \
     stream "$dir/stream_plan.json"
+  local holds
+  holds=$(grep -c '^chasles_controller: HOLDING' "$dir/chasles_controller.err" || true)
   play "a joint jog: every joint toward the middle of its range at 0.25 rad/s for 1 s (50 commands a second)" \
     jog --joint-velocity "$jog_velocity" --seconds 1 --rate 50
-  local holds
+  wait_holding "$holds" 5  # the jog's stop: a JOINT move must start from rest
   holds=$(grep -c '^chasles_controller: HOLDING' "$dir/chasles_controller.err" || true)
   send "JOINT move to where the tip can go down (J_b condition $jog_condition), [$jog_pose]" "${model[@]}" \
     --joint "$jog_pose" --duration "$move"
