@@ -195,7 +195,8 @@ struct Bus::Direct {
     FragmentAssembler::Message message;
     int64_t refused_seen = 0;
     while (!stopping.load(std::memory_order_relaxed)) {
-      to_assembler.wait_until(monotonic_ns() + kExpiryCheckNs);
+      // Idle, it sleeps until rung (a fragment, or the Bus ending): a fleet's processes cost nothing.
+      to_assembler.wait_until(assembler.pending() > 0 ? monotonic_ns() + kExpiryCheckNs : INT64_MAX);
       for (int i = 0; spent.pop(i);) free_messages.push_back(i);
       for (int i = 0; fragments.pop(i);) {
         Datagram& d = datagrams[static_cast<size_t>(i)];
