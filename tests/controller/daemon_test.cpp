@@ -46,10 +46,11 @@ using testing::joint_target;
 using testing::list;
 using testing::vector_of;
 using testing::ChildProcess;
+using testing::kLcmUrl;
+using testing::temp_path;
 using testing::data_path;
 using testing::panda;  // to kTip
 
-constexpr char kLcmUrl[] = "udpm://239.255.76.67:7667?ttl=0";  // the URL tools/netns.sh documents
 constexpr char kTip[] = "panda_hand_tcp";
 
 std::vector<std::string> plant_args(std::vector<std::string> extra) {
@@ -145,15 +146,11 @@ nlohmann::json read_json(const std::string& path) {
   return nlohmann::json::parse(in);
 }
 
-std::string temp_path(const std::string& name) {
-  return ::testing::TempDir() + name + "_" + std::to_string(::getpid()) + ".json";
-}
-
 // Lockstep (deterministic) plant: a JOINT move of the Panda ends within 1e-3 rad of its goal, at
 // rest; SIGTERM then stops the controller cleanly with its summary written.
 TEST(daemon, LockstepJointMoveReachesTheTargetAndSettles) {
   Seat bus;
-  const std::string summary = temp_path("summary");
+  const std::string summary = temp_path("summary.json");
   ChildProcess plant(plant_args({"--lockstep", "--q0", list(bent_pose())}));
   ChildProcess controller(controller_args({"--tick", "clock", "--summary", summary}));
   ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
@@ -195,7 +192,7 @@ class RealTime : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(RealTime, AJointMoveReachesItsGoalAndEveryCommandAnswersAState) {
   Seat bus;
-  const std::string summary = temp_path(std::string("summary_") + GetParam());
+  const std::string summary = temp_path(std::string("summary_") + GetParam() + ".json");
   ChildProcess plant(plant_args({"--receive", GetParam(), "--damping", "0.5", "--q0", list(bent_pose())}));
   ChildProcess controller(controller_args({"--receive", GetParam(), "--damping", "0.5", "--summary", summary}));
   ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
@@ -328,7 +325,7 @@ TEST(daemon, ATrajectoryMissingAFragmentIsCountedAndSaid) {
 // a JOINT move ends within 2 mrad of its goal, without a FAULT.
 TEST(daemon, AnIiwaOverDrakesProtocolMovesAt200Hz) {
   Seat bus;
-  const std::string summary = temp_path("summary_iiwa");
+  const std::string summary = temp_path("summary_iiwa.json");
   const std::vector<std::string> robot{"--robot", data_path("iiwa14.urdf"), "--tip", "iiwa_link_ee", "--lcm-url",
                                        kLcmUrl, "--protocol", "drake-iiwa", "--damping", "0.5"};
   VectorXd start(7);

@@ -60,11 +60,6 @@ Eigen::VectorXd vector_of(const json& list) {
 
 std::vector<std::string> model_args(const Reference& ref) { return {"--urdf", ref.urdf, "--tip", ref.tip_link}; }
 
-std::vector<std::string> concat(std::vector<std::string> a, const std::vector<std::string>& b) {
-  a.insert(a.end(), b.begin(), b.end());
-  return a;
-}
-
 // The lines "chasles: warning: ..." on stderr: what a model loaded with but a user should know.
 std::vector<std::string> warning_lines(const std::string& err) {
   std::vector<std::string> lines;

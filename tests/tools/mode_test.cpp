@@ -30,7 +30,6 @@ using nlohmann::json;
 using Bytes = std::vector<uint8_t>;
 using Result = testing::RunResult;
 
-constexpr char kLcmUrl[] = "udpm://239.255.76.67:7667?ttl=0";  // the URL tools/netns.sh documents
 constexpr char kPrefix[] = "TEST_";
 constexpr int kJoints = 7;  // the Panda's
 
@@ -64,11 +63,6 @@ payload_t decode_payload(const Bytes& bytes) {
 int64_t now_us() {
   return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
       .count();
-}
-
-std::vector<std::string> concat(std::vector<std::string> a, const std::vector<std::string>& b) {
-  a.insert(a.end(), b.begin(), b.end());
-  return a;
 }
 
 const std::vector<std::string> kWire = {"--lcm-url", kLcmUrl, "--channel-prefix", kPrefix};

@@ -26,7 +26,6 @@ namespace {
 
 using nlohmann::json;
 
-constexpr char kLcmUrl[] = "udpm://239.255.76.67:7667?ttl=0";  // the URL tools/netns.sh documents
 constexpr char kPrefix[] = "TEST_";
 
 using Result = testing::RunResult;
@@ -69,11 +68,6 @@ int64_t now_us() {
 }
 
 std::vector<std::string> panda_args() { return {"--robot", data_path("panda.urdf"), "--tip", "panda_hand"}; }
-
-std::vector<std::string> concat(std::vector<std::string> a, const std::vector<std::string>& b) {
-  a.insert(a.end(), b.begin(), b.end());
-  return a;
-}
 
 const std::vector<std::string> kWire = {"--lcm-url", kLcmUrl, "--channel-prefix", kPrefix};
 
