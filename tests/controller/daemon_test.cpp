@@ -472,6 +472,28 @@ TEST(daemon, RefusesAChainWithASingularMassMatrix) {
       << err;
 }
 
+// Bad input — a gain that is not a number, a config file that is not JSON or names a setting
+// there is none of — stops the controller before the loop with exit 1 and one line,
+// "chasles_controller: " and what is wrong (main throws chasles::Error for it, as the libraries do).
+TEST(daemon, SaysWhatIsWrongWithItsInputInOneLine) {
+  const testing::TempFile not_json("not_json.json", "{\"kp\": 100,\n");
+  const testing::TempFile unknown("unknown_setting.json", "{\"kq\": 100}");
+  // --seconds: a case that failed to fail ends all the same.
+  const std::vector<std::string> panda_args = {"--robot", data_path("panda.urdf"), "--tip", "panda_hand",
+                                               "--lcm-url", kLcmUrl, "--seconds", "1"};
+  for (const auto& [args, said] : std::vector<std::pair<std::vector<std::string>, std::string>>{
+           {{"--kp", "100,x"}, "--kp: 'x' is not a finite number"},
+           {{"--kd", "1,2"}, "--kd has 2 entries; give one or 7"},
+           {{"--config", not_json.path}, "config file " + not_json.path + " is not valid JSON: "},
+           {{"--config", unknown.path}, "config file " + unknown.path + ": kq: unknown setting"}}) {
+    const testing::RunResult run =
+        testing::run_to_completion(testing::concat(testing::concat({CHASLES_CONTROLLER}, panda_args), args));
+    EXPECT_EQ(run.exit_code, 1) << said;
+    EXPECT_EQ(run.err.rfind("chasles_controller: " + said, 0), 0u) << run.err;
+    EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
+  }
+}
+
 // --armature takes one value per joint, ≥ 0; anything else is refused before the loop starts.
 TEST(daemon, RefusesAnArmatureListOfTheWrongLength) {
   for (const auto& [list, needle] : std::vector<std::pair<std::string, std::string>>{
