@@ -46,6 +46,7 @@ using testing::joint_target;
 using testing::list;
 using testing::vector_of;
 using testing::ChildProcess;
+using testing::concat;
 using testing::kLcmUrl;
 using testing::temp_path;
 using testing::data_path;
@@ -54,9 +55,7 @@ using testing::panda;  // to kTip
 constexpr char kTip[] = "panda_hand_tcp";
 
 std::vector<std::string> plant_args(std::vector<std::string> extra) {
-  std::vector<std::string> argv{CHASLES_PLANT, "--robot", data_path("panda.urdf"), "--tip", kTip, "--lcm-url", kLcmUrl};
-  argv.insert(argv.end(), extra.begin(), extra.end());
-  return argv;
+  return concat({CHASLES_PLANT, "--robot", data_path("panda.urdf"), "--tip", kTip, "--lcm-url", kLcmUrl}, extra);
 }
 
 // Tests that are not about stale states run with --stale-ms 100: a test machine stalls plant or
@@ -64,13 +63,10 @@ std::vector<std::string> plant_args(std::vector<std::string> extra) {
 // and rejection. The stale rule is judged by the kill test below (at 10 ms), the fault tests and,
 // tick by tick, controller_test.
 std::vector<std::string> controller_args(std::vector<std::string> extra) {
-  std::vector<std::string> argv{CHASLES_CONTROLLER, "--robot", data_path("panda.urdf"), "--tip", kTip,
-                                "--lcm-url", kLcmUrl};
   if (std::find(extra.begin(), extra.end(), "--stale-ms") == extra.end()) {
     extra.insert(extra.begin(), {"--stale-ms", "100"});
   }
-  argv.insert(argv.end(), extra.begin(), extra.end());
-  return argv;
+  return concat({CHASLES_CONTROLLER, "--robot", data_path("panda.urdf"), "--tip", kTip, "--lcm-url", kLcmUrl}, extra);
 }
 
 // The test's seat on the bus: hears states, commands and status reports, sends targets and
@@ -487,7 +483,7 @@ TEST(daemon, SaysWhatIsWrongWithItsInputInOneLine) {
            {{"--config", not_json.path}, "config file " + not_json.path + " is not valid JSON: "},
            {{"--config", unknown.path}, "config file " + unknown.path + ": kq: unknown setting"}}) {
     const testing::RunResult run =
-        testing::run_to_completion(testing::concat(testing::concat({CHASLES_CONTROLLER}, panda_args), args));
+        testing::run_to_completion(concat(concat({CHASLES_CONTROLLER}, panda_args), args));
     EXPECT_EQ(run.exit_code, 1) << said;
     EXPECT_EQ(run.err.rfind("chasles_controller: " + said, 0), 0u) << run.err;
     EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;

@@ -143,9 +143,7 @@ class Recording {
 };
 
 RunResult chasles(const std::vector<std::string>& args) {
-  std::vector<std::string> argv{CHASLES_CLI};
-  argv.insert(argv.end(), args.begin(), args.end());
-  return run_to_completion(argv);
+  return run_to_completion(concat({CHASLES_CLI}, args));
 }
 
 // A CSV file as rows of cells (RFC 4180 quoting).

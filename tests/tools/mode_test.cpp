@@ -35,11 +35,7 @@ constexpr int kJoints = 7;  // the Panda's
 
 // Runs `chasles ARGS` without the caller's LCM_DEFAULT_URL; `env` entries ("NAME=value") are added.
 Result run_cli(const std::vector<std::string>& args, const std::vector<std::string>& env = {}) {
-  std::vector<std::string> argv{CHASLES_CLI};
-  argv.insert(argv.end(), args.begin(), args.end());
-  std::vector<std::string> environment{"LCM_DEFAULT_URL"};
-  environment.insert(environment.end(), env.begin(), env.end());
-  return testing::run_to_completion(argv, "/dev/null", environment);
+  return testing::run_to_completion(concat({CHASLES_CLI}, args), "/dev/null", concat({"LCM_DEFAULT_URL"}, env));
 }
 
 // The raw bytes of every message `chasles` sent on `channel` of the test's bus.

@@ -59,9 +59,7 @@ class PlantProcess : public ChildProcess {
 
  private:
   static std::vector<std::string> command_line(const std::vector<std::string>& args) {
-    std::vector<std::string> argv{CHASLES_PLANT, "--lcm-url", kLcmUrl, "--channel-prefix", kPrefix};
-    argv.insert(argv.end(), args.begin(), args.end());
-    return argv;
+    return concat({CHASLES_PLANT, "--lcm-url", kLcmUrl, "--channel-prefix", kPrefix}, args);
   }
 };
 
