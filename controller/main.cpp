@@ -4,8 +4,11 @@
 //
 // Errors: one line "chasles_controller: ..." on stderr; exit 2 for a usage error, 1 for bad input
 // (URDF, gains, config file), when LCM cannot start, or when another controller is already
-// commanding the arm (heard on the command channel before the loop starts). SIGINT and SIGTERM
-// stop it cleanly (exit 0), after the summary is written.
+// commanding the arm (heard on the command channel before the loop starts). What main throws for
+// bad input is a chasles::Error (ArgumentError, ModelError), as the libraries' errors are; an
+// exception of any other kind is reported as "internal error: ..." (a bug), but for the system's
+// refusals (std::system_error) and "out of memory". SIGINT and SIGTERM stop it cleanly (exit 0),
+// after the summary is written.
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -15,14 +18,17 @@
 #include <cstdio>
 #include <fstream>
 #include <map>
+#include <new>
 #include <nlohmann/json.hpp>
-#include <stdexcept>
 #include <string>
+#include <system_error>
 #include <thread>
 
 #include "chasles/controller/daemon.hpp"
 #include "chasles/controller/node.hpp"
 #include "chasles/core/dynamics/dynamics.hpp"
+#include "chasles/core/error.hpp"
+#include "chasles/core/model/model.hpp"
 #include "chasles/core/model/payload.hpp"
 #include "chasles/core/model/urdf.hpp"
 #include "chasles/core/number_list.hpp"
@@ -32,6 +38,13 @@ namespace {
 using chasles::controller::DaemonOptions;
 using chasles::controller::Summary;
 using Json = nlohmann::json;
+
+/// Prints "chasles_controller: <message>" as one line on stderr and returns `code`, the exit status:
+/// how the daemon reports every error, as the tools do theirs (tools/error_line.hpp).
+int fail(const std::string& message, int code) {
+  std::fprintf(stderr, "chasles_controller: %s\n", chasles::one_line(message).c_str());
+  return code;
+}
 
 std::atomic<bool> g_stop{false};
 void on_signal(int) { g_stop.store(true); }
@@ -54,14 +67,14 @@ Eigen::VectorXd gains(const std::string& text, int n, const std::string& name, b
       used = 0;
     }
     if (used == 0 || used != item.size() || std::isnan(x) || (!infinite_ok && std::isinf(x))) {
-      throw std::invalid_argument(name + ": '" + item + "' is not a " + (infinite_ok ? "number" : "finite number"));
+      throw chasles::ArgumentError(name + ": '" + item + "' is not a " + (infinite_ok ? "number" : "finite number"));
     }
     values.push_back(x);
   }
   if (values.size() == 1) return Eigen::VectorXd::Constant(n, values[0]);
   if (static_cast<int>(values.size()) != n) {
-    throw std::invalid_argument(name + " has " + std::to_string(values.size()) + " entries; give one or " +
-                                std::to_string(n));
+    throw chasles::ArgumentError(name + " has " + std::to_string(values.size()) + " entries; give one or " +
+                                 std::to_string(n));
   }
   return Eigen::Map<Eigen::VectorXd>(values.data(), n);
 }
@@ -79,10 +92,10 @@ std::string number_text(const Eigen::VectorXd& v) {
 
 std::string gains_text(const Json& value, const std::string& name) {
   if (value.is_number()) return std::to_string(value.get<double>());
-  if (!value.is_array()) throw std::invalid_argument(name + ": expected a number or a list of numbers");
+  if (!value.is_array()) throw chasles::ArgumentError(name + ": expected a number or a list of numbers");
   std::string text;
   for (const auto& x : value) {
-    if (!x.is_number()) throw std::invalid_argument(name + ": expected a number or a list of numbers");
+    if (!x.is_number()) throw chasles::ArgumentError(name + ": expected a number or a list of numbers");
     text += (text.empty() ? "" : ",") + std::to_string(x.get<double>());
   }
   return text;
@@ -122,22 +135,27 @@ std::string flag_of(const std::string& key) {
 /// "torque_ramp_ms": .., the contact settings ..}); flags given on the command line win.
 void apply_config(const std::string& path, Flags& flags, const CLI::App& app) {
   std::ifstream in(path);
-  if (!in) throw std::invalid_argument("cannot read config file " + path);
+  if (!in) throw chasles::ArgumentError("cannot read config file " + path);
   Json config;
   try {
     config = Json::parse(in);
   } catch (const Json::parse_error& e) {
-    throw std::invalid_argument("config file " + path + " is not valid JSON: " + e.what());
+    throw chasles::ArgumentError("config file " + path + " is not valid JSON: " + e.what());
   }
-  if (!config.is_object()) throw std::invalid_argument("config file " + path + ": expected a JSON object");
+  if (!config.is_object()) throw chasles::ArgumentError("config file " + path + ": expected a JSON object");
   static const char* const kKnown =
       "kp, kd, rate, stale_ms, torque_ramp_ms, observer_gain, contact_torque, collision_torque, contact_force, "
       "collision_force, contact_moment, collision_moment, reflex, retract_mm";
   for (const auto& [key, value] : config.items()) {
-    if (app.count(flag_of(key)) > 0) continue;
+    // A key that names no flag is no setting either: said below (App::count would throw).
+    if (const CLI::Option* given = app.get_option_no_throw(flag_of(key)); given != nullptr && given->count() > 0) {
+      continue;
+    }
     const std::string where = "config file " + path + ": " + key;
     auto positive = [&]() {
-      if (!value.is_number() || !(value.get<double>() > 0.0)) throw std::invalid_argument(where + ": expected a positive number");
+      if (!value.is_number() || !(value.get<double>() > 0.0)) {
+        throw chasles::ArgumentError(where + ": expected a positive number");
+      }
       return value.get<double>();
     };
     if (key == "kp") {
@@ -163,10 +181,10 @@ void apply_config(const std::string& path, Flags& flags, const CLI::App& app) {
       flags.contact.collision_moment = positive();
     } else if (key == "reflex") {
       if (!value.is_string() || !chasles::controller::parse_reflex(value.get<std::string>(), flags.contact.reflex)) {
-        throw std::invalid_argument(where + ": expected \"stop\", \"compliant\" or \"retract\"");
+        throw chasles::ArgumentError(where + ": expected \"stop\", \"compliant\" or \"retract\"");
       }
     } else {
-      throw std::invalid_argument(where + ": unknown setting (known: " + kKnown + ")");
+      throw chasles::ArgumentError(where + ": unknown setting (known: " + kKnown + ")");
     }
   }
 }
@@ -201,11 +219,11 @@ void write_summary(const std::string& path, const Summary& s) {
     std::ofstream out(tmp);
     out << json.dump(2) << "\n";
     out.flush();
-    if (!out) throw std::runtime_error("cannot write the summary to " + tmp);
+    if (!out) throw chasles::Error("cannot write the summary to " + tmp);
   }
   if (std::rename(tmp.c_str(), path.c_str()) != 0) {
     std::remove(tmp.c_str());
-    throw std::runtime_error("cannot write the summary to " + path);
+    throw chasles::Error("cannot write the summary to " + path);
   }
 }
 
@@ -369,8 +387,7 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);
-    std::fprintf(stderr, "chasles_controller: %s\n", e.what());
-    return 2;
+    return fail(e.what(), 2);
   }
 
   try {
@@ -387,12 +404,13 @@ int main(int argc, char** argv) {
     if (!flags.payload.empty()) options.payload = chasles::parse_payload(flags.payload, "--payload");
     const chasles::RobotModel carried = options.payload ? chasles::with_payload(model, *options.payload) : model;
     for (const std::string& warning : model.warnings()) {
-      std::fprintf(stderr, "chasles_controller: warning: %s: %s\n", flags.robot.c_str(), warning.c_str());
+      std::fprintf(stderr, "chasles_controller: warning: %s: %s\n", flags.robot.c_str(),
+                   chasles::one_line(warning).c_str());
     }
     // The computed-torque law needs no M⁻¹, but the arm it drives does: a model whose M is singular
     // cannot describe a real arm's motion, and every model-based estimate built on it would be wrong.
     if (const std::string defect = chasles::mass_matrix_defect(carried); !defect.empty()) {
-      throw std::runtime_error(flags.robot + ": cannot control this chain: " + defect);
+      throw chasles::ModelError(flags.robot + ": cannot control this chain: " + defect);
     }
     const int n = model.dof();
     for (const chasles::Joint& joint : model.joints()) {
@@ -462,11 +480,15 @@ int main(int argc, char** argv) {
                  static_cast<long long>(summary.faults));
     if (!flags.summary.empty()) write_summary(flags.summary, summary);
   } catch (const chasles::TipNotChosenError& e) {
-    std::fprintf(stderr, "chasles_controller: %s with --tip\n", e.what());
-    return 1;
+    return fail(std::string(e.what()) + " with --tip", 1);
+  } catch (const chasles::Error& e) {
+    return fail(e.what(), 1);
+  } catch (const std::bad_alloc&) {
+    return fail("out of memory", 1);
+  } catch (const std::system_error& e) {
+    return fail(e.what(), 1);
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "chasles_controller: %s\n", e.what());
-    return 1;
+    return fail(std::string("internal error: ") + e.what(), 1);
   }
   return 0;
 }

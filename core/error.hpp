@@ -4,6 +4,7 @@
 #pragma once
 
 #include <stdexcept>
+#include <string>
 
 namespace chasles {
 
@@ -24,5 +25,16 @@ class DynamicsError : public Error {
  public:
   using Error::Error;
 };
+
+/// `text` without trailing line breaks and with inner ones turned into spaces: a message (from
+/// urdfdom, Ceres, CLI11, ..., some of which span lines) as the one line a program's error is
+/// printed as, so that a script reading stderr gets exactly one.
+inline std::string one_line(std::string text) {
+  while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();
+  for (char& c : text) {
+    if (c == '\n' || c == '\r') c = ' ';
+  }
+  return text;
+}
 
 }  // namespace chasles

@@ -1,22 +1,16 @@
 // How the command-line tools report an error: one line "<tool>: <message>" on stderr. Messages
 // come from several libraries (urdfdom, Ceres, CLI11) and some span lines; a script reading stderr
-// should get exactly one. Warnings take one line each too. Shared by the tools.
+// should get exactly one (chasles::one_line, core/error.hpp, which the controller's main uses too).
+// Warnings take one line each too. Shared by the tools.
 #pragma once
 
 #include <iostream>
 #include <string>
 #include <vector>
 
-namespace chasles::tools {
+#include "chasles/core/error.hpp"
 
-/// `text` without trailing line breaks and with inner ones turned into spaces.
-inline std::string one_line(std::string text) {
-  while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();
-  for (char& c : text) {
-    if (c == '\n' || c == '\r') c = ' ';
-  }
-  return text;
-}
+namespace chasles::tools {
 
 /// Prints "<tool>: <message>" as one line on stderr and returns `code`, the exit status.
 inline int fail(const char* tool, const std::string& message, int code) {

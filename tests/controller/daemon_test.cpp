@@ -46,16 +46,16 @@ using testing::joint_target;
 using testing::list;
 using testing::vector_of;
 using testing::ChildProcess;
+using testing::concat;
+using testing::kLcmUrl;
+using testing::temp_path;
 using testing::data_path;
 using testing::panda;  // to kTip
 
-constexpr char kLcmUrl[] = "udpm://239.255.76.67:7667?ttl=0";  // the URL tools/netns.sh documents
 constexpr char kTip[] = "panda_hand_tcp";
 
 std::vector<std::string> plant_args(std::vector<std::string> extra) {
-  std::vector<std::string> argv{CHASLES_PLANT, "--robot", data_path("panda.urdf"), "--tip", kTip, "--lcm-url", kLcmUrl};
-  argv.insert(argv.end(), extra.begin(), extra.end());
-  return argv;
+  return concat({CHASLES_PLANT, "--robot", data_path("panda.urdf"), "--tip", kTip, "--lcm-url", kLcmUrl}, extra);
 }
 
 // Tests that are not about stale states run with --stale-ms 100: a test machine stalls plant or
@@ -63,13 +63,10 @@ std::vector<std::string> plant_args(std::vector<std::string> extra) {
 // and rejection. The stale rule is judged by the kill test below (at 10 ms), the fault tests and,
 // tick by tick, controller_test.
 std::vector<std::string> controller_args(std::vector<std::string> extra) {
-  std::vector<std::string> argv{CHASLES_CONTROLLER, "--robot", data_path("panda.urdf"), "--tip", kTip,
-                                "--lcm-url", kLcmUrl};
   if (std::find(extra.begin(), extra.end(), "--stale-ms") == extra.end()) {
     extra.insert(extra.begin(), {"--stale-ms", "100"});
   }
-  argv.insert(argv.end(), extra.begin(), extra.end());
-  return argv;
+  return concat({CHASLES_CONTROLLER, "--robot", data_path("panda.urdf"), "--tip", kTip, "--lcm-url", kLcmUrl}, extra);
 }
 
 // The test's seat on the bus: hears states, commands and status reports, sends targets and
@@ -145,15 +142,11 @@ nlohmann::json read_json(const std::string& path) {
   return nlohmann::json::parse(in);
 }
 
-std::string temp_path(const std::string& name) {
-  return ::testing::TempDir() + name + "_" + std::to_string(::getpid()) + ".json";
-}
-
 // Lockstep (deterministic) plant: a JOINT move of the Panda ends within 1e-3 rad of its goal, at
 // rest; SIGTERM then stops the controller cleanly with its summary written.
 TEST(daemon, LockstepJointMoveReachesTheTargetAndSettles) {
   Seat bus;
-  const std::string summary = temp_path("summary");
+  const std::string summary = temp_path("summary.json");
   ChildProcess plant(plant_args({"--lockstep", "--q0", list(bent_pose())}));
   ChildProcess controller(controller_args({"--tick", "clock", "--summary", summary}));
   ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
@@ -195,7 +188,7 @@ class RealTime : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(RealTime, AJointMoveReachesItsGoalAndEveryCommandAnswersAState) {
   Seat bus;
-  const std::string summary = temp_path(std::string("summary_") + GetParam());
+  const std::string summary = temp_path(std::string("summary_") + GetParam() + ".json");
   ChildProcess plant(plant_args({"--receive", GetParam(), "--damping", "0.5", "--q0", list(bent_pose())}));
   ChildProcess controller(controller_args({"--receive", GetParam(), "--damping", "0.5", "--summary", summary}));
   ASSERT_TRUE(bus.until([&] { return bus.status_is(controller_status_t::HOLDING); }, 5.0)) << controller.stderr_text();
@@ -328,7 +321,7 @@ TEST(daemon, ATrajectoryMissingAFragmentIsCountedAndSaid) {
 // a JOINT move ends within 2 mrad of its goal, without a FAULT.
 TEST(daemon, AnIiwaOverDrakesProtocolMovesAt200Hz) {
   Seat bus;
-  const std::string summary = temp_path("summary_iiwa");
+  const std::string summary = temp_path("summary_iiwa.json");
   const std::vector<std::string> robot{"--robot", data_path("iiwa14.urdf"), "--tip", "iiwa_link_ee", "--lcm-url",
                                        kLcmUrl, "--protocol", "drake-iiwa", "--damping", "0.5"};
   VectorXd start(7);
@@ -473,6 +466,28 @@ TEST(daemon, RefusesAChainWithASingularMassMatrix) {
                      ": cannot control this chain: the mass matrix is singular: joint 'j3' moves no inertia"),
             std::string::npos)
       << err;
+}
+
+// Bad input — a gain that is not a number, a config file that is not JSON or names a setting
+// there is none of — stops the controller before the loop with exit 1 and one line,
+// "chasles_controller: " and what is wrong (main throws chasles::Error for it, as the libraries do).
+TEST(daemon, SaysWhatIsWrongWithItsInputInOneLine) {
+  const testing::TempFile not_json("not_json.json", "{\"kp\": 100,\n");
+  const testing::TempFile unknown("unknown_setting.json", "{\"kq\": 100}");
+  // --seconds: a case that failed to fail ends all the same.
+  const std::vector<std::string> panda_args = {"--robot", data_path("panda.urdf"), "--tip", "panda_hand",
+                                               "--lcm-url", kLcmUrl, "--seconds", "1"};
+  for (const auto& [args, said] : std::vector<std::pair<std::vector<std::string>, std::string>>{
+           {{"--kp", "100,x"}, "--kp: 'x' is not a finite number"},
+           {{"--kd", "1,2"}, "--kd has 2 entries; give one or 7"},
+           {{"--config", not_json.path}, "config file " + not_json.path + " is not valid JSON: "},
+           {{"--config", unknown.path}, "config file " + unknown.path + ": kq: unknown setting"}}) {
+    const testing::RunResult run =
+        testing::run_to_completion(concat(concat({CHASLES_CONTROLLER}, panda_args), args));
+    EXPECT_EQ(run.exit_code, 1) << said;
+    EXPECT_EQ(run.err.rfind("chasles_controller: " + said, 0), 0u) << run.err;
+    EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
+  }
 }
 
 // --armature takes one value per joint, ≥ 0; anything else is refused before the loop starts.

@@ -22,15 +22,11 @@ using testing::AllocationCounter;
 using testing::matrices_near;
 using testing::panda;
 using testing::ur5;
+using testing::gravity_of;
 
 constexpr int64_t kMs = 1'000'000;
 constexpr std::array<Law, 4> kLaws = {Law::kComputedTorque, Law::kJointImpedance, Law::kCartesianImpedance,
                                       Law::kFreeDrive};
-
-VectorXd gravity_of(const RobotModel& model, const VectorXd& q) {
-  Data data(model);
-  return gravity_torques(model, data, q);
-}
 
 // --- the Controller's laws ------------------------------------------------------------------
 

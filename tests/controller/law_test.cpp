@@ -31,6 +31,7 @@ using testing::data_path;
 using testing::matrices_near;
 using testing::panda;
 using testing::ur5;
+using testing::gravity_of;
 
 constexpr std::array<Law, 4> kLaws = {Law::kComputedTorque, Law::kJointImpedance, Law::kCartesianImpedance,
                                       Law::kFreeDrive};
@@ -79,12 +80,6 @@ Matrix6Xd frame_jacobian(const RobotModel& model, const VectorXd& q, const Trans
   const Matrix6Xd J_s = space_jacobian(model, data, q);
   const Transform T_sc = Transform(data.T_sb) * T_bc;
   return adjoint(inverse(T_sc)) * J_s;
-}
-
-VectorXd gravity_of(const RobotModel& model, const VectorXd& q) {
-  Data data(model);
-  Data data_ref(model);
-  return gravity_torques(model, data, q);
 }
 
 // c(q, q̇) + g(q) as the velocity product and the gravity torques, each by its own algorithm.

@@ -20,9 +20,12 @@
 #include "chasles/core/lie/se3.hpp"
 #include "chasles/core/model/urdf.hpp"
 #include "support/reference.hpp"
+#include "support/statistics.hpp"
 
 namespace chasles {
 namespace {
+
+using testing::percentile;
 
 struct IkCase {
   Matrix4d T_target;
@@ -75,12 +78,6 @@ void pose_errors(const RobotModel& model, const Eigen::VectorXd& q, const Matrix
     }
   }
   return ::testing::AssertionSuccess();
-}
-
-double percentile(std::vector<double> values, double p) {
-  std::sort(values.begin(), values.end());
-  const size_t k = std::min(values.size() - 1, static_cast<size_t>(p * static_cast<double>(values.size())));
-  return values[k];
 }
 
 class Ik : public ::testing::TestWithParam<std::string> {

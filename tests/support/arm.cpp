@@ -3,6 +3,7 @@
 #include <chrono>
 #include <sstream>
 
+#include "chasles/core/dynamics/dynamics.hpp"
 #include "chasles/core/model/urdf.hpp"
 #include "support/reference.hpp"
 
@@ -16,6 +17,11 @@ const RobotModel& panda() {
 const RobotModel& ur5() {
   static const RobotModel model = load_urdf_file(data_path("ur5.urdf"), UrdfOptions{"tool0"});
   return model;
+}
+
+Eigen::VectorXd gravity_of(const RobotModel& model, const Eigen::VectorXd& q) {
+  Data data(model);
+  return gravity_torques(model, data, q);
 }
 
 Eigen::VectorXd bent_pose() {

@@ -1,6 +1,7 @@
 // The arms the controller's tests drive — the Panda to its hand's TCP, the UR5 to tool0, loaded once
 // — and what the tests that run the plant and the controller as processes say to them: the Panda
-// pose they start from, joint vectors as command-line lists and back from messages, JOINT targets.
+// pose they start from, joint vectors as command-line lists and back from messages, JOINT targets,
+// and the gravity torques the laws are checked against.
 #pragma once
 
 #include <Eigen/Core>
@@ -16,6 +17,9 @@ namespace chasles::testing {
 /// each loaded on first use and kept.
 const RobotModel& panda();
 const RobotModel& ur5();
+
+/// g(q), the joint torques that hold `model` up against gravity at q.
+Eigen::VectorXd gravity_of(const RobotModel& model, const Eigen::VectorXd& q);
 
 /// A bent Panda pose, within its limits, where gravity pulls hard on the shoulder and elbow.
 Eigen::VectorXd bent_pose();

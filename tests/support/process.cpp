@@ -27,8 +27,16 @@ std::string read_file(const std::string& path) {
   return text.str();
 }
 
-TempFile::TempFile(const std::string& name, const std::string& content)
-    : path(::testing::TempDir() + "chasles_" + std::to_string(::getpid()) + "_" + name) {
+std::vector<std::string> concat(std::vector<std::string> a, const std::vector<std::string>& b) {
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
+std::string temp_path(const std::string& name) {
+  return ::testing::TempDir() + "chasles_" + std::to_string(::getpid()) + "_" + name;
+}
+
+TempFile::TempFile(const std::string& name, const std::string& content) : path(temp_path(name)) {
   std::ofstream(path, std::ios::binary) << content;
 }
 

@@ -1,5 +1,6 @@
 // A program run as a child process by a test: stdin and stdout on /dev/null, stderr kept in a
-// file the test can read; stopped (SIGTERM) when the object goes away.
+// file the test can read; stopped (SIGTERM) when the object goes away. And what such runs are
+// given: argument lists put together, files in the test's temporary directory, the LCM URL.
 #pragma once
 
 #include <sys/types.h>
@@ -21,6 +22,18 @@ struct RunResult {
 /// environment, a bare "NAME" is removed from it.
 RunResult run_to_completion(const std::vector<std::string>& argv, const std::string& stdin_path = "/dev/null",
                             const std::vector<std::string>& env = {});
+
+/// The LCM URL the tests' processes talk on: loopback multicast, TTL 0 (the URL tools/netns.sh
+/// documents).
+inline constexpr char kLcmUrl[] = "udpm://239.255.76.67:7667?ttl=0";
+
+/// `a` followed by `b`: a command line put together from its parts.
+std::vector<std::string> concat(std::vector<std::string> a, const std::vector<std::string>& b);
+
+/// A path in the test's temporary directory that no other test process uses:
+/// TempDir()/chasles_<pid>_<name> (the file is neither made nor removed). `name` carries any
+/// extension the file needs.
+std::string temp_path(const std::string& name);
 
 /// A file's whole content ("" if it cannot be read).
 std::string read_file(const std::string& path);

@@ -32,9 +32,7 @@ namespace {
 using nlohmann::json;
 
 RunResult run(const std::vector<std::string>& args) {
-  std::vector<std::string> argv{CHASLES_CALIBRATE};
-  argv.insert(argv.end(), args.begin(), args.end());
-  return run_to_completion(argv);
+  return run_to_completion(concat({CHASLES_CALIBRATE}, args));
 }
 
 /// A fresh directory for one test's files, removed with everything in it.

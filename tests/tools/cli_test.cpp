@@ -28,9 +28,7 @@ using Result = testing::RunResult;
 
 // Runs the chasles binary with `args`; stdin from `stdin_path` or /dev/null.
 Result run_cli(const std::vector<std::string>& args, const std::string& stdin_path = "/dev/null") {
-  std::vector<std::string> argv{CHASLES_CLI};
-  argv.insert(argv.end(), args.begin(), args.end());
-  return testing::run_to_completion(argv, stdin_path);
+  return testing::run_to_completion(concat({CHASLES_CLI}, args), stdin_path);
 }
 
 // A list of rows (or a list of vectors) as a matrix; null (a non-finite value) becomes NaN.
@@ -59,11 +57,6 @@ Eigen::VectorXd vector_of(const json& list) {
 }
 
 std::vector<std::string> model_args(const Reference& ref) { return {"--urdf", ref.urdf, "--tip", ref.tip_link}; }
-
-std::vector<std::string> concat(std::vector<std::string> a, const std::vector<std::string>& b) {
-  a.insert(a.end(), b.begin(), b.end());
-  return a;
-}
 
 // The lines "chasles: warning: ..." on stderr: what a model loaded with but a user should know.
 std::vector<std::string> warning_lines(const std::string& err) {

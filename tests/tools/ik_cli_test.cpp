@@ -26,18 +26,12 @@ using Result = testing::RunResult;
 
 // Runs the chasles binary with `args`.
 Result run_cli(const std::vector<std::string>& args) {
-  std::vector<std::string> argv{CHASLES_CLI};
-  argv.insert(argv.end(), args.begin(), args.end());
-  return testing::run_to_completion(argv);
+  return testing::run_to_completion(concat({CHASLES_CLI}, args));
 }
 
 const std::vector<std::string> kUr5 = {"ik", "--urdf", data_path("ur5.urdf"), "--tip", "tool0"};
 
-std::vector<std::string> ur5_args(const std::vector<std::string>& more) {
-  std::vector<std::string> args = kUr5;
-  args.insert(args.end(), more.begin(), more.end());
-  return args;
-}
+std::vector<std::string> ur5_args(const std::vector<std::string>& more) { return concat(kUr5, more); }
 
 RobotModel ur5() {
   UrdfOptions options;

@@ -42,14 +42,9 @@
 namespace chasles::testing {
 namespace {
 
-constexpr char kLcmUrl[] = "udpm://239.255.76.67:7667?ttl=0";  // the URL tools/netns.sh documents
 constexpr char kTip[] = "panda_hand";
 const std::vector<std::string> kPandaJoints = {"panda_joint1", "panda_joint2", "panda_joint3", "panda_joint4",
                                                "panda_joint5", "panda_joint6", "panda_joint7"};
-
-std::string temp_path(const std::string& name) {
-  return ::testing::TempDir() + "log_test_" + std::to_string(::getpid()) + "_" + name;
-}
 
 // A big-endian event of the LCM log format, parsed here independently of the code under test.
 struct RawEvent {
@@ -148,9 +143,7 @@ class Recording {
 };
 
 RunResult chasles(const std::vector<std::string>& args) {
-  std::vector<std::string> argv{CHASLES_CLI};
-  argv.insert(argv.end(), args.begin(), args.end());
-  return run_to_completion(argv);
+  return run_to_completion(concat({CHASLES_CLI}, args));
 }
 
 // A CSV file as rows of cells (RFC 4180 quoting).
@@ -284,11 +277,6 @@ arm_target_t target_message(int k) {
 }
 
 std::vector<std::string> panda() { return {"--urdf", data_path("panda.urdf"), "--tip", kTip}; }
-
-std::vector<std::string> concat(std::vector<std::string> a, const std::vector<std::string>& b) {
-  a.insert(a.end(), b.begin(), b.end());
-  return a;
-}
 
 TEST(log, ExportGivesBackEveryMessageSent) {
   Recording recording("export.lcmlog");

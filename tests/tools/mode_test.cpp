@@ -30,17 +30,12 @@ using nlohmann::json;
 using Bytes = std::vector<uint8_t>;
 using Result = testing::RunResult;
 
-constexpr char kLcmUrl[] = "udpm://239.255.76.67:7667?ttl=0";  // the URL tools/netns.sh documents
 constexpr char kPrefix[] = "TEST_";
 constexpr int kJoints = 7;  // the Panda's
 
 // Runs `chasles ARGS` without the caller's LCM_DEFAULT_URL; `env` entries ("NAME=value") are added.
 Result run_cli(const std::vector<std::string>& args, const std::vector<std::string>& env = {}) {
-  std::vector<std::string> argv{CHASLES_CLI};
-  argv.insert(argv.end(), args.begin(), args.end());
-  std::vector<std::string> environment{"LCM_DEFAULT_URL"};
-  environment.insert(environment.end(), env.begin(), env.end());
-  return testing::run_to_completion(argv, "/dev/null", environment);
+  return testing::run_to_completion(concat({CHASLES_CLI}, args), "/dev/null", concat({"LCM_DEFAULT_URL"}, env));
 }
 
 // The raw bytes of every message `chasles` sent on `channel` of the test's bus.
@@ -64,11 +59,6 @@ payload_t decode_payload(const Bytes& bytes) {
 int64_t now_us() {
   return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
       .count();
-}
-
-std::vector<std::string> concat(std::vector<std::string> a, const std::vector<std::string>& b) {
-  a.insert(a.end(), b.begin(), b.end());
-  return a;
 }
 
 const std::vector<std::string> kWire = {"--lcm-url", kLcmUrl, "--channel-prefix", kPrefix};

@@ -27,14 +27,8 @@ namespace chasles::testing {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-constexpr char kLcmUrl[] = "udpm://239.255.76.67:7667?ttl=0";  // the URL tools/netns.sh documents
 constexpr char kTip[] = "panda_hand";
 constexpr char kBentPose[] = "0.1,0.5,-0.2,-1.2,0.3,1.0,0.7";
-
-std::vector<std::string> concat(std::vector<std::string> a, const std::vector<std::string>& b) {
-  a.insert(a.end(), b.begin(), b.end());
-  return a;
-}
 
 std::vector<std::string> model() { return {"--robot", data_path("panda.urdf"), "--tip", kTip, "--lcm-url", kLcmUrl}; }
 

@@ -43,7 +43,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-constexpr char kLcmUrl[] = "udpm://239.255.76.67:7667?ttl=0";  // the URL tools/netns.sh documents
 constexpr char kPrefix[] = "TEST_";
 constexpr double kDt = 1e-3;  // the plant's default 1000 Hz
 
@@ -60,9 +59,7 @@ class PlantProcess : public ChildProcess {
 
  private:
   static std::vector<std::string> command_line(const std::vector<std::string>& args) {
-    std::vector<std::string> argv{CHASLES_PLANT, "--lcm-url", kLcmUrl, "--channel-prefix", kPrefix};
-    argv.insert(argv.end(), args.begin(), args.end());
-    return argv;
+    return concat({CHASLES_PLANT, "--lcm-url", kLcmUrl, "--channel-prefix", kPrefix}, args);
   }
 };
 

@@ -30,14 +30,8 @@ namespace chasles::testing {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-constexpr char kLcmUrl[] = "udpm://239.255.76.67:7667?ttl=0";  // the URL tools/netns.sh documents
 constexpr char kTip[] = "panda_hand";
 constexpr int kOcrScale = 3;  // lcm-spy's 12-pixel font is too small for tesseract as it is
-
-std::vector<std::string> concat(std::vector<std::string> a, const std::vector<std::string>& b) {
-  a.insert(a.end(), b.begin(), b.end());
-  return a;
-}
 
 // Letters and digits only, lower case: OCR reads "CHASLES_STATUS" as "CHASLES STATUS" and
 // "controller_status_t" as "controller status t", so both sides are compared this way.
@@ -47,10 +41,6 @@ std::string normalised(const std::string& text) {
     if (std::isalnum(static_cast<unsigned char>(c))) out += char(std::tolower(static_cast<unsigned char>(c)));
   }
   return out;
-}
-
-std::string temp_path(const std::string& name) {
-  return ::testing::TempDir() + "spy_test_" + std::to_string(::getpid()) + "_" + name;
 }
 
 class Display {

@@ -26,7 +26,6 @@ namespace {
 
 using nlohmann::json;
 
-constexpr char kLcmUrl[] = "udpm://239.255.76.67:7667?ttl=0";  // the URL tools/netns.sh documents
 constexpr char kPrefix[] = "TEST_";
 
 using Result = testing::RunResult;
@@ -34,11 +33,8 @@ using Result = testing::RunResult;
 // Runs `chasles target ARGS`, without the caller's LCM_DEFAULT_URL; `env` entries ("NAME=value")
 // are added to the child's environment.
 Result run_target(const std::vector<std::string>& args, const std::vector<std::string>& env = {}) {
-  std::vector<std::string> argv{CHASLES_CLI, "target"};
-  argv.insert(argv.end(), args.begin(), args.end());
-  std::vector<std::string> environment{"LCM_DEFAULT_URL"};
-  environment.insert(environment.end(), env.begin(), env.end());
-  return testing::run_to_completion(argv, "/dev/null", environment);
+  return testing::run_to_completion(concat({CHASLES_CLI, "target"}, args), "/dev/null",
+                                    concat({"LCM_DEFAULT_URL"}, env));
 }
 
 // Every arm_target_t on `channel`, decoded as sent (a malformed one fails the test).
@@ -69,11 +65,6 @@ int64_t now_us() {
 }
 
 std::vector<std::string> panda_args() { return {"--robot", data_path("panda.urdf"), "--tip", "panda_hand"}; }
-
-std::vector<std::string> concat(std::vector<std::string> a, const std::vector<std::string>& b) {
-  a.insert(a.end(), b.begin(), b.end());
-  return a;
-}
 
 const std::vector<std::string> kWire = {"--lcm-url", kLcmUrl, "--channel-prefix", kPrefix};
 

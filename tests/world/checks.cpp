@@ -12,12 +12,6 @@
 
 namespace chasles::faults {
 
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<size_t>(p * static_cast<double>(v.size())))];
-}
-
 CommandReport check_commands(const RobotModel& model, const std::vector<HeardCommand>& commands,
                              const std::vector<HeardStatus>& statuses, double ramp_s, double period_s) {
   const int n = model.dof();

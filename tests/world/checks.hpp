@@ -14,6 +14,7 @@
 
 #include "chasles/core/model/model.hpp"
 #include "support/arm.hpp"
+#include "support/statistics.hpp"
 
 namespace chasles::faults {
 
@@ -63,9 +64,6 @@ StatusReport summarise(const std::vector<HeardStatus>& statuses);
 /// One line for the fault table, printed by each test.
 std::string table_row(const std::string& fault, const CommandReport& c, const StatusReport& s);
 
-/// The p-quantile of v by rank (0 for none).
-double percentile(std::vector<double> v, double p);
-
 /// The arm's model as the tests run it (the Panda to its TCP).
 using testing::panda;
 using testing::ur5;
@@ -73,6 +71,7 @@ using testing::bent_pose;
 using testing::joint_target;
 using testing::list;
 using testing::vector_of;
+using testing::percentile;
 joint_torque_command_t command_of(int64_t seq, int64_t utime, int64_t state_seq, const Eigen::VectorXd& tau);
 
 }  // namespace chasles::faults

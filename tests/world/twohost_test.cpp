@@ -23,6 +23,7 @@ namespace {
 using Eigen::VectorXd;
 using testing::ChildProcess;
 using testing::data_path;
+using testing::temp_path;
 
 constexpr char kLcmUrl[] = "udpm://239.255.76.67:7667?ttl=1";  // one hop: across the veth
 
@@ -49,10 +50,6 @@ std::vector<std::string> remote_controller_args(const std::string& prefix, const
           "--summary", summary, "--stale-ms", "100"};
 }
 
-std::string temp_path(const std::string& name) {
-  return ::testing::TempDir() + "twohost_" + name + "_" + std::to_string(::getpid()) + ".json";
-}
-
 // The test must not pass by accident on one host: the controller really is in another namespace.
 TEST(twohost, TheControllerRunsInTheOtherNamespace) {
   const char* b = std::getenv("CHASLES_NETNS_B");
@@ -69,7 +66,7 @@ TEST(twohost, TheControllerRunsInTheOtherNamespace) {
 // the command stream within its bounds; the latency across the pair is printed (the controller's
 // own state-arrival → command figure, and the round trip plant side → controller → plant side).
 TEST(twohost, JointMoveAcrossTheVethPair) {
-  const std::string summary = temp_path("summary");
+  const std::string summary = temp_path("twohost_summary.json");
   Seat bus(kLcmUrl);
   ChildProcess plant(plant_args("CHASLES_", bent_pose()));
   ChildProcess controller(remote_controller_args("CHASLES_", summary));
@@ -126,7 +123,7 @@ TEST(twohost, JointMoveAcrossTheVethPair) {
 // another goal. Each tracks its own target; neither controller hears a foreign command on its
 // channels (which would be a FAULT) and no command for one arm answers the other's states.
 TEST(twohost, TwoArmsWithDifferentPrefixesDoNotInterfere) {
-  const std::string summary1 = temp_path("arm1"), summary2 = temp_path("arm2");
+  const std::string summary1 = temp_path("twohost_arm1.json"), summary2 = temp_path("twohost_arm2.json");
   Seat arm1(kLcmUrl, "ARM1_"), arm2(kLcmUrl, "ARM2_");
   VectorXd start2 = bent_pose();
   start2(0) = -0.5;

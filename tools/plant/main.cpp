@@ -44,12 +44,6 @@ namespace chasles::plant {
 
 namespace {
 
-/// A bad value in an option that parsed (exit 1, like a bad URDF: run_main reports it).
-class InputError : public chasles::Error {
- public:
-  using chasles::Error::Error;
-};
-
 struct Options {
   std::string robot;
   std::string tip;
@@ -88,23 +82,6 @@ CLI::Validator at_least(double lower, bool inclusive, const char* words) {
 const CLI::Validator kPositive = at_least(0.0, false, "a positive number");
 const CLI::Validator kNonNegative = at_least(0.0, true, "a non-negative number");
 
-std::vector<double> parse_numbers(const std::string& text, const std::string& option) {
-  try {
-    return chasles::parse_number_list(text, option);
-  } catch (const chasles::ArgumentError& e) {
-    throw InputError(e.what());
-  }
-}
-
-// --armature, one per joint (number_list.hpp), as an InputError.
-Eigen::VectorXd armature_flag(const std::string& text, int joints) {
-  try {
-    return chasles::parse_armature(text, joints, "--armature");
-  } catch (const chasles::ArgumentError& e) {
-    throw InputError(e.what());
-  }
-}
-
 // --q0, checked against the position limits; by default zero, moved into the limits for joints
 // whose range excludes it (the Panda's fourth joint).
 Eigen::VectorXd initial_position(const RobotModel& model, const std::string& text) {
@@ -114,17 +91,17 @@ Eigen::VectorXd initial_position(const RobotModel& model, const std::string& tex
     for (int i = 0; i < n; ++i) q0[i] = std::clamp(0.0, model.joint(i).limits.lower, model.joint(i).limits.upper);
     return q0;
   }
-  const std::vector<double> values = parse_numbers(text, "--q0");
+  const std::vector<double> values = chasles::parse_number_list(text, "--q0");
   if (static_cast<int>(values.size()) != n) {
-    throw InputError("--q0 has " + std::to_string(values.size()) + " entries; the arm has " + std::to_string(n) +
-                     " joints (one per joint, comma-separated)");
+    throw ArgumentError("--q0 has " + std::to_string(values.size()) + " entries; the arm has " + std::to_string(n) +
+                        " joints (one per joint, comma-separated)");
   }
   for (int i = 0; i < n; ++i) {
     const JointLimits& limits = model.joint(i).limits;
     q0[i] = values[static_cast<size_t>(i)];
     if (q0[i] < limits.lower || q0[i] > limits.upper) {
-      throw InputError("--q0: joint " + model.joint(i).name + " = " + number(q0[i]) + " is outside its limits [" +
-                       number(limits.lower) + ", " + number(limits.upper) + "]");
+      throw ArgumentError("--q0: joint " + model.joint(i).name + " = " + number(q0[i]) + " is outside its limits [" +
+                          number(limits.lower) + ", " + number(limits.upper) + "]");
     }
   }
   return q0;
@@ -132,15 +109,15 @@ Eigen::VectorXd initial_position(const RobotModel& model, const std::string& tex
 
 Eigen::VectorXd joint_damping(const RobotModel& model, const std::string& text) {
   const int n = model.dof();
-  const std::vector<double> values = parse_numbers(text, "--damping");
+  const std::vector<double> values = chasles::parse_number_list(text, "--damping");
   if (values.size() != 1 && static_cast<int>(values.size()) != n) {
-    throw InputError("--damping has " + std::to_string(values.size()) + " entries; give one for every joint or " +
-                     "one for all (the arm has " + std::to_string(n) + " joints)");
+    throw ArgumentError("--damping has " + std::to_string(values.size()) + " entries; give one for every joint or " +
+                        "one for all (the arm has " + std::to_string(n) + " joints)");
   }
   Eigen::VectorXd damping(n);
   for (int i = 0; i < n; ++i) {
     damping[i] = values.size() == 1 ? values[0] : values[static_cast<size_t>(i)];
-    if (damping[i] < 0.0) throw InputError("--damping: joint " + model.joint(i).name + " has negative damping");
+    if (damping[i] < 0.0) throw ArgumentError("--damping: joint " + model.joint(i).name + " has negative damping");
   }
   return damping;
 }
@@ -148,34 +125,20 @@ Eigen::VectorXd joint_damping(const RobotModel& model, const std::string& text) 
 // --push, --wall, --payload, --friction and --perturb-inertia, each checked (environment_forms.hpp
 // and core/simulation/environment.hpp say what is refused).
 EnvironmentOptions environment(const RobotModel& model, const Options& o) {
-  try {
-    EnvironmentOptions env;
-    for (const std::string& text : o.pushes) env.pushes.push_back(parse_push(text));
-    for (const std::string& text : o.walls) env.walls.push_back(parse_wall(text));
-    if (!o.payload.empty()) env.payload = parse_payload(o.payload);
-    if (!o.friction.empty()) env.friction = parse_friction(o.friction, model);
-    if (!o.perturb_inertia.empty()) env.perturbation = parse_perturbation(o.perturb_inertia);
-    return env;
-  } catch (const chasles::ArgumentError& e) {
-    throw InputError(e.what());
-  }
+  EnvironmentOptions env;
+  for (const std::string& text : o.pushes) env.pushes.push_back(parse_push(text));
+  for (const std::string& text : o.walls) env.walls.push_back(parse_wall(text));
+  if (!o.payload.empty()) env.payload = parse_payload(o.payload);
+  if (!o.friction.empty()) env.friction = parse_friction(o.friction, model);
+  if (!o.perturb_inertia.empty()) env.perturbation = parse_perturbation(o.perturb_inertia);
+  return env;
 }
 
 EffortNoise effort_noise(const Options& o) {
-  try {
-    return o.effort_noise.empty() ? EffortNoise{} : parse_effort_noise(o.effort_noise);
-  } catch (const chasles::ArgumentError& e) {
-    throw InputError(e.what());
-  }
+  return o.effort_noise.empty() ? EffortNoise{} : parse_effort_noise(o.effort_noise);
 }
 
-Stalls stalls(const Options& o) {
-  try {
-    return o.stalls.empty() ? Stalls{} : parse_stalls(o.stalls);
-  } catch (const chasles::ArgumentError& e) {
-    throw InputError(e.what());
-  }
-}
+Stalls stalls(const Options& o) { return o.stalls.empty() ? Stalls{} : parse_stalls(o.stalls); }
 
 // For the start line: what the plant simulates that its controller's model and sensors lack, as
 // numbers to retake the run with (the seeds above all).
@@ -456,7 +419,7 @@ int main(int argc, char** argv) {
     const chasles::RobotModel model =
         options.armature.empty()
             ? loaded
-            : chasles::with_armature(loaded, armature_flag(options.armature, loaded.dof()));
+            : chasles::with_armature(loaded, chasles::parse_armature(options.armature, loaded.dof(), "--armature"));
     chasles::tools::warn("chasles_plant", options.robot, model.warnings());
     if (const std::string defect = chasles::mass_matrix_defect(model); !defect.empty()) {
       throw chasles::ModelError(options.robot + ": cannot simulate this chain: " + defect);
