@@ -16,6 +16,7 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <map>
 #include <new>
@@ -101,10 +102,14 @@ std::string gains_text(const Json& value, const std::string& name) {
   return text;
 }
 
+// The settings the library gives its defaults for: each flag starts from them, so that a default is
+// written once, in C++, and the help prints it from there.
+const chasles::controller::Config kDefault{};
+
 struct Flags {
   std::string robot, tip, config, summary;
   // rate and stale_ms 0: the protocol's status rate, and 10 ms or three of its periods.
-  double rate = 0.0, stale_ms = 0.0, torque_ramp_ms = 50.0, omega = 20.0;
+  double rate = 0.0, stale_ms = 0.0, torque_ramp_ms = 1e3 * kDefault.torque_ramp, omega = 20.0;
   std::string kp, kd;
   std::string damping;
   std::string coulomb;
@@ -112,17 +117,28 @@ struct Flags {
   // Contact: per-joint lists as text until the joint count is known; empty: the defaults.
   std::string observer_gain, contact_torque, collision_torque;
   chasles::controller::ContactConfig contact;
-  double retract_mm = 10.0;
+  double retract_mm = 1e3 * kDefault.contact.retract_distance;
   std::string payload;
   std::string armature;
   // Motion limits beyond the URDF's: per-joint lists as text until the joint count is known.
   std::string acceleration_limit, jerk_limit;
-  double stream_timeout_ms = 100.0;
+  double stream_timeout_ms = 1e3 * kDefault.stream_timeout;
   chasles::controller::LimitConfig limits;
   chasles::controller::JogConfig jog;
-  double pose_time_constant_ms = 50.0;
-  bool semantics_check = true;
+  double pose_time_constant_ms = 1e3 * kDefault.jog.pose_time_constant;
+  bool semantics_check = kDefault.check_torque_semantics;
 };
+
+// A contact or collision threshold: a positive number, or inf for none (as the per-joint torque
+// thresholds take it).
+const CLI::Validator kThreshold(
+    [](std::string& text) {
+      char* end = nullptr;
+      const double value = std::strtod(text.c_str(), &end);
+      return end != text.c_str() && *end == '\0' && value > 0.0 ? std::string()
+                                                                 : "'" + text + "' is not a positive number or inf";
+    },
+    "POSITIVE|inf");
 
 // The config file's keys are the flags' names with '_' for '-'.
 std::string flag_of(const std::string& key) {
@@ -263,8 +279,9 @@ int main(int argc, char** argv) {
                  "with --simulator, 1000)")
       ->check(CLI::PositiveNumber);
   app.add_option("--torque-ramp-ms", flags.torque_ramp_ms,
-                 "torque-rate limit: time to ramp through a joint's effort range, ms (default 50)")
-      ->check(CLI::PositiveNumber);
+                 "torque-rate limit: time to ramp through a joint's effort range, ms")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   app.add_option("--observer-gain", flags.observer_gain,
                  "contact observer bandwidth K_O, 1/s: one number or one per joint; the estimate lags the external "
                  "torque by 1/K_O (default 200)");
@@ -273,17 +290,21 @@ int main(int argc, char** argv) {
                  "(default 5 % of the effort limit)");
   app.add_option("--collision-torque", flags.collision_torque,
                  "collision threshold on each joint's external torque, N·m (default 15 % of the effort limit)");
-  app.add_option("--contact-force", flags.contact.contact_force, "contact threshold on the tip force, N (default 5)")
-      ->check(CLI::PositiveNumber);
+  app.add_option("--contact-force", flags.contact.contact_force, "contact threshold on the tip force, N (inf: none)")
+      ->check(kThreshold)
+      ->capture_default_str();
   app.add_option("--collision-force", flags.contact.collision_force,
-                 "collision threshold on the tip force, N (default 15)")
-      ->check(CLI::PositiveNumber);
+                 "collision threshold on the tip force, N (inf: none)")
+      ->check(kThreshold)
+      ->capture_default_str();
   app.add_option("--contact-moment", flags.contact.contact_moment,
-                 "contact threshold on the tip moment, N·m (default 2)")
-      ->check(CLI::PositiveNumber);
+                 "contact threshold on the tip moment, N·m (inf: none)")
+      ->check(kThreshold)
+      ->capture_default_str();
   app.add_option("--collision-moment", flags.contact.collision_moment,
-                 "collision threshold on the tip moment, N·m (default 6)")
-      ->check(CLI::PositiveNumber);
+                 "collision threshold on the tip moment, N·m (inf: none)")
+      ->check(kThreshold)
+      ->capture_default_str();
   app.add_option("--reflex", flags.contact.reflex,
                  "on a collision: 'stop' (hold where the arm is), 'compliant' (gravity compensation and damping: "
                  "the arm yields) or 'retract' (back along the tip's path by --retract-mm over 0.3 s); until a "
@@ -306,30 +327,36 @@ int main(int argc, char** argv) {
                  "joint jerk limits, rad/s³: one number or one per joint (default: the acceleration limit / 0.02 s; "
                  "the Panda's own: 7500,3750,5000,6250,7500,10000,10000)");
   app.add_option("--position-margin", flags.limits.position_margin,
-                 "how far inside the URDF position limits every reference keeps, rad (default 0.01)")
-      ->check(CLI::NonNegativeNumber);
+                 "how far inside the URDF position limits every reference keeps, rad")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   app.add_option("--velocity-tolerance", flags.limits.velocity_tolerance,
-                 "a measured joint velocity over its limit by more than this fraction stops the arm (REFLEX; "
-                 "default 0.1)")
-      ->check(CLI::NonNegativeNumber);
+                 "a measured joint velocity over its limit by more than this fraction stops the arm (REFLEX)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   app.add_option("--stream-timeout-ms", flags.stream_timeout_ms,
-                 "a stream of setpoints or jog commands silent this long is over: the arm decelerates to rest "
-                 "(default 100)")
-      ->check(CLI::PositiveNumber);
+                 "a stream of setpoints or jog commands silent this long is over: the arm decelerates to rest")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   app.add_option("--pose-time-constant-ms", flags.pose_time_constant_ms,
-                 "a Cartesian stream (tip_setpoint_t) closes the gap to its pose in about this time (default 50)")
-      ->check(CLI::Range(1.0, 10000.0));
+                 "a Cartesian stream (tip_setpoint_t) closes the gap to its pose in about this time")
+      ->check(CLI::Range(1.0, 10000.0))
+      ->capture_default_str();
   app.add_option("--jog-slow-condition", flags.jog.slow_condition,
-                 "a twist jog heading toward a singularity slows from this condition number of J_b (default 17)")
-      ->check(CLI::Range(1.0, 1e12));
+                 "a twist jog heading toward a singularity slows from this condition number of J_b")
+      ->check(CLI::Range(1.0, 1e12))
+      ->capture_default_str();
   app.add_option("--jog-stop-condition", flags.jog.stop_condition,
-                 "...and stops before this one (default 30; above --jog-slow-condition)")
-      ->check(CLI::Range(1.0, 1e12));
-  app.add_option("--retract-mm", flags.retract_mm, "how far the retract reflex backs off, mm (default 10)")
-      ->check(CLI::PositiveNumber);
+                 "...and stops before this one (above --jog-slow-condition)")
+      ->check(CLI::Range(1.0, 1e12))
+      ->capture_default_str();
+  app.add_option("--retract-mm", flags.retract_mm, "how far the retract reflex backs off, mm")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   app.add_flag("--realtime", options.realtime, "SCHED_FIFO, mlockall and --cpu for the loop (warns if refused)");
-  app.add_option("--priority", options.priority, "SCHED_FIFO priority with --realtime (default 80)")
-      ->check(CLI::Range(1, 99));
+  app.add_option("--priority", options.priority, "SCHED_FIFO priority with --realtime")
+      ->check(CLI::Range(1, 99))
+      ->capture_default_str();
   app.add_option("--cpu", options.cpu, "pin the loop to this CPU with --realtime (default: the last one; -1: none)")
       ->check(CLI::Range(-1, 1023));
   app.add_option("--tick", options.tick,
@@ -468,9 +495,10 @@ int main(int argc, char** argv) {
     std::signal(SIGTERM, on_signal);
     chasles::controller::Daemon daemon(model, options);
     const chasles::controller::Channels channels = chasles::controller::channels_of(options);
-    std::fprintf(stderr, "chasles_controller: %s, %d joints, %g Hz on %s -> %s (%s)\n", model.name().c_str(), n,
+    std::fprintf(stderr, "chasles_controller: %s, %d joints, %g Hz on %s -> %s (%s)%s\n", model.name().c_str(), n,
                  1.0 / options.control.period, channels.state.c_str(), channels.command.c_str(),
-                 chasles::controller::to_string(options.protocol));
+                 chasles::controller::to_string(options.protocol),
+                 options.simulator ? "; a simulator: its time, waited for while it pauses" : "");
     const Summary summary = daemon.run(g_stop);
     std::fprintf(stderr,
                  "chasles_controller: %lld ticks at %.1f Hz, %lld overruns, jitter p99 %.0f us, compute p99 %.0f us, "

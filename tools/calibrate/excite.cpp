@@ -131,8 +131,8 @@ double spline_deviation(const controller::WaypointSpline& spline, const FourierT
 // reflex aborts it.
 const char* const kCollisionAdvice =
     "until the arm is identified, run the controller with its collision thresholds off while the excitation runs "
-    "(its model error reads as external force): chasles_controller ... --collision-torque inf --collision-force 1e9 "
-    "--collision-moment 1e9";
+    "(its model error reads as external force): chasles_controller ... --collision-torque inf --collision-force inf "
+    "--collision-moment inf";
 
 Json trajectory_json(const RobotModel& model, const controller::Waypoints& w) {
   Json points = Json::array();
