@@ -14,8 +14,10 @@
 // infinity (free drive's push would otherwise start a reflex and end the programme). Every tick is
 // timed with CLOCK_MONOTONIC around tick() alone; the first second of each law is warm-up and not
 // counted. Heap allocations during the counted ticks are counted too (they must be 0).
+// --sleep-us N sleeps N µs before every tick, outside the timed region, as the daemon's loop waits
+// for the next state: the tick then starts as it does there, from an idle core and cold caches.
 //
-//   chasles_tick_bench [--robot panda|ur5|FILE.urdf] [--tip LINK] [--seconds S] [--json]
+//   chasles_tick_bench [--robot panda|ur5|FILE.urdf] [--tip LINK] [--seconds S] [--sleep-us N] [--json]
 //
 // Prints a table (law, ticks, p50, p99, max, mean µs, allocations) or, with --json, one object
 // {"<law>": {"ticks", "p50_us", "p99_us", "max_us", "mean_us", "allocations"}}.
@@ -88,7 +90,8 @@ double percentile(std::vector<int64_t> sorted, double p) {
 // smooth motion about the start, with its velocity) that the online generator follows every tick.
 enum class Source { kTargets, kStream };
 
-Figures run(const chasles::RobotModel& model, Law law, double seconds, Source source = Source::kTargets) {
+Figures run(const chasles::RobotModel& model, Law law, double seconds, int64_t sleep_ns,
+            Source source = Source::kTargets) {
   const int n = model.dof();
   // The monitor runs and classifies as always, with no threshold to cross: free drive's push is
   // an external force by design, and a reflex would end the programme.
@@ -140,6 +143,10 @@ Figures run(const chasles::RobotModel& model, Law law, double seconds, Source so
       controller.set_setpoint(setpoint, t);
     }
     const bool counted = k >= warm_up;
+    if (sleep_ns > 0) {
+      const timespec pause{0, static_cast<long>(sleep_ns)};
+      nanosleep(&pause, nullptr);
+    }
     const chasles::testing::AllocationCounter counter;
     const int64_t start = now_ns();
     const bool command = controller.tick(t, &state);
@@ -191,6 +198,9 @@ int main(int argc, char** argv) {
   app.add_option("--tip", tip, "the chain's tip (default: panda_hand for panda, tool0 for ur5)");
   app.add_option("--seconds", seconds, "simulated seconds timed per law, after 1 s of warm-up (default 20)")
       ->check(CLI::PositiveNumber);
+  int64_t sleep_us = 0;
+  app.add_option("--sleep-us", sleep_us, "sleep this long before every tick, untimed, as the daemon waits for a state")
+      ->check(CLI::Range(0, 999'999));
   app.add_flag("--json", json, "one JSON object on stdout instead of the table");
   CLI11_PARSE(app, argc, argv);
   std::string path = robot;
@@ -224,9 +234,9 @@ int main(int argc, char** argv) {
                     f.p50, f.p99, f.max, f.mean, f.allocations);
       }
     };
-    for (Law law : laws) print(to_string(law), run(model, law, seconds));
+    for (Law law : laws) print(to_string(law), run(model, law, seconds, 1000 * sleep_us));
     // The same computed-torque law with its reference from a stream through the online generator.
-    print("computed-torque-stream", run(model, Law::kComputedTorque, seconds, Source::kStream));
+    print("computed-torque-stream", run(model, Law::kComputedTorque, seconds, 1000 * sleep_us, Source::kStream));
     std::printf(json ? "}\n" : "\n");
   } catch (const std::exception& e) {
     std::fprintf(stderr, "chasles_tick_bench: %s\n", e.what());
