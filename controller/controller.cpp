@@ -338,13 +338,13 @@ void Controller::check_semantics(const JointState& state, double dt) {
   switch (semantics_.update(state.effort, sent_torque_.col(j), data_.g, dt)) {
     case TorqueSemanticsCheck::Verdict::kDriverAddsGravity:
       stand_down("the arm applied the torque commanded + %.0f %% of g(q) over %g s: its driver adds gravity "
-            "compensation to the whole torque sent; run with --torque-semantics overlay",
-            100.0 * semantics_.share(), TorqueSemanticsCheck::kWindow);
+                 "compensation to the whole torque sent; run with --torque-semantics overlay",
+                 100.0 * semantics_.share(), TorqueSemanticsCheck::kWindow);
       break;
     case TorqueSemanticsCheck::Verdict::kDriverAddsNothing:
       stand_down("the arm applied the torque commanded - %.0f %% of g(q) over %g s: its driver adds no gravity "
-            "compensation to the tau - g(q) sent; run with --torque-semantics full",
-            -100.0 * semantics_.share(), TorqueSemanticsCheck::kWindow);
+                 "compensation to the tau - g(q) sent; run with --torque-semantics full",
+                 -100.0 * semantics_.share(), TorqueSemanticsCheck::kWindow);
       break;
     default:
       break;

@@ -38,9 +38,7 @@ constexpr int kDefaultPort = 7667;
 // LCM's small-message header: magic 'LC02', then a sequence number, both big-endian; then the
 // channel, NUL-terminated, and the payload. A fragment of a larger message starts with 'LC03'.
 constexpr uint32_t kShortMagic = 0x4c433032;
-constexpr uint32_t kLongMagic = 0x4c433033;
 constexpr size_t kShortHeader = 8;
-constexpr size_t kMaxChannel = 63;             // LCM_MAX_CHANNEL_NAME_LENGTH
 constexpr size_t kMaxDatagram = 65536;         // more than UDP's 65,507-byte payload
 constexpr int kReceiveBuffer = 2 * 1024 * 1024;  // bytes asked for; the kernel caps it at rmem_max
 // Fragments on their way to the assembler (64 kB each): a 1000-waypoint trajectory of a 7-joint
@@ -57,19 +55,13 @@ int64_t monotonic_ns() {
   return int64_t{t.tv_sec} * 1'000'000'000 + t.tv_nsec;
 }
 
-uint32_t big_endian_u32(const uint8_t* p) {
-  return uint32_t{p[0]} << 24 | uint32_t{p[1]} << 16 | uint32_t{p[2]} << 8 | uint32_t{p[3]};
-}
-
 }  // namespace
 
 bool parse_lcm_datagram(const uint8_t* data, size_t size, LcmDatagram& out) {
   if (size < kShortHeader + 1 || big_endian_u32(data) != kShortMagic) return false;
-  const char* channel = reinterpret_cast<const char*>(data + kShortHeader);
-  const size_t room = std::min(size - kShortHeader, kMaxChannel + 1);
-  const size_t length = strnlen(channel, room);
-  if (length == room) return false;  // no NUL where the channel must end
-  out.channel = channel;
+  size_t length = 0;
+  if (!read_lcm_channel(data + kShortHeader, size - kShortHeader, length)) return false;
+  out.channel = reinterpret_cast<const char*>(data + kShortHeader);
   out.payload = data + kShortHeader + length + 1;
   out.payload_size = size - kShortHeader - length - 1;
   return true;
@@ -284,7 +276,7 @@ struct Bus::Direct {
       deliver(bus, datagram.channel, datagram.payload, datagram.payload_size, stamp_us);
       return 1;
     }
-    if (size < 4 || big_endian_u32(buffer.data()) != kLongMagic) {
+    if (size < 4 || big_endian_u32(buffer.data()) != kLcmFragmentMagic) {
       dropped.fetch_add(1, std::memory_order_relaxed);  // not LCM's
       return 1;
     }
@@ -396,7 +388,7 @@ Bus::Subscription Bus::subscribe(const std::string& channel, Handler handler, in
   s.lcm_ = lcm_;
   s.slot_ = std::make_unique<Subscription::Slot>(Subscription::Slot{std::move(handler), this});
   if (direct_) {
-    if (channel.find_first_of(".*+?[](){}|^$\\") != std::string::npos || channel.size() > kMaxChannel) {
+    if (channel.find_first_of(".*+?[](){}|^$\\") != std::string::npos || channel.size() > kLcmMaxChannel) {
       throw Error("a Bus that receives directly takes exact channel names of at most 63 characters, not '" +
                   channel + "'");
     }

@@ -9,33 +9,33 @@ namespace {
 
 // LCM's fragment header (lcm/udpm_util.h), big-endian: magic 'LC03', sequence number, message
 // size, fragment offset (u32 each), fragment number, fragments in the message (u16 each).
-constexpr uint32_t kLongMagic = 0x4c433033;
 constexpr size_t kLongHeader = 20;
 
-uint32_t u32(const uint8_t* p) {
-  return uint32_t{p[0]} << 24 | uint32_t{p[1]} << 16 | uint32_t{p[2]} << 8 | uint32_t{p[3]};
-}
-uint16_t u16(const uint8_t* p) { return static_cast<uint16_t>(p[0] << 8 | p[1]); }
+uint16_t big_endian_u16(const uint8_t* p) { return static_cast<uint16_t>(p[0] << 8 | p[1]); }
 
 }  // namespace
 
+bool read_lcm_channel(const uint8_t* text, size_t size, size_t& length) {
+  const size_t room = std::min(size, kLcmMaxChannel + 1);
+  length = strnlen(reinterpret_cast<const char*>(text), room);
+  return length < room;  // else no NUL where the channel must end
+}
+
 bool parse_lcm_fragment(const uint8_t* data, size_t size, LcmFragment& out) {
-  if (size < kLongHeader || u32(data) != kLongMagic) return false;
+  if (size < kLongHeader || big_endian_u32(data) != kLcmFragmentMagic) return false;
   LcmFragment f;
-  f.seqno = u32(data + 4);
-  f.message_size = u32(data + 8);
-  f.offset = u32(data + 12);
-  f.number = u16(data + 16);
-  f.count = u16(data + 18);
+  f.seqno = big_endian_u32(data + 4);
+  f.message_size = big_endian_u32(data + 8);
+  f.offset = big_endian_u32(data + 12);
+  f.number = big_endian_u16(data + 16);
+  f.count = big_endian_u16(data + 18);
   f.data = data + kLongHeader;
   f.size = size - kLongHeader;
   if (f.count == 0 || f.number >= f.count) return false;
   if (f.number == 0) {
-    const char* channel = reinterpret_cast<const char*>(f.data);
-    const size_t room = std::min(f.size, kLcmMaxChannel + 1);
-    const size_t length = strnlen(channel, room);
-    if (length == room || length == 0) return false;
-    f.channel = channel;
+    size_t length = 0;
+    if (!read_lcm_channel(f.data, f.size, length) || length == 0) return false;
+    f.channel = reinterpret_cast<const char*>(f.data);
     f.data += length + 1;
     f.size -= length + 1;
   }

@@ -17,6 +17,16 @@ namespace chasles::controller {
 /// LCM's limit on a message's payload (lcm.h: LCM_MAX_MESSAGE_SIZE), and on a channel's length.
 constexpr size_t kLcmMaxMessageSize = size_t{1} << 28;
 constexpr size_t kLcmMaxChannel = 63;
+/// The magic that starts a fragment of a large message ('LC03'; a whole one's is 'LC02').
+constexpr uint32_t kLcmFragmentMagic = 0x4c433033;
+
+/// LCM's header fields are big-endian.
+inline uint32_t big_endian_u32(const uint8_t* p) {
+  return uint32_t{p[0]} << 24 | uint32_t{p[1]} << 16 | uint32_t{p[2]} << 8 | uint32_t{p[3]};
+}
+/// Whether `size` bytes at `text` begin with a channel name LCM sends — at most 63 characters, then
+/// its NUL — and then its `length` without the NUL. Both datagram formats carry the channel so.
+bool read_lcm_channel(const uint8_t* text, size_t size, size_t& length);
 
 /// One fragment datagram read: its header, and its part of the payload (pointing into the
 /// datagram). The channel is set in fragment 0 only.

@@ -180,9 +180,7 @@ void run_real_time(Simulation& simulation, Bus& bus, PausableClock& clock, int64
     bus.handle_pending();
     simulation.step();
     if (const int64_t stall_ns = simulation.stall_due(); stall_ns > 0) {
-      const int64_t wake = controller::monotonic_ns() + stall_ns;
-      const timespec until{static_cast<time_t>(wake / 1'000'000'000), static_cast<long>(wake % 1'000'000'000)};
-      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &until, nullptr);
+      sleep_until(clock.now_ns() + stall_ns);
       clock.pause(stall_ns);
     }
   }
