@@ -1,14 +1,14 @@
-#include "chasles/controller/cartesian.hpp"
+#include "controller/cartesian.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 
-#include "chasles/controller/jog.hpp"
+#include "controller/jog.hpp"
 
-#include "chasles/core/kinematics/kinematics.hpp"
-#include "chasles/core/lie/se3.hpp"
-#include "chasles/core/lie/so3.hpp"
+#include "core/kinematics/kinematics.hpp"
+#include "core/lie/se3.hpp"
+#include "core/lie/so3.hpp"
 
 namespace chasles::controller {
 namespace {
@@ -92,20 +92,20 @@ void path_accelerations(ScrewLineRate& rate, JointPath& path) {
 // the first joint and quantity over, and the duration that would do. Stretching the times by c
 // leaves the positions and divides the velocities, accelerations and jerks by c, c², c³, so the
 // least c is the largest of the velocity ratio and the square and cube roots of the others.
-bool within_limits(const RobotModel& model, const MotionLimits& limits, double duration, JointPath& path) {
+bool within_limits(const RobotModel& model, const motion::MotionLimits& limits, double duration, JointPath& path) {
   const int n = model.dof();
   const double h = path.dt;
   double stretch = 1.0;
-  LimitExcess first;
+  motion::LimitExcess first;
   int first_waypoint = 0;
   double c[6];
   for (int k = 0; k + 1 < path.count; ++k) {
     for (int i = 0; i < n; ++i) {
-      quintic_hermite(path.q(i, k), path.qd(i, k), path.qdd(i, k), path.q(i, k + 1), path.qd(i, k + 1),
+      motion::quintic_hermite(path.q(i, k), path.qd(i, k), path.qdd(i, k), path.q(i, k + 1), path.qd(i, k + 1),
                       path.qdd(i, k + 1), h, c);
-      const LimitExcess e = quintic_excess(c, h, limits, i);
+      const motion::LimitExcess e = motion::quintic_excess(c, h, limits, i);
       if (!e) continue;
-      if (e.quantity == LimitExcess::kPosition) {
+      if (e.quantity == motion::LimitExcess::kPosition) {
         std::snprintf(path.reason, sizeof(path.reason),
                       "joint %s would reach %.4g on the way, outside [%.4g, %.4g] (its limits less the margin), "
                       "%.0f%% of the way",
@@ -116,9 +116,9 @@ bool within_limits(const RobotModel& model, const MotionLimits& limits, double d
       const double v[5] = {c[1], 2 * c[2], 3 * c[3], 4 * c[4], 5 * c[5]};
       const double a[4] = {2 * c[2], 6 * c[3], 12 * c[4], 20 * c[5]};
       const double j[3] = {6 * c[3], 24 * c[4], 60 * c[5]};
-      stretch = std::max({stretch, max_abs_polynomial(v, 4, h) / limits.velocity(i),
-                          std::sqrt(max_abs_polynomial(a, 3, h) / limits.acceleration(i)),
-                          std::cbrt(max_abs_polynomial(j, 2, h) / limits.jerk(i))});
+      stretch = std::max({stretch, motion::max_abs_polynomial(v, 4, h) / limits.velocity(i),
+                          std::sqrt(motion::max_abs_polynomial(a, 3, h) / limits.acceleration(i)),
+                          std::cbrt(motion::max_abs_polynomial(j, 2, h) / limits.jerk(i))});
       if (!first) {
         first = e;
         first_waypoint = k;
@@ -143,7 +143,7 @@ bool within_limits(const RobotModel& model, const MotionLimits& limits, double d
 
 }  // namespace
 
-void plan_cartesian_path(IkSolver& solver, const MotionLimits& limits, const CartesianRequest& request,
+void plan_cartesian_path(IkSolver& solver, const motion::MotionLimits& limits, const CartesianRequest& request,
                          JointPath& path) {
   const RobotModel& model = solver.model();
   const int n = model.dof();
@@ -220,7 +220,7 @@ void plan_cartesian_path(IkSolver& solver, const MotionLimits& limits, const Car
   path.ok = true;
 }
 
-void JointPathSampler::sample(double t, Reference& out) const {
+void JointPathSampler::sample(double t, motion::Reference& out) const {
   const int last = path_.count - 1;
   if (t >= duration()) {  // at rest at the goal; also the whole of a path of duration 0
     out.hold(path_.q.col(last));
@@ -232,9 +232,9 @@ void JointPathSampler::sample(double t, Reference& out) const {
   const double local = std::max(t, 0.0) - k * h;
   double c[6];
   for (Eigen::Index i = 0; i < path_.q.rows(); ++i) {
-    quintic_hermite(path_.q(i, k), path_.qd(i, k), path_.qdd(i, k), path_.q(i, k + 1), path_.qd(i, k + 1),
+    motion::quintic_hermite(path_.q(i, k), path_.qd(i, k), path_.qdd(i, k), path_.q(i, k + 1), path_.qd(i, k + 1),
                     path_.qdd(i, k + 1), h, c);
-    sample_quintic(c, local, out.q(i), out.qd(i), out.qdd(i));
+    motion::sample_quintic(c, local, out.q(i), out.qd(i), out.qdd(i));
   }
 }
 

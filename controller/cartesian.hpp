@@ -10,8 +10,8 @@
 #include <Eigen/Core>
 #include <cstdint>
 
-#include "chasles/controller/trajectory.hpp"
-#include "chasles/core/ik/ik.hpp"
+#include "core/motion/quintic.hpp"
+#include "core/ik/ik.hpp"
 
 namespace chasles::controller {
 
@@ -51,7 +51,7 @@ struct JointPath {
 /// `limits` (position, velocity, acceleration or jerk, exact on the quintics the sampler follows),
 /// naming the duration that would do: the same poses at times stretched by c divide velocities by
 /// c, accelerations by c², jerks by c³.
-void plan_cartesian_path(IkSolver& solver, const MotionLimits& limits, const CartesianRequest& request,
+void plan_cartesian_path(IkSolver& solver, const motion::MotionLimits& limits, const CartesianRequest& request,
                          JointPath& path);
 
 /// Samples a joint path: the quintic between two waypoints that matches their positions,
@@ -67,7 +67,7 @@ class JointPathSampler {
     path_.count = path.count;
     path_.dt = path.dt;
   }
-  void sample(double t, Reference& out) const;
+  void sample(double t, motion::Reference& out) const;
   double duration() const { return path_.duration(); }
   const JointPath& path() const { return path_; }
 

@@ -1,4 +1,4 @@
-#include "chasles/controller/contact.hpp"
+#include "controller/contact.hpp"
 
 #include <cmath>
 #include <cstdio>

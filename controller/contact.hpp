@@ -9,8 +9,8 @@
 #include <cstdint>
 #include <string>
 
-#include "chasles/core/contact/observer.hpp"
-#include "chasles/core/model/model.hpp"
+#include "core/contact/observer.hpp"
+#include "core/model/model.hpp"
 
 namespace chasles::controller {
 

@@ -1,4 +1,4 @@
-#include "chasles/controller/controller.hpp"
+#include "controller/controller.hpp"
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -9,8 +9,8 @@
 #include <stdexcept>
 #include <string>
 
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/lie/so3.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/lie/so3.hpp"
 
 namespace chasles::controller {
 namespace {
@@ -413,7 +413,7 @@ void Controller::start_reflex(int64_t now_ns, const char* limit_reason) {
       // configured where the limits ask it.
       contact_.retract_goal(contact_.config().retract_distance, retract_goal_);
       ref_.qd = qd_;
-      LimitExcess excess;
+      motion::LimitExcess excess;
       if (shortest_duration(retract_goal_, contact_.config().retract_duration, excess) > 0.0) {
         trajectory_.swap(candidate_);
         motion_start_ns_ = now_ns;
@@ -435,7 +435,7 @@ void Controller::start_reflex(int64_t now_ns, const char* limit_reason) {
   ++reflexes_;
 }
 
-double Controller::shortest_duration(const Eigen::VectorXd& goal, double requested, LimitExcess& excess) {
+double Controller::shortest_duration(const Eigen::VectorXd& goal, double requested, motion::LimitExcess& excess) {
   candidate_.start(ref_, goal, requested);
   excess = candidate_.excess(limits_);
   if (!excess) return requested;
@@ -470,14 +470,14 @@ void Controller::end_trajectory(TrajectoryProgress::Outcome outcome, const char*
   va_end(args);
 }
 
-double Controller::least_time_scale(const Waypoints& waypoints) {
+double Controller::least_time_scale(const motion::Waypoints& waypoints) {
   return least_fitting(1.0, kMaxTimeScale, [&](double scale) {
     spline_candidate_.build(ref_, waypoints, limits_, scale);
     return spline_candidate_.fits(limits_);
   });
 }
 
-bool Controller::set_trajectory(const Waypoints& w, int64_t now_ns) {
+bool Controller::set_trajectory(const motion::Waypoints& w, int64_t now_ns) {
   const auto reject = [&](const char* why) {
     refuse("trajectory %lld: %s", static_cast<long long>(w.id), why);
     // The running trajectory, if any, goes on: the status says so once this one is reported.
@@ -495,8 +495,8 @@ bool Controller::set_trajectory(const Waypoints& w, int64_t now_ns) {
   if (law_.law == Law::kFreeDrive) return reject("free drive follows no trajectory (send a control mode first)");
   const int n = model_->dof();
   if (w.dof() != n) return reject("sized for another arm");
-  if (w.count < 1 || w.count > Waypoints::kMaxPoints) {
-    std::snprintf(why, sizeof(why), "%d waypoints; 1 to %d are taken", w.count, Waypoints::kMaxPoints);
+  if (w.count < 1 || w.count > motion::Waypoints::kMaxPoints) {
+    std::snprintf(why, sizeof(why), "%d waypoints; 1 to %d are taken", w.count, motion::Waypoints::kMaxPoints);
     return reject(why);
   }
   for (int k = 0; k < w.count; ++k) {
@@ -532,19 +532,19 @@ bool Controller::set_trajectory(const Waypoints& w, int64_t now_ns) {
   if (mode_ == Mode::kReflex) hold_at(q_);  // a new trajectory ends the reflex, from where the arm is
   double scale = 1.0;
   spline_candidate_.build(ref_, w, limits_, scale);
-  if (const WaypointExcess e = spline_candidate_.excess(limits_)) {
+  if (const motion::WaypointExcess e = spline_candidate_.excess(limits_)) {
     scale = least_time_scale(w);
     if (!w.time_scaling || scale == 0.0) {
-      WaypointExcess worst = e;
+      motion::WaypointExcess worst = e;
       if (scale == 0.0) {
         // What stays when it is slowed all it may be: its shape leaves the limits, not its speed.
         spline_candidate_.build(ref_, w, limits_, kMaxTimeScale);
         worst = spline_candidate_.excess(limits_);
       }
-      const LimitExcess& x = worst.excess;
+      const motion::LimitExcess& x = worst.excess;
       const int length = std::snprintf(why, sizeof(why), "waypoint %d, joint %s: %s %s %.4g %s, over its limit %.4g",
                                        worst.waypoint, model_->joint(x.joint).name.c_str(), to_string(x.quantity),
-                                       x.quantity == LimitExcess::kPosition ? "reaches" : "peaks at", x.value,
+                                       x.quantity == motion::LimitExcess::kPosition ? "reaches" : "peaks at", x.value,
                                        unit_of(x.quantity), x.limit);
       const size_t at = std::min(static_cast<size_t>(std::max(length, 0)), sizeof(why) - 1);
       if (scale == 0.0) {
@@ -651,7 +651,7 @@ bool Controller::set_target(const Target& target, int64_t now_ns) {
     }
   }
   if (!step) {
-    LimitExcess excess;
+    motion::LimitExcess excess;
     const double shortest = shortest_duration(target.q, target.duration, excess);
     if (excess) {
       const char* name = model_->joint(excess.joint).name.c_str();
@@ -706,7 +706,7 @@ bool Controller::set_setpoint(const Setpoint& setpoint, int64_t now_ns) {
   }
   if (!held) cap_jerk_to_torque_rate();
   for (int i = 0; i < n; ++i) {
-    otg_target_.v(i) = velocity_that_stops_in_range(setpoint.qd(i), otg_target_.p(i), limits_.lower(i),
+    otg_target_.v(i) = motion::velocity_that_stops_in_range(setpoint.qd(i), otg_target_.p(i), limits_.lower(i),
                                                     limits_.upper(i), otg_limits_.velocity(i),
                                                     otg_limits_.acceleration(i), otg_limits_.jerk(i));
     otg_target_.a(i) = 0.0;
@@ -764,7 +764,7 @@ void Controller::update_stream(int64_t now_ns) {
     // The setpoint moves on at its velocity; at a limit it stops there.
     for (int i = 0; i < ref_.q.size(); ++i) {
       otg_target_.p(i) = std::clamp(otg_target_.p(i) + otg_target_.v(i) * dt, limits_.lower(i), limits_.upper(i));
-      otg_target_.v(i) = velocity_that_stops_in_range(otg_target_.v(i), otg_target_.p(i), limits_.lower(i),
+      otg_target_.v(i) = motion::velocity_that_stops_in_range(otg_target_.v(i), otg_target_.p(i), limits_.lower(i),
                                                       limits_.upper(i), otg_limits_.velocity(i),
                                                       otg_limits_.acceleration(i), otg_limits_.jerk(i));
     }
@@ -982,7 +982,7 @@ bool Controller::tick(int64_t now_ns, const JointState* state) {
     switch_offset_.setZero();
   }
   if (mode_ == Mode::kRunning || mode_ == Mode::kHolding) {
-    if (const LimitExcess excess = measured_excess(limits_, q_guarded_, q_, qd_)) {
+    if (const motion::LimitExcess excess = measured_excess(limits_, q_guarded_, q_, qd_)) {
       std::snprintf(limit_reason_, sizeof(limit_reason_), "joint %s: %s %g %s past its limit %g %s",
                     model_->joint(excess.joint).name.c_str(), to_string(excess.quantity), excess.value,
                     unit_of(excess.quantity), excess.limit, unit_of(excess.quantity));

@@ -19,16 +19,16 @@
 #include <cstdint>
 #include <vector>
 
-#include "chasles/controller/cartesian.hpp"
-#include "chasles/controller/contact.hpp"
-#include "chasles/controller/jog.hpp"
-#include "chasles/controller/law.hpp"
-#include "chasles/controller/semantics_check.hpp"
-#include "chasles/controller/limits.hpp"
-#include "chasles/controller/trajectory.hpp"
-#include "chasles/controller/waypoints.hpp"
-#include "chasles/core/model/model.hpp"
-#include "chasles/core/motion/online_generator.hpp"
+#include "controller/cartesian.hpp"
+#include "controller/contact.hpp"
+#include "controller/jog.hpp"
+#include "controller/law.hpp"
+#include "controller/semantics_check.hpp"
+#include "core/motion/limits.hpp"
+#include "core/motion/quintic.hpp"
+#include "core/motion/waypoints.hpp"
+#include "core/model/model.hpp"
+#include "core/motion/online_generator.hpp"
 
 namespace chasles::controller {
 
@@ -54,7 +54,7 @@ struct Config {
   ContactConfig contact;
   /// Acceleration and jerk limits (the URDF gives position and velocity), the position margin
   /// and the measured velocity's tolerance.
-  LimitConfig limits;
+  motion::LimitConfig limits;
   /// A stream or a jog with no message for this long, s, is taken as stopped: the arm decelerates
   /// to rest.
   double stream_timeout = 0.1;
@@ -164,7 +164,7 @@ class Controller {
   /// tolerance ABORTS it (the arm holds where it is); at its end each joint must come within its
   /// goal tolerance within goal_time. A new target, law or trajectory PREEMPTS it; a reflex or a
   /// FAULT ABORTS it. Allocates nothing.
-  bool set_trajectory(const Waypoints& waypoints, int64_t now_ns);
+  bool set_trajectory(const motion::Waypoints& waypoints, int64_t now_ns);
   const TrajectoryProgress& trajectory() const { return progress_; }
 
   /// Takes one setpoint of a stream: the reference moves toward it (and on at its velocity) along
@@ -245,7 +245,7 @@ class Controller {
   /// The tip pose and J_b at the reference (computed under the Cartesian law only).
   const Data& reference_data() const { return data_ref_; }
   /// The limits every reference keeps to and the measured state is guarded by.
-  const MotionLimits& limits() const { return limits_; }
+  const motion::MotionLimits& limits() const { return limits_; }
   /// The limits the online generator plans streams, jogs and stops with now: limits_' velocity and
   /// acceleration (∞ as large finite values) and the jerk capped by the torque rate at the pose of
   /// the latest goal taken (cap_jerk_to_torque_rate).
@@ -258,7 +258,7 @@ class Controller {
   int64_t reflexes() const { return reflexes_; }
   double peak_tip_force() const { return peak_tip_force_; }
   const Eigen::VectorXd& torque() const { return tau_; }
-  const Reference& reference() const { return ref_; }
+  const motion::Reference& reference() const { return ref_; }
   /// e = q_d − q at the last commanding tick.
   const Eigen::VectorXd& error() const { return error_; }
 
@@ -301,7 +301,7 @@ class Controller {
   void start_reflex(int64_t now_ns, const char* limit_reason = nullptr);
   /// The shortest duration from `requested` up whose quintic from ref_ to goal stays within the
   /// limits, left in candidate_; 0 when none does. excess: what the requested duration broke.
-  double shortest_duration(const Eigen::VectorXd& goal, double requested, LimitExcess& excess);
+  double shortest_duration(const Eigen::VectorXd& goal, double requested, motion::LimitExcess& excess);
   bool request_cartesian(const Target& target);
   /// The reference at now_ns; finishing a motion turns RUNNING into HOLDING.
   void update_reference(int64_t now_ns);
@@ -327,7 +327,7 @@ class Controller {
       __attribute__((format(printf, 3, 4)));
   /// The least factor (≥ 1, to 1e-3) by which waypoints' times scaled fit the limits, left built
   /// in spline_candidate_; 0 if none up to kMaxTimeScale.
-  double least_time_scale(const Waypoints& waypoints);
+  double least_time_scale(const motion::Waypoints& waypoints);
 
   /// The generator's jerk limits at this state: the configured ones, scaled down by one factor
   /// until M(q) times them asks at most kTorqueRateShare of each joint's torque-rate limit.
@@ -348,14 +348,14 @@ class Controller {
   int64_t switch_start_ns_ = 0;
   Eigen::VectorXd effort_limit_, rate_limit_per_tick_, torque_rate_;  // N·m, N·m per tick, N·m/s
   Eigen::VectorXd q_, qd_, qdd_ref_, error_, tau_, tau_prev_;
-  MotionLimits limits_;
+  motion::MotionLimits limits_;
   Eigen::VectorXd q_guarded_;  // the state the limit guard last saw, for a crossing
   char limit_reason_[160] = {};  // room for "; reflex stop" in reflex_reason_
-  Reference ref_;
-  QuinticTrajectory trajectory_, candidate_;
+  motion::Reference ref_;
+  motion::QuinticTrajectory trajectory_, candidate_;
   Drive drive_ = Drive::kGoal;
   JointPathSampler path_;
-  WaypointSpline spline_, spline_candidate_;  // the one followed; the one being checked
+  motion::WaypointSpline spline_, spline_candidate_;  // the one followed; the one being checked
   Eigen::VectorXd path_tolerance_, goal_tolerance_;
   double goal_time_ = 0.0;
   TrajectoryProgress progress_;

@@ -1,13 +1,13 @@
-#include "chasles/controller/daemon.hpp"
+#include "controller/daemon.hpp"
 
 #include <algorithm>
 #include <cstdio>
 #include <thread>
 
-#include "chasles/controller/node.hpp"
-#include "chasles/controller/realtime/bus.hpp"
-#include "chasles/controller/realtime/clock.hpp"
-#include "chasles/controller/realtime/realtime.hpp"
+#include "controller/node.hpp"
+#include "controller/realtime/bus.hpp"
+#include "controller/realtime/clock.hpp"
+#include "controller/realtime/realtime.hpp"
 
 namespace chasles::controller {
 namespace {

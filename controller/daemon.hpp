@@ -18,8 +18,8 @@
 #include <atomic>
 #include <memory>
 
-#include "chasles/controller/options.hpp"
-#include "chasles/core/model/model.hpp"
+#include "controller/options.hpp"
+#include "core/model/model.hpp"
 
 namespace chasles::controller {
 

@@ -1,13 +1,13 @@
-#include "chasles/controller/jog.hpp"
+#include "controller/jog.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
 
-#include "chasles/core/error.hpp"
-#include "chasles/core/kinematics/kinematics.hpp"
-#include "chasles/core/lie/se3.hpp"
+#include "core/error.hpp"
+#include "core/kinematics/kinematics.hpp"
+#include "core/lie/se3.hpp"
 
 namespace chasles::controller {
 namespace {
@@ -84,8 +84,8 @@ double Jogger::condition_at(const RobotModel& model, const Eigen::VectorXd& q) {
   return spectrum_.condition();
 }
 
-bool Jogger::step(const RobotModel& model, const Jog& jog, bool halt, const MotionLimits& limits,
-                  const motion::Limits& otg_limits, double dt, Reference& ref, JogProgress& progress) {
+bool Jogger::step(const RobotModel& model, const Jog& jog, bool halt, const motion::MotionLimits& limits,
+                  const motion::Limits& otg_limits, double dt, motion::Reference& ref, JogProgress& progress) {
   const bool twist = jog.kind == Jog::kTwist;
   const Matrix6Xd& J = at_reference(model, ref, progress);
   qd_.setZero();
@@ -106,7 +106,7 @@ bool Jogger::step(const RobotModel& model, const Jog& jog, bool halt, const Moti
 }
 
 bool Jogger::follow_pose(const RobotModel& model, const Transform& target, const Vector6d& twist, bool halt,
-                         const MotionLimits& limits, const motion::Limits& otg_limits, double dt, Reference& ref,
+                         const motion::MotionLimits& limits, const motion::Limits& otg_limits, double dt, motion::Reference& ref,
                          JogProgress& progress) {
   const Matrix6Xd& J = at_reference(model, ref, progress);
   qd_.setZero();
@@ -122,7 +122,7 @@ bool Jogger::follow_pose(const RobotModel& model, const Transform& target, const
   return advance(model, true, halt, limits, otg_limits, dt, ref, progress);
 }
 
-const Matrix6Xd& Jogger::at_reference(const RobotModel& model, const Reference& ref, JogProgress& progress) {
+const Matrix6Xd& Jogger::at_reference(const RobotModel& model, const motion::Reference& ref, JogProgress& progress) {
   const Matrix6Xd& J = body_jacobian(model, data_, ref.q);
   spectrum_.compute(J);
   progress = JogProgress{};
@@ -130,8 +130,8 @@ const Matrix6Xd& Jogger::at_reference(const RobotModel& model, const Reference& 
   return J;
 }
 
-bool Jogger::advance(const RobotModel& model, bool twist, bool halt, const MotionLimits& limits,
-                     const motion::Limits& otg_limits, double dt, Reference& ref, JogProgress& progress) {
+bool Jogger::advance(const RobotModel& model, bool twist, bool halt, const motion::MotionLimits& limits,
+                     const motion::Limits& otg_limits, double dt, motion::Reference& ref, JogProgress& progress) {
   const int n = model.dof();
   if (!halt) {
     // One factor for every joint, so that the motion keeps the direction asked for.
@@ -148,7 +148,7 @@ bool Jogger::advance(const RobotModel& model, bool twist, bool halt, const Motio
       if (speed == 0.0) continue;
       cut(otg_limits.velocity(i), speed, JogProgress::kVelocity, i);
       const double room = qd_(i) > 0.0 ? limits.upper(i) - ref.q(i) : ref.q(i) - limits.lower(i);
-      cut(speed_that_stops_within(room, otg_limits.acceleration(i), otg_limits.jerk(i)), speed, JogProgress::kPosition,
+      cut(motion::speed_that_stops_within(room, otg_limits.acceleration(i), otg_limits.jerk(i)), speed, JogProgress::kPosition,
           i);
     }
     const double fastest = qd_.cwiseAbs().maxCoeff();

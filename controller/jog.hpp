@@ -19,11 +19,11 @@
 #include <Eigen/Eigenvalues>
 #include <cstdint>
 
-#include "chasles/controller/limits.hpp"
-#include "chasles/controller/trajectory.hpp"
-#include "chasles/core/lie/types.hpp"
-#include "chasles/core/model/model.hpp"
-#include "chasles/core/motion/online_generator.hpp"
+#include "core/motion/limits.hpp"
+#include "core/motion/quintic.hpp"
+#include "core/lie/types.hpp"
+#include "core/model/model.hpp"
+#include "core/motion/online_generator.hpp"
 
 namespace chasles::controller {
 
@@ -95,26 +95,26 @@ class Jogger {
   /// (`otg_limits`: the same, finite) and short of a singularity; says how in `progress`. Returns
   /// whether the reference has come to rest with a zero command (the jog is over). The model
   /// may be another of the same chain than the one built with (a payload). Allocates nothing.
-  bool step(const RobotModel& model, const Jog& jog, bool halt, const MotionLimits& limits,
-            const motion::Limits& otg_limits, double dt, Reference& ref, JogProgress& progress);
+  bool step(const RobotModel& model, const Jog& jog, bool halt, const motion::MotionLimits& limits,
+            const motion::Limits& otg_limits, double dt, motion::Reference& ref, JogProgress& progress);
 
   /// The same toward a tip pose `target` moving with `twist` (the tip's angular velocity and its
   /// origin's velocity in the base frame's axes): a Cartesian stream. The twist asked is the
   /// target's plus the body twist from the reference's tip to the target over the time constant,
   /// resolved and kept within limits as a twist jog.
   bool follow_pose(const RobotModel& model, const Transform& target, const Vector6d& twist, bool halt,
-                   const MotionLimits& limits, const motion::Limits& otg_limits, double dt, Reference& ref,
+                   const motion::MotionLimits& limits, const motion::Limits& otg_limits, double dt, motion::Reference& ref,
                    JogProgress& progress);
 
   const JogConfig& config() const { return config_; }
 
  private:
   /// J_b and κ at the reference, progress started afresh.
-  const Matrix6Xd& at_reference(const RobotModel& model, const Reference& ref, JogProgress& progress);
+  const Matrix6Xd& at_reference(const RobotModel& model, const motion::Reference& ref, JogProgress& progress);
   /// From the joint velocity asked (qd_): cut to the limits, slowed toward a singularity (`twist`),
   /// the reference moved on by dt, the step checked by the stop it leaves.
-  bool advance(const RobotModel& model, bool twist, bool halt, const MotionLimits& limits,
-               const motion::Limits& otg_limits, double dt, Reference& ref, JogProgress& progress);
+  bool advance(const RobotModel& model, bool twist, bool halt, const motion::MotionLimits& limits,
+               const motion::Limits& otg_limits, double dt, motion::Reference& ref, JogProgress& progress);
   /// κ(J_b) at q.
   double condition_at(const RobotModel& model, const Eigen::VectorXd& q);
 

@@ -1,11 +1,11 @@
-#include "chasles/controller/law.hpp"
+#include "controller/law.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
 
-#include "chasles/core/lie/se3.hpp"
+#include "core/lie/se3.hpp"
 
 namespace chasles::controller {
 namespace {
@@ -177,14 +177,14 @@ Matrix6d modal_damping(const Matrix6d& Lambda, const Matrix6d& K, double zeta) {
 }
 
 void computed_torque(const RobotModel& /*model*/, const Data& data, const Eigen::VectorXd& kp,
-                     const Eigen::VectorXd& kd, const Reference& ref, const Eigen::VectorXd& q,
+                     const Eigen::VectorXd& kd, const motion::Reference& ref, const Eigen::VectorXd& q,
                      const Eigen::VectorXd& qd, Eigen::VectorXd& qdd_scratch, Eigen::VectorXd& tau) {
   qdd_scratch = ref.qdd + kd.cwiseProduct(ref.qd - qd) + kp.cwiseProduct(ref.q - q);
   inverse_dynamics_at(data, qdd_scratch, tau);
 }
 
 void joint_impedance(const RobotModel& /*model*/, const Data& data, LawWorkspace& work, const LawSettings& s,
-                     const Reference& ref, const Eigen::VectorXd& q, const Eigen::VectorXd& qd, Eigen::VectorXd& tau) {
+                     const motion::Reference& ref, const Eigen::VectorXd& q, const Eigen::VectorXd& qd, Eigen::VectorXd& tau) {
   const Eigen::VectorXd& K = s.joint_stiffness;
   if (s.damping_from_ratio) {
     work.damping = 2.0 * s.damping_ratio * (K.cwiseProduct(data.M.diagonal())).cwiseSqrt();
@@ -212,7 +212,7 @@ void joint_impedance(const RobotModel& /*model*/, const Data& data, LawWorkspace
 }
 
 void cartesian_impedance(const RobotModel& model, const Data& data, const Data& data_ref, LawWorkspace& work,
-                         const LawSettings& s, const Reference& ref, const Eigen::VectorXd& q,
+                         const LawSettings& s, const motion::Reference& ref, const Eigen::VectorXd& q,
                          const Eigen::VectorXd& qd, Eigen::VectorXd& tau) {
   const Transform& T_bc = s.T_tip_frame;
   // Frame c at the reference: its pose and its body twist.

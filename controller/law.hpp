@@ -21,8 +21,8 @@
 #include <cstdint>
 #include <string>
 
-#include "chasles/controller/trajectory.hpp"
-#include "chasles/core/model/model.hpp"
+#include "core/motion/quintic.hpp"
+#include "core/model/model.hpp"
 
 namespace chasles::controller {
 
@@ -124,17 +124,17 @@ inline constexpr double kMaxCartesianInertia = 100.0;
 
 /// Computed torque into tau: M (q̈_d + K_d ė + K_p e) + c + g.
 void computed_torque(const RobotModel& model, const Data& data, const Eigen::VectorXd& kp, const Eigen::VectorXd& kd,
-                     const Reference& ref, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                     const motion::Reference& ref, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                      Eigen::VectorXd& qdd_scratch, Eigen::VectorXd& tau);
 
 /// Joint impedance into tau.
 void joint_impedance(const RobotModel& model, const Data& data, LawWorkspace& work, const LawSettings& settings,
-                     const Reference& ref, const Eigen::VectorXd& q, const Eigen::VectorXd& qd, Eigen::VectorXd& tau);
+                     const motion::Reference& ref, const Eigen::VectorXd& q, const Eigen::VectorXd& qd, Eigen::VectorXd& tau);
 
 /// Cartesian impedance with nullspace into tau; work.xi, xi_dot, wrench and Lambda hold its parts.
 /// `data_ref` holds the tip pose and J_b at the reference q_d (body_jacobian at ref.q).
 void cartesian_impedance(const RobotModel& model, const Data& data, const Data& data_ref, LawWorkspace& work,
-                         const LawSettings& settings, const Reference& ref, const Eigen::VectorXd& q,
+                         const LawSettings& settings, const motion::Reference& ref, const Eigen::VectorXd& q,
                          const Eigen::VectorXd& qd, Eigen::VectorXd& tau);
 
 /// Free drive into tau.

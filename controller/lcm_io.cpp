@@ -1,11 +1,11 @@
-#include "chasles/controller/lcm_io.hpp"
+#include "controller/lcm_io.hpp"
 
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 
-#include "chasles/core/lie/so3.hpp"
-#include "chasles/lcmtypes/checked.hpp"
+#include "core/lie/so3.hpp"
+#include "lcmtypes/checked.hpp"
 
 namespace chasles::controller {
 
@@ -108,7 +108,7 @@ std::string JogReceiver::receive(const void* data, size_t size) {
   return {};
 }
 
-TrajectoryReceiver::TrajectoryReceiver(const RobotModel& model, SpscRing<Waypoints>& queue)
+TrajectoryReceiver::TrajectoryReceiver(const RobotModel& model, SpscRing<motion::Waypoints>& queue)
     : waypoints_(model.dof()), column_(size_t(model.dof()), -1), queue_(queue) {
   for (const Joint& joint : model.joints()) names_.push_back(joint.name);
   message_.joint_names.resize(names_.size());
@@ -123,8 +123,8 @@ std::string TrajectoryReceiver::receive(const void* data, size_t size) {
   const joint_trajectory_t& m = message_;
   // Built only for a refusal (after the node's "trajectory "): a trajectory taken costs no string.
   const auto id = [&m] { return std::to_string(m.id) + ": "; };
-  if (m.num_points < 1 || m.num_points > Waypoints::kMaxPoints) {
-    return id() + std::to_string(m.num_points) + " waypoints; 1 to " + std::to_string(Waypoints::kMaxPoints) + " are taken";
+  if (m.num_points < 1 || m.num_points > motion::Waypoints::kMaxPoints) {
+    return id() + std::to_string(m.num_points) + " waypoints; 1 to " + std::to_string(motion::Waypoints::kMaxPoints) + " are taken";
   }
   if ((m.num_velocities != 0 && m.num_velocities != m.num_points) ||
       (m.num_accelerations != 0 && m.num_accelerations != m.num_points)) {
@@ -141,7 +141,7 @@ std::string TrajectoryReceiver::receive(const void* data, size_t size) {
     if (column >= 0) return id() + "joint '" + m.joint_names[size_t(c)] + "' is named twice";
     column = c;
   }
-  Waypoints& w = waypoints_;
+  motion::Waypoints& w = waypoints_;
   w.id = m.id;
   w.count = m.num_points;
   w.has_velocities = m.num_velocities != 0;

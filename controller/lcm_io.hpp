@@ -22,12 +22,12 @@
 #include <string>
 #include <vector>
 
-#include "chasles/controller/controller.hpp"
-#include "chasles/controller/law.hpp"
-#include "chasles/controller/protocol.hpp"
-#include "chasles/controller/realtime/mailbox.hpp"
-#include "chasles/controller/realtime/realtime.hpp"
-#include "chasles/core/model/payload.hpp"
+#include "controller/controller.hpp"
+#include "controller/law.hpp"
+#include "controller/protocol.hpp"
+#include "controller/realtime/mailbox.hpp"
+#include "controller/realtime/realtime.hpp"
+#include "core/model/payload.hpp"
 
 namespace chasles::controller {
 
@@ -160,7 +160,7 @@ class JogReceiver {
 /// (lcm-gen's rows); what reaches the loop does not.
 class TrajectoryReceiver {
  public:
-  TrajectoryReceiver(const RobotModel& model, SpscRing<Waypoints>& queue);
+  TrajectoryReceiver(const RobotModel& model, SpscRing<motion::Waypoints>& queue);
   TrajectoryReceiver(const TrajectoryReceiver&) = delete;
   TrajectoryReceiver& operator=(const TrajectoryReceiver&) = delete;
 
@@ -170,9 +170,9 @@ class TrajectoryReceiver {
  private:
   std::vector<std::string> names_;  // the arm's joints, root to tip
   joint_trajectory_t message_;
-  Waypoints waypoints_;
+  motion::Waypoints waypoints_;
   std::vector<int> column_;  // the message's column of each of the arm's joints
-  SpscRing<Waypoints>& queue_;
+  SpscRing<motion::Waypoints>& queue_;
 };
 
 /// A law's value on the wire (control_mode_t.law, controller_status_t.law), and back: false for a

@@ -25,14 +25,14 @@
 #include <system_error>
 #include <thread>
 
-#include "chasles/controller/daemon.hpp"
-#include "chasles/controller/node.hpp"
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/error.hpp"
-#include "chasles/core/model/model.hpp"
-#include "chasles/core/model/payload.hpp"
-#include "chasles/core/model/urdf.hpp"
-#include "chasles/core/number_list.hpp"
+#include "controller/daemon.hpp"
+#include "controller/node.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/error.hpp"
+#include "core/model/model.hpp"
+#include "core/model/payload.hpp"
+#include "core/model/urdf.hpp"
+#include "core/number_list.hpp"
 
 namespace {
 
@@ -123,7 +123,7 @@ struct Flags {
   // Motion limits beyond the URDF's: per-joint lists as text until the joint count is known.
   std::string acceleration_limit, jerk_limit;
   double stream_timeout_ms = 1e3 * kDefault.stream_timeout;
-  chasles::controller::LimitConfig limits;
+  chasles::motion::LimitConfig limits;
   chasles::controller::JogConfig jog;
   double pose_time_constant_ms = 1e3 * kDefault.jog.pose_time_constant;
   bool semantics_check = kDefault.check_torque_semantics;

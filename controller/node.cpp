@@ -1,4 +1,4 @@
-#include "chasles/controller/node.hpp"
+#include "controller/node.hpp"
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <cstring>
 
-#include "chasles/core/dynamics/dynamics.hpp"
+#include "core/dynamics/dynamics.hpp"
 
 namespace chasles::controller {
 
@@ -67,7 +67,7 @@ Node::Loop::Loop(const RobotModel& model, const DaemonOptions& options, double p
       path(model.dof()),
       plant_state(model.dof()) {}
 
-Node::Planner::Planner(const RobotModel& model, const LimitConfig& config)
+Node::Planner::Planner(const RobotModel& model, const motion::LimitConfig& config)
     : solver(model), limits(model, config), request(model.dof()), path(model.dof()) {}
 
 Node::Reporter::Reporter(const RobotModel& model) : data(model), last(model.dof()) {}
@@ -100,7 +100,7 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
       modes_(8, LawSettings(n_)),
       states_(JointState(n_)),
       targets_(16, Target(n_)),
-      trajectories_(2, Waypoints(n_)),
+      trajectories_(2, motion::Waypoints(n_)),
       setpoints_(16, Setpoint(n_)),
       jogs_(16, Jog(n_)),
       tip_setpoints_(16, TipSetpoint{}),

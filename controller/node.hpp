@@ -23,15 +23,15 @@
 #include <string>
 #include <vector>
 
-#include "chasles/controller/controller.hpp"
-#include "chasles/controller/lcm_io.hpp"
-#include "chasles/controller/options.hpp"
-#include "chasles/controller/realtime/bus.hpp"
-#include "chasles/controller/realtime/clock.hpp"
-#include "chasles/controller/realtime/mailbox.hpp"
-#include "chasles/controller/realtime/realtime.hpp"
-#include "chasles/controller/statistics.hpp"
-#include "chasles/core/kinematics/kinematics.hpp"
+#include "controller/controller.hpp"
+#include "controller/lcm_io.hpp"
+#include "controller/options.hpp"
+#include "controller/realtime/bus.hpp"
+#include "controller/realtime/clock.hpp"
+#include "controller/realtime/mailbox.hpp"
+#include "controller/realtime/realtime.hpp"
+#include "controller/statistics.hpp"
+#include "core/kinematics/kinematics.hpp"
 
 namespace chasles::controller {
 
@@ -179,7 +179,7 @@ class Node {
   SpscRing<LawSettings> modes_;
   Mailbox<JointState> states_;
   SpscRing<Target> targets_;
-  SpscRing<Waypoints> trajectories_;
+  SpscRing<motion::Waypoints> trajectories_;
   SpscRing<Setpoint> setpoints_;
   SpscRing<Jog> jogs_;
   SpscRing<TipSetpoint> tip_setpoints_;
@@ -218,7 +218,7 @@ class Node {
     Eigen::VectorXd no_gravity;
     JointState state;
     Target target;
-    Waypoints waypoints;
+    motion::Waypoints waypoints;
     Setpoint setpoint;
     Jog jog;
     TipSetpoint tip_setpoint;
@@ -241,10 +241,10 @@ class Node {
 
   // The IK worker's: plan().
   struct Planner {
-    Planner(const RobotModel& model, const LimitConfig& config);
+    Planner(const RobotModel& model, const motion::LimitConfig& config);
     Payload payload;
     IkSolver solver;
-    MotionLimits limits;  // a payload changes no limit
+    motion::MotionLimits limits;  // a payload changes no limit
     CartesianRequest request;
     JointPath path;
     bool path_waiting = false;  // planned, not yet taken by the loop

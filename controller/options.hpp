@@ -7,10 +7,10 @@
 #include <optional>
 #include <string>
 
-#include "chasles/controller/controller.hpp"
-#include "chasles/controller/protocol.hpp"
-#include "chasles/controller/statistics.hpp"
-#include "chasles/core/model/payload.hpp"
+#include "controller/controller.hpp"
+#include "controller/protocol.hpp"
+#include "controller/statistics.hpp"
+#include "core/model/payload.hpp"
 
 namespace chasles::controller {
 

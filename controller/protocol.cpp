@@ -1,9 +1,9 @@
-#include "chasles/controller/protocol.hpp"
+#include "controller/protocol.hpp"
 
 #include <algorithm>
 #include <cmath>
 
-#include "chasles/lcmtypes/checked.hpp"
+#include "lcmtypes/checked.hpp"
 
 namespace chasles::controller {
 

@@ -37,7 +37,7 @@
 #include <string_view>
 #include <vector>
 
-#include "chasles/controller/controller.hpp"
+#include "controller/controller.hpp"
 
 namespace chasles::controller {
 

@@ -1,4 +1,4 @@
-#include "chasles/controller/semantics_check.hpp"
+#include "controller/semantics_check.hpp"
 
 #include <cmath>
 

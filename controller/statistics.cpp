@@ -1,4 +1,4 @@
-#include "chasles/controller/statistics.hpp"
+#include "controller/statistics.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "chasles/core/error.hpp"
-#include "chasles/core/model/payload.hpp"
+#include "core/error.hpp"
+#include "core/model/payload.hpp"
 
 namespace chasles {
 

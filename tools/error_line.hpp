@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "chasles/core/error.hpp"
+#include "core/error.hpp"
 
 namespace chasles::tools {
 

@@ -8,9 +8,9 @@
 #include <new>
 #include <string>
 
-#include "chasles/core/error.hpp"
-#include "chasles/core/model/urdf.hpp"
-#include "chasles/tools/error_line.hpp"
+#include "core/error.hpp"
+#include "core/model/urdf.hpp"
+#include "tools/error_line.hpp"
 
 namespace chasles::tools {
 

@@ -1,4 +1,4 @@
-#include "chasles/controller/realtime/bus.hpp"
+#include "controller/realtime/bus.hpp"
 
 #include <arpa/inet.h>
 #include <lcm/lcm.h>
@@ -17,10 +17,10 @@
 #include <thread>
 #include <vector>
 
-#include "chasles/controller/realtime/fragments.hpp"
-#include "chasles/controller/realtime/mailbox.hpp"
-#include "chasles/controller/realtime/realtime.hpp"
-#include "chasles/core/error.hpp"
+#include "controller/realtime/fragments.hpp"
+#include "controller/realtime/mailbox.hpp"
+#include "controller/realtime/realtime.hpp"
+#include "core/error.hpp"
 
 namespace chasles::controller {
 

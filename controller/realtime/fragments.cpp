@@ -1,4 +1,4 @@
-#include "chasles/controller/realtime/fragments.hpp"
+#include "controller/realtime/fragments.hpp"
 
 #include <algorithm>
 #include <cstring>

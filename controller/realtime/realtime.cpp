@@ -1,4 +1,4 @@
-#include "chasles/controller/realtime/realtime.hpp"
+#include "controller/realtime/realtime.hpp"
 
 #include <poll.h>
 #include <pthread.h>
@@ -13,7 +13,7 @@
 #include <cstring>
 #include <system_error>
 
-#include "chasles/controller/realtime/clock.hpp"
+#include "controller/realtime/clock.hpp"
 
 namespace chasles::controller {
 

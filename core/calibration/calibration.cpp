@@ -1,4 +1,4 @@
-#include "chasles/core/calibration/calibration.hpp"
+#include "core/calibration/calibration.hpp"
 
 #include <ceres/ceres.h>
 
@@ -12,7 +12,7 @@
 #include <numeric>
 #include <sstream>
 
-#include "chasles/core/lie/jacobians.hpp"
+#include "core/lie/jacobians.hpp"
 
 namespace chasles {
 

@@ -28,7 +28,7 @@
 #include <string>
 #include <vector>
 
-#include "chasles/core/kinematics/kinematics.hpp"
+#include "core/kinematics/kinematics.hpp"
 
 namespace chasles {
 

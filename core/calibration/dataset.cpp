@@ -1,4 +1,4 @@
-#include "chasles/core/calibration/dataset.hpp"
+#include "core/calibration/dataset.hpp"
 
 #include <cerrno>
 #include <cmath>
@@ -10,7 +10,7 @@
 #include <map>
 #include <sstream>
 
-#include "chasles/core/lie/so3.hpp"
+#include "core/lie/so3.hpp"
 
 namespace chasles {
 

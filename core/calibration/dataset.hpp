@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "chasles/core/calibration/calibration.hpp"
+#include "core/calibration/calibration.hpp"
 
 namespace chasles {
 

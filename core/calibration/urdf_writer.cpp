@@ -1,4 +1,4 @@
-#include "chasles/core/calibration/urdf_writer.hpp"
+#include "core/calibration/urdf_writer.hpp"
 
 #include <tinyxml2.h>
 
@@ -9,9 +9,9 @@
 #include <map>
 #include <vector>
 
-#include "chasles/core/calibration/dataset.hpp"
-#include "chasles/core/lie/se3.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "core/calibration/dataset.hpp"
+#include "core/lie/se3.hpp"
+#include "core/model/urdf.hpp"
 
 namespace chasles {
 

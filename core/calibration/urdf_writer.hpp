@@ -14,7 +14,7 @@
 
 #include <string>
 
-#include "chasles/core/calibration/calibration.hpp"
+#include "core/calibration/calibration.hpp"
 
 namespace chasles {
 

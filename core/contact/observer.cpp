@@ -1,4 +1,4 @@
-#include "chasles/core/contact/observer.hpp"
+#include "core/contact/observer.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>

@@ -19,7 +19,7 @@
 
 #include <Eigen/Core>
 
-#include "chasles/core/kinematics/kinematics.hpp"
+#include "core/kinematics/kinematics.hpp"
 
 namespace chasles {
 

@@ -1,12 +1,12 @@
-#include "chasles/core/dynamics/dynamics.hpp"
+#include "core/dynamics/dynamics.hpp"
 
 #include <cassert>
 #include <cmath>
 #include <limits>
 
-#include "chasles/core/lie/se3.hpp"
-#include "chasles/core/lie/sincos.hpp"
-#include "chasles/core/model/joint_axis.hpp"
+#include "core/lie/se3.hpp"
+#include "core/lie/sincos.hpp"
+#include "core/model/joint_axis.hpp"
 
 namespace chasles {
 namespace {

@@ -12,7 +12,7 @@
 
 #include <string>
 
-#include "chasles/core/kinematics/kinematics.hpp"
+#include "core/kinematics/kinematics.hpp"
 
 namespace chasles {
 

@@ -1,4 +1,4 @@
-#include "chasles/core/identification/base_parameters.hpp"
+#include "core/identification/base_parameters.hpp"
 
 #include <Eigen/QR>
 #include <random>

@@ -15,7 +15,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "chasles/core/identification/regressor.hpp"
+#include "core/identification/regressor.hpp"
 
 namespace chasles {
 

@@ -1,4 +1,4 @@
-#include "chasles/core/identification/dynamic_fit.hpp"
+#include "core/identification/dynamic_fit.hpp"
 
 #include <ceres/ceres.h>
 #include <ceres/normal_prior.h>
@@ -12,9 +12,9 @@
 #include <limits>
 #include <tuple>
 
-#include "chasles/core/identification/log_cholesky.hpp"
-#include "chasles/core/identification/zero_phase_filter.hpp"
-#include "chasles/core/model/inertia.hpp"
+#include "core/identification/log_cholesky.hpp"
+#include "core/identification/zero_phase_filter.hpp"
+#include "core/model/inertia.hpp"
 
 namespace chasles {
 

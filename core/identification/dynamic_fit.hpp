@@ -64,8 +64,8 @@
 #include <string>
 #include <vector>
 
-#include "chasles/core/identification/base_parameters.hpp"
-#include "chasles/core/model/payload.hpp"
+#include "core/identification/base_parameters.hpp"
+#include "core/model/payload.hpp"
 
 namespace chasles {
 

@@ -1,4 +1,4 @@
-#include "chasles/core/identification/excitation.hpp"
+#include "core/identification/excitation.hpp"
 
 #include <ceres/gradient_problem.h>
 #include <ceres/gradient_problem_solver.h>

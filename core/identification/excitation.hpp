@@ -22,7 +22,7 @@
 #include <cstdint>
 #include <string>
 
-#include "chasles/core/identification/base_parameters.hpp"
+#include "core/identification/base_parameters.hpp"
 
 namespace chasles {
 

@@ -1,10 +1,10 @@
-#include "chasles/core/identification/log_cholesky.hpp"
+#include "core/identification/log_cholesky.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <cstdio>
 #include <string>
 
-#include "chasles/core/model/inertia.hpp"
+#include "core/model/inertia.hpp"
 
 namespace chasles {
 

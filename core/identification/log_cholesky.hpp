@@ -18,7 +18,7 @@
 
 #include <cmath>
 
-#include "chasles/core/identification/regressor.hpp"
+#include "core/identification/regressor.hpp"
 
 namespace chasles {
 

@@ -1,13 +1,13 @@
-#include "chasles/core/identification/perturbation.hpp"
+#include "core/identification/perturbation.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <cmath>
 #include <cstdio>
 #include <random>
 
-#include "chasles/core/error.hpp"
-#include "chasles/core/lie/so3.hpp"
-#include "chasles/core/model/inertia.hpp"
+#include "core/error.hpp"
+#include "core/lie/so3.hpp"
+#include "core/model/inertia.hpp"
 
 namespace chasles {
 namespace {

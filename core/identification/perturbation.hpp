@@ -21,7 +21,7 @@
 
 #include <cstdint>
 
-#include "chasles/core/identification/regressor.hpp"
+#include "core/identification/regressor.hpp"
 
 namespace chasles {
 

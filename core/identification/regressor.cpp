@@ -1,10 +1,10 @@
-#include "chasles/core/identification/regressor.hpp"
+#include "core/identification/regressor.hpp"
 
 #include <cassert>
 #include <string>
 
-#include "chasles/core/lie/se3.hpp"
-#include "chasles/core/lie/so3.hpp"
+#include "core/lie/se3.hpp"
+#include "core/lie/so3.hpp"
 
 namespace chasles {
 namespace {

@@ -16,7 +16,7 @@
 
 #include <vector>
 
-#include "chasles/core/kinematics/kinematics.hpp"
+#include "core/kinematics/kinematics.hpp"
 
 namespace chasles {
 

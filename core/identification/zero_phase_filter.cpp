@@ -1,4 +1,4 @@
-#include "chasles/core/identification/zero_phase_filter.hpp"
+#include "core/identification/zero_phase_filter.hpp"
 
 #include <cmath>
 #include <string>

@@ -14,8 +14,8 @@
 
 #include <vector>
 
-#include "chasles/core/error.hpp"
-#include "chasles/core/lie/types.hpp"
+#include "core/error.hpp"
+#include "core/lie/types.hpp"
 
 namespace chasles {
 

@@ -1,4 +1,4 @@
-#include "chasles/core/ik/ik.hpp"
+#include "core/ik/ik.hpp"
 
 #include <ceres/ceres.h>
 
@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "chasles/core/lie/jacobians.hpp"
+#include "core/lie/jacobians.hpp"
 
 namespace chasles {
 

@@ -25,7 +25,7 @@
 #include <cstdint>
 #include <memory>
 
-#include "chasles/core/kinematics/kinematics.hpp"
+#include "core/kinematics/kinematics.hpp"
 
 namespace chasles {
 

@@ -1,12 +1,12 @@
-#include "chasles/core/kinematics/kinematics.hpp"
+#include "core/kinematics/kinematics.hpp"
 
 #include <cassert>
 #include <cmath>
 #include <string>
 
-#include "chasles/core/lie/se3.hpp"
-#include "chasles/core/lie/sincos.hpp"
-#include "chasles/core/model/joint_axis.hpp"
+#include "core/lie/se3.hpp"
+#include "core/lie/sincos.hpp"
+#include "core/model/joint_axis.hpp"
 
 namespace chasles {
 // Out of line: the cold throwing path stays out of the flattened algorithms that call this.

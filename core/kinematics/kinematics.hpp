@@ -2,7 +2,7 @@
 // (Modern Robotics ch. 4 and 5). Every function allocates nothing; results land in Data.
 #pragma once
 
-#include "chasles/core/model/model.hpp"
+#include "core/model/model.hpp"
 
 namespace chasles {
 

@@ -4,7 +4,7 @@
 // (Pinocchio's JointModelRX/RY/RZ do the same).
 #pragma once
 
-#include "chasles/core/lie/types.hpp"
+#include "core/lie/types.hpp"
 
 namespace chasles {
 

@@ -5,7 +5,7 @@
 // IK (Jr⁻¹ of the pose error) and calibration (Jr of the parameter twists) both need them.
 #pragma once
 
-#include "chasles/core/lie/se3.hpp"
+#include "core/lie/se3.hpp"
 
 namespace chasles {
 

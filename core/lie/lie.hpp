@@ -1,10 +1,10 @@
 // The whole Lie-group layer: SO(3), SE(3) and screw axes.
 #pragma once
 
-#include "chasles/core/lie/axis.hpp"
-#include "chasles/core/lie/screw.hpp"
-#include "chasles/core/lie/jacobians.hpp"
-#include "chasles/core/lie/se3.hpp"
-#include "chasles/core/lie/sincos.hpp"
-#include "chasles/core/lie/so3.hpp"
-#include "chasles/core/lie/types.hpp"
+#include "core/lie/axis.hpp"
+#include "core/lie/screw.hpp"
+#include "core/lie/jacobians.hpp"
+#include "core/lie/se3.hpp"
+#include "core/lie/sincos.hpp"
+#include "core/lie/so3.hpp"
+#include "core/lie/types.hpp"

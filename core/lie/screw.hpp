@@ -4,7 +4,7 @@
 
 #include <limits>
 
-#include "chasles/core/lie/se3.hpp"
+#include "core/lie/se3.hpp"
 
 namespace chasles {
 

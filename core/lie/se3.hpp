@@ -2,8 +2,8 @@
 // (Modern Robotics §3.3). Twists V = (ω, v), wrenches F = (m, f).
 #pragma once
 
-#include "chasles/core/lie/sincos.hpp"
-#include "chasles/core/lie/so3.hpp"
+#include "core/lie/sincos.hpp"
+#include "core/lie/so3.hpp"
 
 namespace chasles {
 

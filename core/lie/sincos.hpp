@@ -9,7 +9,7 @@
 #include <cmath>
 #include <cstdint>
 
-#include "chasles/core/lie/types.hpp"
+#include "core/lie/types.hpp"
 
 namespace chasles {
 

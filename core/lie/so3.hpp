@@ -4,7 +4,7 @@
 #include <cmath>
 #include <limits>
 
-#include "chasles/core/lie/types.hpp"
+#include "core/lie/types.hpp"
 
 namespace chasles {
 

@@ -1,10 +1,10 @@
-#include "chasles/core/model/inertia.hpp"
+#include "core/model/inertia.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <cmath>
 #include <cstdio>
 
-#include "chasles/core/lie/so3.hpp"
+#include "core/lie/so3.hpp"
 
 namespace chasles {
 namespace {

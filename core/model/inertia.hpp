@@ -9,7 +9,7 @@
 
 #include <string>
 
-#include "chasles/core/lie/types.hpp"
+#include "core/lie/types.hpp"
 
 namespace chasles {
 

@@ -6,9 +6,9 @@
 
 #include <type_traits>
 
-#include "chasles/core/lie/axis.hpp"
-#include "chasles/core/lie/se3.hpp"
-#include "chasles/core/model/model.hpp"
+#include "core/lie/axis.hpp"
+#include "core/lie/se3.hpp"
+#include "core/model/model.hpp"
 
 namespace chasles {
 

@@ -1,12 +1,12 @@
-#include "chasles/core/model/model.hpp"
+#include "core/model/model.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 
-#include "chasles/core/lie/se3.hpp"
-#include "chasles/core/lie/so3.hpp"
+#include "core/lie/se3.hpp"
+#include "core/lie/so3.hpp"
 
 namespace chasles {
 

@@ -1,11 +1,11 @@
-#include "chasles/core/model/payload.hpp"
+#include "core/model/payload.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 
-#include "chasles/core/lie/so3.hpp"
-#include "chasles/core/model/inertia.hpp"
+#include "core/lie/so3.hpp"
+#include "core/model/inertia.hpp"
 
 namespace chasles {
 

@@ -3,7 +3,7 @@
 
 #include <string>
 
-#include "chasles/core/model/model.hpp"
+#include "core/model/model.hpp"
 
 namespace chasles {
 

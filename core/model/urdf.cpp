@@ -1,4 +1,4 @@
-#include "chasles/core/model/urdf.hpp"
+#include "core/model/urdf.hpp"
 
 #include <console_bridge/console.h>
 #include <tinyxml2.h>
@@ -16,9 +16,9 @@
 #include <set>
 #include <sstream>
 
-#include "chasles/core/lie/se3.hpp"
-#include "chasles/core/lie/so3.hpp"
-#include "chasles/core/model/inertia.hpp"
+#include "core/lie/se3.hpp"
+#include "core/lie/so3.hpp"
+#include "core/model/inertia.hpp"
 
 namespace chasles {
 namespace {

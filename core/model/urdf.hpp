@@ -4,7 +4,7 @@
 #include <Eigen/Core>
 #include <string>
 
-#include "chasles/core/model/model.hpp"
+#include "core/model/model.hpp"
 
 namespace chasles {
 

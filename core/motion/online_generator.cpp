@@ -1,4 +1,4 @@
-#include "chasles/core/motion/online_generator.hpp"
+#include "core/motion/online_generator.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 #include <limits>
 #include <string>
 
-#include "chasles/core/error.hpp"
+#include "core/error.hpp"
 
 namespace chasles::motion {
 namespace {

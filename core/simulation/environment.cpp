@@ -1,11 +1,11 @@
-#include "chasles/core/simulation/environment.hpp"
+#include "core/simulation/environment.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 
-#include "chasles/core/error.hpp"
-#include "chasles/core/lie/so3.hpp"
+#include "core/error.hpp"
+#include "core/lie/so3.hpp"
 
 namespace chasles::plant {
 namespace {

@@ -16,8 +16,8 @@
 #include <string>
 #include <vector>
 
-#include "chasles/core/model/model.hpp"
-#include "chasles/core/model/payload.hpp"
+#include "core/model/model.hpp"
+#include "core/model/payload.hpp"
 
 namespace chasles::plant {
 

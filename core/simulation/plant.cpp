@@ -1,12 +1,12 @@
-#include "chasles/core/simulation/plant.hpp"
+#include "core/simulation/plant.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <random>
 
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/identification/perturbation.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/identification/perturbation.hpp"
 
 namespace chasles::plant {
 namespace {

@@ -21,8 +21,8 @@
 #include <cstdint>
 #include <memory>
 
-#include "chasles/core/model/model.hpp"
-#include "chasles/core/simulation/environment.hpp"
+#include "core/model/model.hpp"
+#include "core/simulation/environment.hpp"
 
 namespace chasles::plant {
 

@@ -22,8 +22,8 @@
 #include <initializer_list>
 #include <string>
 
-#include "chasles/core/lie/types.hpp"
-#include "chasles/core/model/model.hpp"
+#include "core/lie/types.hpp"
+#include "core/model/model.hpp"
 
 namespace chasles::python {
 

@@ -5,7 +5,7 @@
 #include <memory>
 
 #include "arrays.hpp"
-#include "chasles/core/model/model.hpp"
+#include "core/model/model.hpp"
 
 namespace chasles::python {
 

@@ -16,15 +16,15 @@
 #include <vector>
 
 #include "bindings.hpp"
-#include "chasles/core/calibration/calibration.hpp"
-#include "chasles/core/contact/observer.hpp"
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/kinematics/kinematics.hpp"
-#include "chasles/core/lie/so3.hpp"
-#include "chasles/core/model/payload.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "core/calibration/calibration.hpp"
+#include "core/contact/observer.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/kinematics/kinematics.hpp"
+#include "core/lie/so3.hpp"
+#include "core/model/payload.hpp"
+#include "core/model/urdf.hpp"
 // Only LawBounds's and LawDefaults' constants: nothing of the controller library is linked.
-#include "chasles/controller/law.hpp"
+#include "controller/law.hpp"
 
 namespace chasles::python {
 

@@ -16,10 +16,10 @@
 #include <vector>
 
 #include "bindings.hpp"
-#include "chasles/core/calibration/calibration.hpp"
-#include "chasles/core/calibration/dataset.hpp"
-#include "chasles/core/calibration/urdf_writer.hpp"
-#include "chasles/core/ik/ik.hpp"
+#include "core/calibration/calibration.hpp"
+#include "core/calibration/dataset.hpp"
+#include "core/calibration/urdf_writer.hpp"
+#include "core/ik/ik.hpp"
 
 namespace chasles::python {
 

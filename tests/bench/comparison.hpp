@@ -21,8 +21,8 @@
 #include <utility>
 #include <vector>
 
-#include "chasles/core/model/model.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "core/model/model.hpp"
+#include "core/model/urdf.hpp"
 
 namespace chasles::bench {
 

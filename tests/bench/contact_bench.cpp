@@ -79,10 +79,10 @@
 #include <utility>
 #include <vector>
 
-#include "chasles/core/contact/observer.hpp"
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/kinematics/kinematics.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "core/contact/observer.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/kinematics/kinematics.hpp"
+#include "core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
 
 namespace {

@@ -29,10 +29,10 @@
 #include <string>
 #include <vector>
 
-#include "chasles/core/ik/ik.hpp"
-#include "chasles/core/kinematics/kinematics.hpp"
-#include "chasles/core/lie/so3.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "core/ik/ik.hpp"
+#include "core/kinematics/kinematics.hpp"
+#include "core/lie/so3.hpp"
+#include "core/model/urdf.hpp"
 
 namespace {
 

@@ -33,7 +33,7 @@
 #include <string>
 #include <vector>
 
-#include "chasles/core/motion/online_generator.hpp"
+#include "core/motion/online_generator.hpp"
 
 namespace {
 

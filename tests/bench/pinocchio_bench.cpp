@@ -71,9 +71,9 @@
 #include <utility>
 #include <vector>
 
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/kinematics/kinematics.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/kinematics/kinematics.hpp"
+#include "core/model/urdf.hpp"
 #include "comparison.hpp"
 
 namespace {

@@ -31,9 +31,9 @@
 #include <string>
 #include <vector>
 
-#include "chasles/controller/controller.hpp"
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "controller/controller.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
 
 namespace {

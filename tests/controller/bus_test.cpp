@@ -18,8 +18,8 @@
 #include <thread>
 #include <vector>
 
-#include "chasles/controller/realtime/bus.hpp"
-#include "chasles/core/error.hpp"
+#include "controller/realtime/bus.hpp"
+#include "core/error.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/lcm_wire.hpp"
 

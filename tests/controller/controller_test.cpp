@@ -14,15 +14,15 @@
 #include <thread>
 #include <vector>
 
-#include "chasles/controller/controller.hpp"
-#include "chasles/controller/lcm_io.hpp"
-#include "chasles/controller/realtime/mailbox.hpp"
-#include "chasles/controller/statistics.hpp"
-#include "chasles/controller/trajectory.hpp"
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/lie/se3.hpp"
-#include "chasles/core/model/payload.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "controller/controller.hpp"
+#include "controller/lcm_io.hpp"
+#include "controller/realtime/mailbox.hpp"
+#include "controller/statistics.hpp"
+#include "core/motion/quintic.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/lie/se3.hpp"
+#include "core/model/payload.hpp"
+#include "core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/arm.hpp"
 #include "support/reference.hpp"
@@ -48,10 +48,10 @@ VectorXd bent_pose() {
 // --- trajectory -------------------------------------------------------------------------------
 
 TEST(Trajectory, RestToRestIsTheClassicQuintic) {
-  Reference from(2), out(2);
+  motion::Reference from(2), out(2);
   from.hold(VectorXd::Constant(2, 0.5));
   const VectorXd goal = (VectorXd(2) << 1.5, -0.5).finished();
-  QuinticTrajectory trajectory(2);
+  motion::QuinticTrajectory trajectory(2);
   trajectory.start(from, goal, 2.0);
   for (double t = 0.0; t <= 2.0; t += 0.125) {
     trajectory.sample(t, out);
@@ -65,12 +65,12 @@ TEST(Trajectory, RestToRestIsTheClassicQuintic) {
 }
 
 TEST(Trajectory, ContinuesAMovingReferenceAndItsDerivativesAreConsistent) {
-  Reference from(3), out(3), before(3), after(3);
+  motion::Reference from(3), out(3), before(3), after(3);
   from.q << 0.1, -0.2, 0.3;
   from.qd << 0.5, 0.0, -1.0;
   from.qdd << -2.0, 1.0, 0.5;
   const VectorXd goal = (VectorXd(3) << 1.0, 0.4, -0.3).finished();
-  QuinticTrajectory trajectory(3);
+  motion::QuinticTrajectory trajectory(3);
   trajectory.start(from, goal, 1.5);
   trajectory.sample(0.0, out);  // no jump in position, velocity or acceleration
   EXPECT_TRUE(matrices_near(out.q, from.q, 1e-15));
@@ -264,7 +264,7 @@ TEST_F(ControllerTest, ComputedTorqueIsMassMatrixTimesDesiredAccelerationPlusBia
   const int64_t t = 400 * kMs;
   ASSERT_TRUE(controller.tick(t, fresh(t)));
   EXPECT_EQ(controller.mode(), Mode::kRunning);
-  const Reference& r = controller.reference();
+  const motion::Reference& r = controller.reference();
   const VectorXd qdd = r.qdd + config_.kd.cwiseProduct(r.qd - state_.qd) + config_.kp.cwiseProduct(r.q - state_.q);
   const VectorXd expected = mass_matrix(model_, data_, state_.q) * qdd + velocity_product(model_, data_, state_.q, state_.qd) +
                             gravity_torques(model_, data_, state_.q);
@@ -462,7 +462,7 @@ TEST(CartesianPath, FollowsTheScrewLineAndReachesTheGoal) {
   request.T_goal = forward_kinematics(model, data, q_goal);
   request.duration = 2.0;
   JointPath path(7);
-  plan_cartesian_path(solver, MotionLimits(model, {}), request, path);
+  plan_cartesian_path(solver, motion::MotionLimits(model, {}), request, path);
   ASSERT_TRUE(path.ok) << path.reason;
   EXPECT_EQ(path.request_id, 1);
   EXPECT_EQ(path.count, 201);
@@ -478,7 +478,7 @@ TEST(CartesianPath, FollowsTheScrewLineAndReachesTheGoal) {
   // The sampler passes through the waypoints, at rest at both ends, its derivatives consistent.
   JointPathSampler sampler(7);
   sampler.start(path);
-  Reference r(7), before(7), after(7);
+  motion::Reference r(7), before(7), after(7);
   for (int k : {0, 37, 100, 200}) {
     sampler.sample(k * path.dt, r);
     EXPECT_TRUE(matrices_near(r.q, path.q.col(k), 1e-12)) << k;
@@ -497,7 +497,7 @@ TEST(CartesianPath, FollowsTheScrewLineAndReachesTheGoal) {
 
   // Far out of reach: the line leaves the workspace, through a stretched-out singularity first.
   request.T_goal.translation() << 10.0, 0.0, 0.5;
-  plan_cartesian_path(solver, MotionLimits(model, {}), request, path);
+  plan_cartesian_path(solver, motion::MotionLimits(model, {}), request, path);
   EXPECT_FALSE(path.ok);
   const std::string why = path.reason;
   EXPECT_TRUE(why.find("cannot follow") != std::string::npos || why.find("singularity") != std::string::npos) << why;
@@ -509,7 +509,7 @@ TEST(CartesianPath, TheSampledJointMotionMovesTheTipAtTheScrewLinesTwist) {
   const RobotModel& model = panda();
   Data data(model);
   IkSolver solver(model);
-  const MotionLimits limits(model, {});
+  const motion::MotionLimits limits(model, {});
   CartesianRequest request(7);
   request.id = 3;
   request.q_start = bent_pose();
@@ -525,8 +525,8 @@ TEST(CartesianPath, TheSampledJointMotionMovesTheTipAtTheScrewLinesTwist) {
   const double T = request.duration;
   JointPathSampler sampler(7);
   sampler.start(path);
-  Reference r(7), before(7), after(7);
-  const auto body_twist = [&](const Reference& at) -> Vector6d { return body_jacobian(model, data, at.q) * at.qd; };
+  motion::Reference r(7), before(7), after(7);
+  const auto body_twist = [&](const motion::Reference& at) -> Vector6d { return body_jacobian(model, data, at.q) * at.qd; };
   const double peak_twist = 1.875 / T * V.norm(), peak_rate = 5.7735 / (T * T) * V.norm();
   const double h = 1e-5;
   for (double t = 0.013; t < T; t += 0.0517) {
@@ -551,7 +551,7 @@ TEST(CartesianPath, EveryLimitHoldsAlongThePathTickByTick) {
   const RobotModel& model = panda();
   Data data(model);
   IkSolver solver(model);
-  const MotionLimits limits(model, {});
+  const motion::MotionLimits limits(model, {});
   CartesianRequest request(7);
   request.id = 4;
   request.q_start = bent_pose();
@@ -564,7 +564,7 @@ TEST(CartesianPath, EveryLimitHoldsAlongThePathTickByTick) {
   ASSERT_TRUE(path.ok) << path.reason;
   JointPathSampler sampler(7);
   sampler.start(path);
-  Reference r(7);
+  motion::Reference r(7);
   const double dt = 1e-4;
   VectorXd qdd_before = VectorXd::Zero(7);
   double worst_jerk = 0.0;  // of its limit
@@ -614,7 +614,7 @@ TEST(CartesianPath, AContinuousJointCrossingPiMovesOnInsteadOfJumpingBack) {
   request.T_goal = forward_kinematics(model, data, Eigen::Vector3d(0.3, 0.2, 3.5));
   request.duration = 1.0;
   JointPath path(3);
-  plan_cartesian_path(solver, MotionLimits(model, {}), request, path);
+  plan_cartesian_path(solver, motion::MotionLimits(model, {}), request, path);
   ASSERT_TRUE(path.ok) << path.reason;
   for (int k = 1; k < path.count; ++k) {
     EXPECT_LT(std::abs(path.q(2, k) - path.q(2, k - 1)), 0.02) << "waypoint " << k;

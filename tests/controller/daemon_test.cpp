@@ -24,13 +24,13 @@
 #include <tuple>
 #include <vector>
 
-#include "chasles/controller/controller.hpp"
-#include "chasles/controller/lcm_io.hpp"
-#include "chasles/controller/realtime/bus.hpp"
-#include "chasles/controller/realtime/clock.hpp"
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/lie/se3.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "controller/controller.hpp"
+#include "controller/lcm_io.hpp"
+#include "controller/realtime/bus.hpp"
+#include "controller/realtime/clock.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/lie/se3.hpp"
+#include "core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/arm.hpp"
 #include "support/lcm_wire.hpp"

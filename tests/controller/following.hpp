@@ -8,8 +8,8 @@
 #include <cmath>
 #include <limits>
 
-#include "chasles/controller/controller.hpp"
-#include "chasles/core/dynamics/dynamics.hpp"
+#include "controller/controller.hpp"
+#include "core/dynamics/dynamics.hpp"
 #include "support/arm.hpp"
 
 namespace chasles::controller::testing {
@@ -65,9 +65,9 @@ class Following : public ::testing::Test {
     return controller.set_target(target, now_);
   }
   /// Every tick's reference within every limit; its jerk by differences of its acceleration.
-  void expect_within_limits(const Controller& c, const Reference& before) {
-    const MotionLimits& l = c.limits();
-    const Reference& r = c.reference();
+  void expect_within_limits(const Controller& c, const motion::Reference& before) {
+    const motion::MotionLimits& l = c.limits();
+    const motion::Reference& r = c.reference();
     for (int i = 0; i < model_.dof(); ++i) {
       ASSERT_GE(r.q(i), l.lower(i) - 1e-9) << now_ << " joint " << i;
       ASSERT_LE(r.q(i), l.upper(i) + 1e-9) << now_ << " joint " << i;

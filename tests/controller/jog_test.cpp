@@ -10,10 +10,10 @@
 #include <random>
 #include <string>
 
-#include "chasles/controller/controller.hpp"
-#include "chasles/controller/jog.hpp"
-#include "chasles/core/kinematics/kinematics.hpp"
-#include "chasles/core/lie/se3.hpp"
+#include "controller/controller.hpp"
+#include "controller/jog.hpp"
+#include "core/kinematics/kinematics.hpp"
+#include "core/lie/se3.hpp"
 #include "following.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/arm.hpp"
@@ -105,7 +105,7 @@ class Jogging : public testing::Following {
     int64_t next_send = now_;
     double worst = 0.0;
     Data data(model_);
-    Reference before = controller.reference();
+    motion::Reference before = controller.reference();
     while (now_ < start + static_cast<int64_t>(seconds * 1e9)) {
       if (now_ >= next_send) {
         Jog again = jog;
@@ -125,7 +125,7 @@ class Jogging : public testing::Following {
   /// Ticks while the controller is RUNNING (at most 1000), every reference within the limits;
   /// returns how many.
   int ticks_to_rest(Controller& controller) {
-    Reference before = controller.reference();
+    motion::Reference before = controller.reference();
     int ticks = 0;
     while (controller.mode() == Mode::kRunning && ticks < 1000) {
       EXPECT_TRUE(tick(controller));
@@ -183,7 +183,7 @@ TEST_F(Jogging, AJointJoggedIntoItsLimitStopsShortOfIt) {
   qd(3) = 1.5;  // the elbow toward its upper limit, −0.0698 rad, from −1.2
   hold_jog(controller, joint_jog(qd), 2.0);
   ASSERT_FALSE(HasFatalFailure());
-  const MotionLimits& l = controller.limits();
+  const motion::MotionLimits& l = controller.limits();
   EXPECT_EQ(controller.jog_progress().limited_by, JogProgress::kPosition);
   EXPECT_EQ(controller.jog_progress().joint, 3);
   EXPECT_LT(controller.jog_progress().scale, 1e-12);
@@ -370,7 +370,7 @@ TEST_F(Jogging, ACartesianStreamLateAndLostIsFollowedWithinTheLimits) {
   const int64_t begin = now_;
   std::vector<Vector3d> tip;
   std::vector<double> turned;
-  Reference before = controller.reference();
+  motion::Reference before = controller.reference();
   long allocations = 0;
   while (now_ < begin + static_cast<int64_t>(kSeconds * 1e9)) {
     {
@@ -483,7 +483,7 @@ TEST_F(Jogging, JogsOutOfTurnAreDroppedOrRefusedAndOthersEndTheJog) {
   settings.joint_stiffness = VectorXd::Constant(7, 200.0);
   ASSERT_TRUE(controller.set_law(settings, now_)) << controller.mode_rejection();
   EXPECT_FALSE(controller.jogging());
-  Reference before = controller.reference();
+  motion::Reference before = controller.reference();
   for (int k = 0; k < 200; ++k) {
     ASSERT_TRUE(tick(controller));
     expect_within_limits(controller, before);

@@ -6,10 +6,10 @@
 #include <array>
 #include <string>
 
-#include "chasles/controller/controller.hpp"
-#include "chasles/controller/law.hpp"
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/model/payload.hpp"
+#include "controller/controller.hpp"
+#include "controller/law.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/model/payload.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/arm.hpp"
 #include "support/reference.hpp"
@@ -81,7 +81,7 @@ class LawController : public ::testing::Test {
   }
 
   // The torque `settings` commands at this state and reference, computed afresh.
-  VectorXd law_torque(const LawSettings& s, const Reference& ref, const VectorXd& q, const VectorXd& qd) const {
+  VectorXd law_torque(const LawSettings& s, const motion::Reference& ref, const VectorXd& q, const VectorXd& qd) const {
     Data data(model_);
     Data data_ref(model_);
     LawWorkspace work(7);

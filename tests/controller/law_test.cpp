@@ -11,11 +11,11 @@
 #include <random>
 #include <string>
 
-#include "chasles/controller/law.hpp"
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/kinematics/kinematics.hpp"
-#include "chasles/core/lie/se3.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "controller/law.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/kinematics/kinematics.hpp"
+#include "core/lie/se3.hpp"
+#include "core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/arm.hpp"
 #include "support/decompositions.hpp"
@@ -187,7 +187,7 @@ TEST(LawCartesianImpedance, AtRestOnTheReferenceIsGravityCompensation) {
       s.T_tip_frame = T_bc;
       ASSERT_EQ(problem(*model, s), "");
       const VectorXd q = pose_of(*model), qd = VectorXd::Zero(n);
-      Reference ref(n);
+      motion::Reference ref(n);
       ref.hold(q);
       VectorXd tau(n);
       compute_tick_terms(*model, data, q, qd);
@@ -218,7 +218,7 @@ TEST(LawCartesianImpedance, StaticsAreTheJacobianTransposeOfTheSpringWrench) {
       s.nullspace_posture = q;
       ASSERT_EQ(problem(*model, s), "");
       const VectorXd q_d = q + seeded(n, 3, -0.012, 0.012);
-      Reference ref(n);
+      motion::Reference ref(n);
       ref.hold(q_d);
       VectorXd tau(n);
       compute_tick_terms(*model, data, q, qd);
@@ -261,7 +261,7 @@ TEST(LawCartesianImpedance, TheNullspaceTorqueNeverAcceleratesFrameC) {
   ASSERT_LT(test::symmetric_eigen(Lambda).values.maxCoeff(), kMaxCartesianInertia)
       << "a regular pose: the inertia bound must not act";
   for (const VectorXd& qd : {VectorXd(VectorXd::Zero(n)), seeded(n, 5, -0.4, 0.4)}) {
-    Reference ref(n);
+    motion::Reference ref(n);
     ref.hold(q);
     ref.qd = qd;  // moving with the reference: no Cartesian error and no error rate
     VectorXd tau(n);
@@ -292,7 +292,7 @@ TEST(LawCartesianImpedance, ASixJointArmHasNoNullspace) {
   s.nullspace_stiffness = 40.0;
   ASSERT_EQ(problem(model, s), "");
   const VectorXd q = pose_of(model), qd = VectorXd::Zero(n);
-  Reference ref(n);
+  motion::Reference ref(n);
   ref.hold(q);
   VectorXd tau(n);
   compute_tick_terms(model, data, q, qd);
@@ -322,7 +322,7 @@ TEST(LawCartesianImpedance, StaysBoundedNearAndAtTheUr5WristSingularity) {
     const Eigen::JacobiSVD<MatrixXd> svd(J_c);
     ASSERT_LT(svd.singularValues()(5), 1e-3) << "a (near-)singular configuration";
     const VectorXd q_d = q + seeded(n, 11, -0.01, 0.01), qd = seeded(n, 12, -0.3, 0.3);
-    Reference ref(n);
+    motion::Reference ref(n);
     ref.hold(q_d);
     Data data(model);
     Data data_ref(model);
@@ -383,7 +383,7 @@ TEST(LawCartesianImpedance, APureRotationAboutAnOffsetFrameGivesAPureMoment) {
       s.fixed_posture = true;
       s.nullspace_posture = q;
       ASSERT_EQ(problem(*model, s), "");
-      Reference ref(n);
+      motion::Reference ref(n);
       ref.hold(q_d);
       Data data(*model);
       Data data_ref(*model);
@@ -414,7 +414,7 @@ TEST(LawJointImpedance, IsStiffnessDampingFeedforwardAndBias) {
     SCOPED_TRACE(model->name());
     const int n = model->dof();
     const VectorXd q = pose_of(*model) + seeded(n, 21, -0.1, 0.1), qd = seeded(n, 22, -0.5, 0.5);
-    Reference ref(n);
+    motion::Reference ref(n);
     ref.q = q + seeded(n, 23, -0.05, 0.05);
     ref.qd = seeded(n, 24, -0.5, 0.5);
     ref.qdd = seeded(n, 25, -2.0, 2.0);
@@ -498,7 +498,7 @@ TEST(LawFunctions, NoneAllocates) {
     const int n = model->dof();
     const VectorXd q = pose_of(*model), qd = seeded(n, 41, -0.3, 0.3), kp = VectorXd::Constant(n, 400.0),
                    kd = VectorXd::Constant(n, 40.0);
-    Reference ref(n);
+    motion::Reference ref(n);
     ref.q = q + seeded(n, 42, -0.02, 0.02);
     ref.qd = seeded(n, 43, -0.3, 0.3);
     ref.qdd = seeded(n, 44, -1.0, 1.0);

@@ -7,10 +7,10 @@
 #include <random>
 #include <string>
 
-#include "chasles/controller/controller.hpp"
-#include "chasles/controller/limits.hpp"
-#include "chasles/core/error.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "controller/controller.hpp"
+#include "core/motion/limits.hpp"
+#include "core/error.hpp"
+#include "core/model/urdf.hpp"
 #include "support/arm.hpp"
 #include "support/reference.hpp"
 #include "following.hpp"
@@ -36,19 +36,19 @@ double evaluate(const double* c, int degree, double t) {
 TEST(Limits, PolynomialRangeIsWhereTheExtremaAre) {
   const double hump[3] = {0.0, 1.0, -1.0};  // t(1 − t): 1/4 at t = 1/2
   double low = 0, high = 0;
-  polynomial_range(hump, 2, 1.0, low, high);
+  motion::polynomial_range(hump, 2, 1.0, low, high);
   EXPECT_DOUBLE_EQ(high, 0.25);
   EXPECT_DOUBLE_EQ(low, 0.0);
   const double cube[4] = {-0.027, 0.27, -0.9, 1.0};  // (t − 0.3)³, monotone, a double root of p'
-  polynomial_range(cube, 3, 1.0, low, high);
+  motion::polynomial_range(cube, 3, 1.0, low, high);
   EXPECT_NEAR(low, -0.027, 1e-15);
   EXPECT_NEAR(high, 0.343, 1e-15);
   // The rest-to-rest quintic 10s³ − 15s⁴ + 6s⁵: its velocity peaks at 1.875 (s = 1/2), its
   // acceleration at ±10/√3 (s = 1/2 ∓ √3/6), its jerk at 60 (both ends).
   const double velocity[5] = {0, 0, 30, -60, 30}, acceleration[4] = {0, 60, -180, 120}, jerk[3] = {60, -360, 360};
-  EXPECT_NEAR(max_abs_polynomial(velocity, 4, 1.0), 1.875, 1e-15);
-  EXPECT_NEAR(max_abs_polynomial(acceleration, 3, 1.0), 10.0 / std::sqrt(3.0), 1e-14);
-  EXPECT_NEAR(max_abs_polynomial(jerk, 2, 1.0), 60.0, 1e-14);
+  EXPECT_NEAR(motion::max_abs_polynomial(velocity, 4, 1.0), 1.875, 1e-15);
+  EXPECT_NEAR(motion::max_abs_polynomial(acceleration, 3, 1.0), 10.0 / std::sqrt(3.0), 1e-14);
+  EXPECT_NEAR(motion::max_abs_polynomial(jerk, 2, 1.0), 60.0, 1e-14);
 
   // Random polynomials against dense sampling, which can only fall short of the true extrema, and
   // by no more than the largest slope times half the spacing.
@@ -60,7 +60,7 @@ TEST(Limits, PolynomialRangeIsWhereTheExtremaAre) {
     for (double& x : c) x = coefficient(rng);
     for (int k = 1; k <= degree; ++k) slope[k - 1] = k * c[k];
     const double T = length(rng);
-    polynomial_range(c, degree, T, low, high);
+    motion::polynomial_range(c, degree, T, low, high);
     constexpr int kSamples = 20000;
     double sampled_low = kInf, sampled_high = -kInf, steepest = 0.0;
     for (int s = 0; s <= kSamples; ++s) {
@@ -78,7 +78,7 @@ TEST(Limits, PolynomialRangeIsWhereTheExtremaAre) {
 
 TEST(Limits, FromTheUrdfAndTheConfiguration) {
   const RobotModel model = panda();
-  const MotionLimits defaults(model, LimitConfig{});
+  const motion::MotionLimits defaults(model, motion::LimitConfig{});
   for (int i = 0; i < 7; ++i) {
     const JointLimits& urdf = model.joint(i).limits;
     EXPECT_EQ(defaults.hard_lower(i), urdf.lower);
@@ -92,40 +92,40 @@ TEST(Limits, FromTheUrdfAndTheConfiguration) {
     EXPECT_LT(defaults.acceleration(i), franka_acceleration()(i));
     EXPECT_LT(defaults.jerk(i), franka_jerk()(i));
   }
-  LimitConfig config;
+  motion::LimitConfig config;
   config.acceleration = franka_acceleration();
   config.jerk = franka_jerk();
   config.position_margin = 0.05;
-  const MotionLimits franka(model, config);
+  const motion::MotionLimits franka(model, config);
   EXPECT_EQ(franka.acceleration, franka_acceleration());
   EXPECT_EQ(franka.jerk, franka_jerk());
   EXPECT_DOUBLE_EQ(franka.upper(1), model.joint(1).limits.upper - 0.05);
 
   config.jerk = VectorXd::Constant(6, 1.0);
-  EXPECT_THROW(MotionLimits(model, config), ArgumentError);
+  EXPECT_THROW(motion::MotionLimits(model, config), ArgumentError);
   config.jerk = franka_jerk();
   config.acceleration(3) = -1.0;
-  EXPECT_THROW(MotionLimits(model, config), ArgumentError);
+  EXPECT_THROW(motion::MotionLimits(model, config), ArgumentError);
   config.acceleration(3) = std::nan("");
-  EXPECT_THROW(MotionLimits(model, config), ArgumentError);
+  EXPECT_THROW(motion::MotionLimits(model, config), ArgumentError);
 
   // Drake's iiwa gives its own acceleration limits (drake:acceleration): they, not the default;
   // the configuration's still win.
   UrdfOptions iiwa_options;
   iiwa_options.tip_link = "iiwa_link_ee";
   const RobotModel iiwa = load_urdf_file(chasles::testing::data_path("iiwa14.urdf"), iiwa_options);
-  const MotionLimits drake(iiwa, LimitConfig{});
+  const motion::MotionLimits drake(iiwa, motion::LimitConfig{});
   EXPECT_EQ(drake.acceleration, (VectorXd(7) << 8.57, 8.57, 8.74, 11.36, 12.23, 15.72, 15.72).finished());
   EXPECT_EQ(drake.jerk, drake.acceleration / 0.02);
-  LimitConfig slower;
+  motion::LimitConfig slower;
   slower.acceleration = VectorXd::Constant(7, 2.0);
-  EXPECT_EQ(MotionLimits(iiwa, slower).acceleration, VectorXd::Constant(7, 2.0));
+  EXPECT_EQ(motion::MotionLimits(iiwa, slower).acceleration, VectorXd::Constant(7, 2.0));
 
   // tests/data/arm.urdf's j3 is continuous and has no velocity limit: nothing bounds it.
   UrdfOptions options;
   options.tip_link = "tip";
   const RobotModel arm = load_urdf_file(chasles::testing::data_path("arm.urdf"), options);
-  const MotionLimits free(arm, LimitConfig{});
+  const motion::MotionLimits free(arm, motion::LimitConfig{});
   EXPECT_EQ(free.lower(2), -kInf);
   EXPECT_EQ(free.upper(2), kInf);
   EXPECT_EQ(free.velocity(2), kInf);
@@ -134,23 +134,23 @@ TEST(Limits, FromTheUrdfAndTheConfiguration) {
 
 TEST(Limits, TheGuardTripsOnSpeedAndOnACrossingOnly) {
   const RobotModel model = panda();
-  const MotionLimits limits(model, LimitConfig{});
+  const motion::MotionLimits limits(model, motion::LimitConfig{});
   const VectorXd q = bent_pose(), rest = VectorXd::Zero(7);
   EXPECT_FALSE(measured_excess(limits, q, q, rest));
   VectorXd qd = rest;
   qd(4) = -2.61 * 1.1 * (1 - 1e-12);  // within the 10 % tolerance
   EXPECT_FALSE(measured_excess(limits, q, q, qd));
   qd(4) = -2.61 * 1.1 * (1 + 1e-12);
-  const LimitExcess fast = measured_excess(limits, q, q, qd);
-  EXPECT_EQ(fast.quantity, LimitExcess::kVelocity);
+  const motion::LimitExcess fast = measured_excess(limits, q, q, qd);
+  EXPECT_EQ(fast.quantity, motion::LimitExcess::kVelocity);
   EXPECT_EQ(fast.joint, 4);
   EXPECT_EQ(fast.value, qd(4));
 
   VectorXd inside = q, outside = q;
   inside(3) = model.joint(3).limits.upper;  // on the limit is inside
   outside(3) = model.joint(3).limits.upper + 1e-9;
-  const LimitExcess crossed = measured_excess(limits, inside, outside, rest);
-  EXPECT_EQ(crossed.quantity, LimitExcess::kPosition);
+  const motion::LimitExcess crossed = measured_excess(limits, inside, outside, rest);
+  EXPECT_EQ(crossed.quantity, motion::LimitExcess::kPosition);
   EXPECT_EQ(crossed.joint, 3);
   EXPECT_EQ(crossed.limit, model.joint(3).limits.upper);
   EXPECT_FALSE(measured_excess(limits, outside, outside, rest)) << "a joint already outside may be brought back";
@@ -188,11 +188,11 @@ TEST_F(Tracking, AGoalFromRestNeedsTheClosedFormDuration) {
 TEST_F(Tracking, GoalsSentMidMotionKeepTheReferenceWithinTheLimits) {
   Controller controller(model_, config_);
   ASSERT_TRUE(tick(controller));
-  const MotionLimits& limits = controller.limits();
+  const motion::MotionLimits& limits = controller.limits();
   std::mt19937 rng(42);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   int taken = 0, refused = 0;
-  Reference previous = controller.reference();
+  motion::Reference previous = controller.reference();
   for (int k = 0; k < 4000; ++k) {
     if (k % 60 == 0) {
       VectorXd goal(7);
@@ -202,7 +202,7 @@ TEST_F(Tracking, GoalsSentMidMotionKeepTheReferenceWithinTheLimits) {
       (send(controller, goal, duration) ? taken : refused)++;
     }
     ASSERT_TRUE(tick(controller));
-    const Reference& r = controller.reference();
+    const motion::Reference& r = controller.reference();
     for (int i = 0; i < 7; ++i) {
       ASSERT_GE(r.q(i), limits.lower(i) - 1e-9) << "tick " << k << " joint " << i;
       ASSERT_LE(r.q(i), limits.upper(i) + 1e-9) << "tick " << k << " joint " << i;

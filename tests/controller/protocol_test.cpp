@@ -15,8 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "chasles/controller/protocol.hpp"
-#include "chasles/lcmtypes/checked.hpp"
+#include "controller/protocol.hpp"
+#include "lcmtypes/checked.hpp"
 #include "support/allocation_counter.hpp"
 
 namespace chasles::controller {

@@ -8,10 +8,10 @@
 #include <string>
 #include <vector>
 
-#include "chasles/controller/contact.hpp"
-#include "chasles/controller/controller.hpp"
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "controller/contact.hpp"
+#include "controller/controller.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/arm.hpp"
 #include "support/reference.hpp"

@@ -5,7 +5,7 @@
 
 #include <random>
 
-#include "chasles/controller/semantics_check.hpp"
+#include "controller/semantics_check.hpp"
 
 namespace chasles::controller {
 namespace {

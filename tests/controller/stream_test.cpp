@@ -9,8 +9,8 @@
 #include <random>
 #include <string>
 
-#include "chasles/controller/controller.hpp"
-#include "chasles/core/motion/online_generator.hpp"
+#include "controller/controller.hpp"
+#include "core/motion/online_generator.hpp"
 #include "following.hpp"
 #include "support/allocation_counter.hpp"
 
@@ -75,7 +75,7 @@ TEST_F(Streaming, ThirtyHertzLateAndLostIsFollowedWithinTheLimitsAndTwoPeriods) 
   const int64_t start = now_;
   // The reference, tick by tick, for the lag.
   std::vector<VectorXd> reference;
-  Reference before = controller.reference();
+  motion::Reference before = controller.reference();
   long allocations = 0;
   while (now_ < start + static_cast<int64_t>(kSeconds * 1e9)) {
     {
@@ -136,7 +136,7 @@ TEST_F(Streaming, AStreamThatStopsComesToRestAndOneIntoALimitStopsShortOfIt) {
   ASSERT_TRUE(tick(controller));
   VectorXd velocity = VectorXd::Zero(7);
   velocity(0) = 1.5;  // panda_joint1, toward its upper limit 2.8973
-  Reference before = controller.reference();
+  motion::Reference before = controller.reference();
   VectorXd q = bent_pose();
   for (int k = 0; k < 600; ++k) {  // 20 Hz for 0.6 s, the setpoint moving at 1.5 rad/s
     if (k % 50 == 0) {
@@ -238,7 +238,7 @@ TEST_F(Streaming, TheJerkCappedByTheTorqueRateIsOneTheArmCanFollow) {
     double sum = 0.0;
     int count = 0;
     VectorXd tau_before = controller.torque();
-    Reference before = controller.reference();
+    motion::Reference before = controller.reference();
     const int64_t start = now_;
     for (int k = 0; k < 3000; ++k) {
       if (k % 33 == 0) {

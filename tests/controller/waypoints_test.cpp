@@ -11,9 +11,9 @@
 #include <random>
 #include <string>
 
-#include "chasles/controller/controller.hpp"
-#include "chasles/controller/waypoints.hpp"
-#include "chasles/core/dynamics/dynamics.hpp"
+#include "controller/controller.hpp"
+#include "core/motion/waypoints.hpp"
+#include "core/dynamics/dynamics.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/arm.hpp"
 #include "following.hpp"
@@ -32,8 +32,8 @@ double trapezoid_time(double d, double v, double a) { return d >= v * v / a ? d 
 
 // `count` random waypoints within the limits, each reached in the time a trapezoidal profile at
 // the limits takes from the one before (as a planner times them), at rest between none of them.
-Waypoints random_waypoints(const MotionLimits& limits, const VectorXd& from, int count, unsigned seed) {
-  Waypoints w(7);
+motion::Waypoints random_waypoints(const motion::MotionLimits& limits, const VectorXd& from, int count, unsigned seed) {
+  motion::Waypoints w(7);
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   double t = 0.0;
@@ -55,15 +55,15 @@ Waypoints random_waypoints(const MotionLimits& limits, const VectorXd& from, int
 
 TEST(WaypointSpline, PassesThroughEveryWaypointAtItsTimeAndIsC2) {
   const RobotModel model = panda();
-  const MotionLimits limits(model, LimitConfig{});
-  Reference start(7);
+  const motion::MotionLimits limits(model, motion::LimitConfig{});
+  motion::Reference start(7);
   start.q = bent_pose();
   start.qd = VectorXd::LinSpaced(7, -0.2, 0.2);
   start.qdd = VectorXd::LinSpaced(7, 0.5, -0.5);
-  const Waypoints w = random_waypoints(limits, start.q, 20, 3);
-  WaypointSpline spline(7);
+  const motion::Waypoints w = random_waypoints(limits, start.q, 20, 3);
+  motion::WaypointSpline spline(7);
   spline.build(start, w, limits);
-  Reference out(7), before(7), after(7);
+  motion::Reference out(7), before(7), after(7);
   spline.sample(0.0, out);
   EXPECT_EQ(out.q, start.q);
   EXPECT_TRUE(out.qd.isApprox(start.qd, 1e-12));
@@ -105,7 +105,7 @@ struct SmoothPath {
 
   // Random amplitudes, each joint's scaled so that its velocity peaks at `velocity` of its limit
   // or its acceleration at `acceleration` of its, whichever comes first.
-  SmoothPath(const MotionLimits& limits, const VectorXd& from, double T, unsigned seed, double velocity = 0.56,
+  SmoothPath(const motion::MotionLimits& limits, const VectorXd& from, double T, unsigned seed, double velocity = 0.56,
              double acceleration = 0.7)
       : start(from), b(from.size(), 4), omega(2 * M_PI / T) {
     std::mt19937 rng(seed);
@@ -138,8 +138,8 @@ struct SmoothPath {
     return p;
   }
   // Positions only, every dt up to T, as sent.
-  Waypoints waypoints(double dt, double T) const {
-    Waypoints w(static_cast<int>(start.size()));
+  motion::Waypoints waypoints(double dt, double T) const {
+    motion::Waypoints w(static_cast<int>(start.size()));
     w.count = static_cast<int>(std::lround(T / dt));
     for (int k = 0; k < w.count; ++k) {
       w.time(k) = dt * (k + 1);
@@ -151,11 +151,11 @@ struct SmoothPath {
 
 // How far the spline built from rest at the path's start runs from the path: RMS and largest
 // over every joint, sampled every millisecond.
-void deviation(const SmoothPath& path, const Waypoints& w, const MotionLimits& limits, double& rms, double& worst) {
+void deviation(const SmoothPath& path, const motion::Waypoints& w, const motion::MotionLimits& limits, double& rms, double& worst) {
   const int n = w.dof();
-  Reference start(n), out(n);
+  motion::Reference start(n), out(n);
   start.q = path.start;
-  WaypointSpline spline(n);
+  motion::WaypointSpline spline(n);
   spline.build(start, w, limits);
   double sum = 0.0;
   worst = 0.0;
@@ -185,7 +185,7 @@ class SmoothPaths : public testing::Following {
     SCOPED_TRACE(seed);
     Controller controller(model_, config_);
     ASSERT_TRUE(tick(controller));
-    const MotionLimits& limits = controller.limits();
+    const motion::MotionLimits& limits = controller.limits();
     const SmoothPath path(limits, state_.q, 5.0, seed);
     // The path itself within the arm's range and jerk limit: it can be followed.
     for (int k = 0; k <= 5000; ++k) {
@@ -195,7 +195,7 @@ class SmoothPaths : public testing::Following {
       }
     }
     ASSERT_TRUE((path.peak(3, 5.0).array() < limits.jerk.array()).all());
-    const Waypoints w = path.waypoints(0.1, 5.0);
+    const motion::Waypoints w = path.waypoints(0.1, 5.0);
     ASSERT_EQ(w.count, 50);
     double rms = 0.0, worst = 0.0;
     deviation(path, w, limits, rms, worst);
@@ -215,7 +215,7 @@ class SmoothPaths : public testing::Following {
     const TrajectoryProgress& p = controller.trajectory();
     EXPECT_EQ(p.scale, 1.0);
     EXPECT_EQ(p.duration, 5.0);
-    Reference before = controller.reference();
+    motion::Reference before = controller.reference();
     const int64_t give_up = now_ + 6000 * kMs;
     while (p.outcome == TrajectoryProgress::kActive && now_ < give_up) {
       ASSERT_TRUE(tick(controller));
@@ -257,13 +257,13 @@ TEST_F(SmoothPathsPanda, SampledEveryTenthOfASecondAreFollowedAsSent) {
 // points of each segment, the largest ratio to its limit, and the first segment where any is over.
 struct SampledPeak {
   int waypoint = -1, joint = -1, first_over = -1;
-  LimitExcess::Quantity quantity = LimitExcess::kNone;
+  motion::LimitExcess::Quantity quantity = motion::LimitExcess::kNone;
   double value = 0.0, ratio = 0.0;
 };
-SampledPeak sampled_peak(const WaypointSpline& spline, const Waypoints& w, const MotionLimits& limits) {
+SampledPeak sampled_peak(const motion::WaypointSpline& spline, const motion::Waypoints& w, const motion::MotionLimits& limits) {
   const int n = w.dof();
   SampledPeak peak;
-  Reference at(n), next(n);
+  motion::Reference at(n), next(n);
   const double dt = 1e-7;
   for (int k = 0; k < w.count; ++k) {
     const double from = k == 0 ? 0.0 : w.time(k - 1), to = w.time(k);
@@ -278,7 +278,7 @@ SampledPeak sampled_peak(const WaypointSpline& spline, const Waypoints& w, const
           const double ratio = values[q] / limit[q];
           if (ratio > 1.0 && peak.first_over < 0) peak.first_over = k;
           if (ratio > peak.ratio) {
-            const auto quantity = static_cast<LimitExcess::Quantity>(LimitExcess::kVelocity + q);
+            const auto quantity = static_cast<motion::LimitExcess::Quantity>(motion::LimitExcess::kVelocity + q);
             peak = {k, i, peak.first_over, quantity, values[q], ratio};
           }
         }
@@ -294,13 +294,13 @@ SampledPeak sampled_peak(const WaypointSpline& spline, const Waypoints& w, const
 TEST_F(SmoothPathsUr5, ARefusalNamesThePeakAndADurationThatFits) {
   Controller controller(model_, config_);
   ASSERT_TRUE(tick(controller));
-  const MotionLimits& limits = controller.limits();
+  const motion::MotionLimits& limits = controller.limits();
   const SmoothPath path(limits, state_.q, 5.0, 7);
-  Waypoints w = path.waypoints(0.1, 5.0);
+  motion::Waypoints w = path.waypoints(0.1, 5.0);
   w.time *= 0.5;  // twice as fast: velocity to 1.1 of its limit, acceleration to 2.8
-  Reference rest(6);
+  motion::Reference rest(6);
   rest.q = state_.q;
-  WaypointSpline spline(6);
+  motion::WaypointSpline spline(6);
   spline.build(rest, w, limits);
   const SampledPeak peak = sampled_peak(spline, w, limits);
   ASSERT_GE(peak.first_over, 0);
@@ -330,7 +330,7 @@ TEST_F(SmoothPathsUr5, ARefusalNamesThePeakAndADurationThatFits) {
   EXPECT_TRUE(spline.excess(limits));
   EXPECT_FALSE(spline.fits(limits));
 
-  Waypoints slower = w;
+  motion::Waypoints slower = w;
   slower.time *= duration / 2.5;
   ASSERT_TRUE(controller.set_trajectory(slower, now_)) << controller.last_rejection();
   EXPECT_EQ(controller.trajectory().scale, 1.0);
@@ -343,12 +343,12 @@ TEST_F(SmoothPathsUr5, ARefusalNamesThePeakAndADurationThatFits) {
 // a 10 ms segment meeting a 2 s one; a waypoint on the edge of the range.
 TEST(WaypointSpline, PausesUnevenTimesAndTheRangesEdgeKeepTheWaypointsShape) {
   const RobotModel model = panda();
-  const MotionLimits limits(model, LimitConfig{});
-  Reference start(7), out(7);
+  const motion::MotionLimits limits(model, motion::LimitConfig{});
+  motion::Reference start(7), out(7);
   start.q = bent_pose();
-  WaypointSpline spline(7);
+  motion::WaypointSpline spline(7);
 
-  Waypoints pause(7);
+  motion::Waypoints pause(7);
   pause.count = 4;
   pause.time.head(4) << 1.0, 2.0, 3.0, 4.0;
   for (int k = 0; k < 4; ++k) pause.q.col(k) = bent_pose();
@@ -369,7 +369,7 @@ TEST(WaypointSpline, PausesUnevenTimesAndTheRangesEdgeKeepTheWaypointsShape) {
   // segment at 1.5 rad/s and coast 0.4 rad past the second waypoint, within the joint's range;
   // the shape-keeping curve comes to it at 15 mrad/s, and its quintic (velocity 3 times the
   // slope) passes it by 0.1 mrad.
-  Waypoints uneven(7);
+  motion::Waypoints uneven(7);
   uneven.count = 2;
   uneven.time.head(2) << 0.01, 2.0;
   uneven.q.col(0) = uneven.q.col(1) = bent_pose();
@@ -385,7 +385,7 @@ TEST(WaypointSpline, PausesUnevenTimesAndTheRangesEdgeKeepTheWaypointsShape) {
 
   // panda_joint1 up to its upper limit (less the margin) and back: the spline would turn 17 mrad
   // beyond it, which no slowing down cures.
-  Waypoints edge(7);
+  motion::Waypoints edge(7);
   edge.count = 2;
   edge.time.head(2) << 1.5, 3.0;
   edge.q.col(0) = edge.q.col(1) = bent_pose();
@@ -397,7 +397,7 @@ TEST(WaypointSpline, PausesUnevenTimesAndTheRangesEdgeKeepTheWaypointsShape) {
     high = std::max(high, out.q(0));
   }
   EXPECT_EQ(high, limits.upper(0));
-  EXPECT_NE(spline.excess(limits).excess.quantity, LimitExcess::kPosition);
+  EXPECT_NE(spline.excess(limits).excess.quantity, motion::LimitExcess::kPosition);
 }
 
 // The controller fed its own reference, or the model integrated, as the arm; gains stiff enough
@@ -415,7 +415,7 @@ TEST_F(Following, FiftyTrapezoidTimedWaypointsSlowedToFitAndTracked) {
   Controller controller(model_, config_);
   Data plant(model_);
   ASSERT_TRUE(tick(controller));
-  Waypoints w = random_waypoints(controller.limits(), bent_pose(), 50, 11);
+  motion::Waypoints w = random_waypoints(controller.limits(), bent_pose(), 50, 11);
   w.goal_tolerance = VectorXd::Constant(7, 1e-3);
   w.goal_time = 0.5;
   EXPECT_FALSE(controller.set_trajectory(w, now_));
@@ -431,8 +431,8 @@ TEST_F(Following, FiftyTrapezoidTimedWaypointsSlowedToFitAndTracked) {
   EXPECT_EQ(p.outcome, TrajectoryProgress::kActive);
   EXPECT_GT(p.scale, 1.0);
   EXPECT_DOUBLE_EQ(p.duration, p.scale * w.time(49));
-  const MotionLimits& limits = controller.limits();
-  Reference previous = controller.reference();
+  const motion::MotionLimits& limits = controller.limits();
+  motion::Reference previous = controller.reference();
   double error_sq = 0.0;
   int64_t samples = 0;
   long allocations = 0;
@@ -442,7 +442,7 @@ TEST_F(Following, FiftyTrapezoidTimedWaypointsSlowedToFitAndTracked) {
       ASSERT_TRUE(tick(controller));
       allocations += counter.count();
     }
-    const Reference& r = controller.reference();
+    const motion::Reference& r = controller.reference();
     for (int i = 0; i < 7; ++i) {
       ASSERT_LE(std::abs(r.qd(i)), limits.velocity(i) * (1 + 1e-9)) << now_;
       ASSERT_LE(std::abs(r.qdd(i)), limits.acceleration(i) * (1 + 1e-9)) << now_;
@@ -465,13 +465,13 @@ TEST_F(Following, FiftyTrapezoidTimedWaypointsSlowedToFitAndTracked) {
 TEST_F(Following, BadTrajectoriesAreRefusedNamingWhatIsWrong) {
   Controller controller(model_, config_);
   ASSERT_TRUE(tick(controller));
-  const auto refused = [&](const Waypoints& w, const char* words) {
+  const auto refused = [&](const motion::Waypoints& w, const char* words) {
     EXPECT_FALSE(controller.set_trajectory(w, now_)) << words;
     EXPECT_NE(std::string(controller.last_rejection()).find(words), std::string::npos) << controller.last_rejection();
     // The trajectory taken first goes on: the status tells its progress, the refusal is counted.
     EXPECT_EQ(controller.trajectory().outcome, TrajectoryProgress::kActive);
   };
-  Waypoints w(7);
+  motion::Waypoints w(7);
   w.count = 2;
   w.time(0) = 1.0, w.time(1) = 2.0;
   w.q.col(0) = bent_pose(), w.q.col(1) = bent_pose();
@@ -481,24 +481,24 @@ TEST_F(Following, BadTrajectoriesAreRefusedNamingWhatIsWrong) {
 
   // w with one thing changed.
   const auto changed = [&w](auto change) {
-    Waypoints bad(w);
+    motion::Waypoints bad(w);
     change(bad);
     return bad;
   };
-  refused(changed([](Waypoints& b) { b.count = 0; }), "0 waypoints; 1 to 1000 are taken");
-  refused(changed([](Waypoints& b) { b.time(1) = 1.0; }), "waypoint 1: time 1 s is not after 1 s");
-  refused(changed([](Waypoints& b) { b.time(0) = 0.0; }), "waypoint 0: time 0 s is not after 0 s");
-  refused(changed([](Waypoints& b) { b.q(4, 1) = std::nan(""); }), "waypoint 1, joint panda_joint5: a value that is not finite");
+  refused(changed([](motion::Waypoints& b) { b.count = 0; }), "0 waypoints; 1 to 1000 are taken");
+  refused(changed([](motion::Waypoints& b) { b.time(1) = 1.0; }), "waypoint 1: time 1 s is not after 1 s");
+  refused(changed([](motion::Waypoints& b) { b.time(0) = 0.0; }), "waypoint 0: time 0 s is not after 0 s");
+  refused(changed([](motion::Waypoints& b) { b.q(4, 1) = std::nan(""); }), "waypoint 1, joint panda_joint5: a value that is not finite");
   // panda_joint4 ∈ [−3.07, −0.07]
-  refused(changed([](Waypoints& b) { b.q(3, 0) = 0.0; }), "waypoint 0, joint panda_joint4: position 0 outside");
-  refused(changed([](Waypoints& b) {
+  refused(changed([](motion::Waypoints& b) { b.q(3, 0) = 0.0; }), "waypoint 0, joint panda_joint4: position 0 outside");
+  refused(changed([](motion::Waypoints& b) {
             b.has_velocities = true;
             b.qd.setZero();
             b.qd(2, 1) = 0.1;
           }),
           "the last waypoint must be at rest");
-  refused(changed([](Waypoints& b) { b.path_tolerance(0) = -1.0; }), "tolerances must be finite and non-negative");
-  const Waypoints hasty = changed([](Waypoints& b) {
+  refused(changed([](motion::Waypoints& b) { b.path_tolerance(0) = -1.0; }), "tolerances must be finite and non-negative");
+  const motion::Waypoints hasty = changed([](motion::Waypoints& b) {
     b.time_scaling = false;
     b.time(0) = 0.01;  // 0.1 rad of panda_joint2 in 10 ms
     b.q(1, 0) += 0.1;
@@ -530,9 +530,9 @@ TEST_F(Following, StartsWithoutAJumpAndEndsAsItsTolerancesSay) {
     ASSERT_TRUE(tick(controller));
     state_.q = controller.reference().q;
   }
-  const Reference moving = controller.reference();
+  const motion::Reference moving = controller.reference();
   ASSERT_GT(std::abs(moving.qd(0)), 0.1);
-  Waypoints w(7);
+  motion::Waypoints w(7);
   w.count = 2;
   w.time(0) = 1.0, w.time(1) = 2.0;
   w.q.col(0) = bent_pose(), w.q.col(1) = bent_pose();
@@ -542,7 +542,7 @@ TEST_F(Following, StartsWithoutAJumpAndEndsAsItsTolerancesSay) {
   w.id = 5;
   ASSERT_TRUE(controller.set_trajectory(w, now_)) << controller.last_rejection();
   ASSERT_TRUE(tick(controller));
-  const Reference& r = controller.reference();
+  const motion::Reference& r = controller.reference();
   // One tick on: the reference moved on as its velocity and acceleration said.
   EXPECT_LT(std::abs(r.q(0) - (moving.q(0) + 1e-3 * moving.qd(0) + 0.5e-6 * moving.qdd(0))), 1e-6);
   EXPECT_LT(std::abs(r.qd(0) - (moving.qd(0) + 1e-3 * moving.qdd(0))), 1e-2);
@@ -578,7 +578,7 @@ TEST_F(Following, StartsWithoutAJumpAndEndsAsItsTolerancesSay) {
 TEST_F(Following, ALawPreemptsATrajectoryAndTheReferenceBrakesToRest) {
   Controller controller(model_, config_);
   ASSERT_TRUE(tick(controller));
-  Waypoints w(7);
+  motion::Waypoints w(7);
   w.count = 1;
   w.time(0) = 1.0;
   w.q.col(0) = bent_pose();
@@ -588,21 +588,21 @@ TEST_F(Following, ALawPreemptsATrajectoryAndTheReferenceBrakesToRest) {
     ASSERT_TRUE(tick(controller));
     state_.q = controller.reference().q;
   }
-  const Reference moving = controller.reference();
+  const motion::Reference moving = controller.reference();
   ASSERT_GT(moving.qd(0), 0.5);
   LawSettings settings(7);
   settings.law = Law::kJointImpedance;
   settings.joint_stiffness = VectorXd::Constant(7, 300.0);
   ASSERT_TRUE(controller.set_law(settings, now_)) << controller.mode_rejection();
   EXPECT_EQ(controller.trajectory().outcome, TrajectoryProgress::kPreempted);
-  Reference before = moving;
+  motion::Reference before = moving;
   int ticks = 0;
   while (controller.mode() == Mode::kRunning && ticks < 2000) {
     ASSERT_TRUE(tick(controller));
     expect_within_limits(controller, before);
     ASSERT_FALSE(HasFatalFailure());
     // No jump: each tick moves on from the last by what its velocity and acceleration say.
-    const Reference& r = controller.reference();
+    const motion::Reference& r = controller.reference();
     ASSERT_LT(std::abs(r.q(0) - before.q(0) - 1e-3 * before.qd(0)), 1e-3 * 1e-3 * 15.0) << ticks;
     before = r;
     state_.q = r.q;
@@ -618,7 +618,7 @@ TEST_F(Following, ALawPreemptsATrajectoryAndTheReferenceBrakesToRest) {
 TEST_F(Following, AGoalMissedPastGoalTimeAborts) {
   Controller controller(model_, config_);
   ASSERT_TRUE(tick(controller));
-  Waypoints w(7);
+  motion::Waypoints w(7);
   w.count = 1;
   w.time(0) = 1.0;
   w.q.col(0) = bent_pose();

@@ -9,11 +9,11 @@
 #include <iomanip>
 #include <sstream>
 
-#include "chasles/core/contact/observer.hpp"
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/model/urdf.hpp"
-#include "chasles/core/number_list.hpp"
-#include "chasles/core/simulation/plant.hpp"
+#include "core/contact/observer.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/model/urdf.hpp"
+#include "core/number_list.hpp"
+#include "core/simulation/plant.hpp"
 #include "support/reference.hpp"
 
 namespace chasles {

@@ -3,7 +3,7 @@
 // how well the calibrated model predicts the truth's noise-free marker poses. Also the analytic
 // Jacobian against central differences, the identifiable-parameter counts against the theory
 // (4R + 2P + 6), the robust loss against gross outliers, and the holdout split.
-#include "chasles/core/calibration/calibration.hpp"
+#include "core/calibration/calibration.hpp"
 
 #include <gtest/gtest.h>
 #include <urdf_parser/urdf_parser.h>
@@ -12,12 +12,12 @@
 #include <random>
 #include <vector>
 
-#include "chasles/core/calibration/dataset.hpp"
-#include "chasles/core/calibration/urdf_writer.hpp"
+#include "core/calibration/dataset.hpp"
+#include "core/calibration/urdf_writer.hpp"
 
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/lie/se3.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/lie/se3.hpp"
+#include "core/model/urdf.hpp"
 #include "support/process.hpp"
 #include "support/reference.hpp"
 

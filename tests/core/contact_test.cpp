@@ -2,7 +2,7 @@
 // (p = M q̇, Cᵀq̇ = Ṁq̇ − c by central differences of M, g against RNEA), the observer against a
 // fine integration with a known external torque (its residual is (1 − e^{−K t}) τ_ext at every
 // sample), and the tip wrench against the wrench that made the torque.
-#include "chasles/core/contact/observer.hpp"
+#include "core/contact/observer.hpp"
 
 #include <gtest/gtest.h>
 
@@ -10,8 +10,8 @@
 #include <limits>
 #include <random>
 
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/decompositions.hpp"
 #include "support/reference.hpp"

@@ -13,9 +13,9 @@
 #include <set>
 #include <sstream>
 
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/kinematics/kinematics.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/kinematics/kinematics.hpp"
+#include "core/model/urdf.hpp"
 
 namespace chasles {
 namespace {

@@ -2,18 +2,18 @@
 // Butterworth magnitude |H|² = 1 / (1 + (tan(π f / f_s) / tan(π f_c / f_s))^2N) and against
 // analytic derivatives; the fit against a Panda changed here (tests/support/identification_run:
 // log-Cholesky offsets, friction, rotors) whose torques come from RNEA, not from the regressor.
-#include "chasles/core/identification/dynamic_fit.hpp"
+#include "core/identification/dynamic_fit.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
 
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/identification/log_cholesky.hpp"
-#include "chasles/core/model/payload.hpp"
-#include "chasles/core/model/urdf.hpp"
-#include "chasles/core/identification/zero_phase_filter.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/identification/log_cholesky.hpp"
+#include "core/model/payload.hpp"
+#include "core/model/urdf.hpp"
+#include "core/identification/zero_phase_filter.hpp"
 #include "support/arm.hpp"
 #include "support/identification_run.hpp"
 #include "support/reference.hpp"

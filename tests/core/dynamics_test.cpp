@@ -1,7 +1,7 @@
 // Dynamics: against the independent reference (tau, M, g, c), and by identities that tie the
 // algorithms to each other and to energy: M from RNEA columns, τ = M q̈ + c + g, FD ∘ ID = id,
 // c from the Christoffel symbols of M, ∂V/∂q = g, KE = ½ q̇ᵀMq̇, energy of a passive swing.
-#include "chasles/core/dynamics/dynamics.hpp"
+#include "core/dynamics/dynamics.hpp"
 
 #include <gtest/gtest.h>
 
@@ -9,8 +9,8 @@
 #include <sstream>
 #include <string>
 
-#include "chasles/core/kinematics/kinematics.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "core/kinematics/kinematics.hpp"
+#include "core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/decompositions.hpp"
 #include "support/reference.hpp"

@@ -3,13 +3,13 @@
 // Panda trajectory judged on its own: every limit on a 1 ms grid, its W_b rebuilt here and
 // decomposed by an SVD (full column rank, the condition number reported), and better conditioned
 // than the seeded start it came from.
-#include "chasles/core/identification/excitation.hpp"
+#include "core/identification/excitation.hpp"
 
 #include <gtest/gtest.h>
 
 #include <random>
 
-#include "chasles/core/model/urdf.hpp"
+#include "core/model/urdf.hpp"
 #include "support/decompositions.hpp"
 #include "support/reference.hpp"
 

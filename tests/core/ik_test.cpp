@@ -1,7 +1,7 @@
 // chasles::ik against the independent IK targets in tests/data/ik_<robot>.json (FK of a random
 // configuration by Pinocchio; any solution within the limits counts), and its properties: limits,
 // determinism, an honest failure, bad targets, position-only mode, the analytic Jacobian.
-#include "chasles/core/ik/ik.hpp"
+#include "core/ik/ik.hpp"
 
 #include <gtest/gtest.h>
 
@@ -17,8 +17,8 @@
 #include <stdexcept>
 #include <vector>
 
-#include "chasles/core/lie/se3.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "core/lie/se3.hpp"
+#include "core/model/urdf.hpp"
 #include "support/reference.hpp"
 #include "support/statistics.hpp"
 

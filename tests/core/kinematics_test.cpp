@@ -1,13 +1,13 @@
 // Forward kinematics and Jacobians: against the independent reference, against each other, by
 // the first-order property of the space Jacobian, and for heap allocations.
-#include "chasles/core/kinematics/kinematics.hpp"
+#include "core/kinematics/kinematics.hpp"
 
 #include <gtest/gtest.h>
 
 #include <random>
 
-#include "chasles/core/lie/se3.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "core/lie/se3.hpp"
+#include "core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/reference.hpp"
 

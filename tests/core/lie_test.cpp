@@ -1,6 +1,6 @@
 // Properties of the Lie-group layer over seeded random inputs, and a decade sweep of exp and log
 // against an independent long-double evaluation.
-#include "chasles/core/lie/lie.hpp"
+#include "core/lie/lie.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
 // The log-Cholesky parametrisation of a rigid body: round trips θ → π → θ and π → θ → π on random
 // bodies and on the arms' own links, every θ physical, non-physical π refused with the reason, and
 // the templated map's derivative (what Ceres differentiates) against central differences.
-#include "chasles/core/identification/log_cholesky.hpp"
+#include "core/identification/log_cholesky.hpp"
 
 #include <gtest/gtest.h>
 
@@ -12,9 +12,9 @@
 #include <random>
 #include <unsupported/Eigen/AutoDiff>
 
-#include "chasles/core/lie/so3.hpp"
-#include "chasles/core/model/inertia.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "core/lie/so3.hpp"
+#include "core/model/inertia.hpp"
+#include "core/model/urdf.hpp"
 #include "support/reference.hpp"
 
 namespace chasles {

@@ -11,10 +11,10 @@
 #include <regex>
 #include <sstream>
 
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/lie/se3.hpp"
-#include "chasles/core/model/inertia.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/lie/se3.hpp"
+#include "core/model/inertia.hpp"
+#include "core/model/urdf.hpp"
 #include "support/reference.hpp"
 
 namespace chasles {

@@ -4,14 +4,14 @@
 // ends), fine sampling of thousands of seeded random 7-axis plans (start, end, continuity and every
 // limit, by Taylor bounds between samples), min_duration, the brake from outside the limits, a
 // replanning loop at 1 kHz toward a moving target, refusals, and no allocation per call.
-#include "chasles/core/motion/online_generator.hpp"
+#include "core/motion/online_generator.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
 
-#include "chasles/core/error.hpp"
+#include "core/error.hpp"
 #include "support/allocation_counter.hpp"
 
 namespace chasles::motion {

@@ -2,7 +2,7 @@
 // (a box stretched along its sides, turned about one of them), every body of three arms physical
 // for the log-Cholesky map after the perturbation, each parameter within the bound the header
 // states and spread over most of it, the same model for the same seed, the kinematics untouched.
-#include "chasles/core/identification/perturbation.hpp"
+#include "core/identification/perturbation.hpp"
 
 #include <gtest/gtest.h>
 
@@ -13,10 +13,10 @@
 #include <string>
 #include <vector>
 
-#include "chasles/core/identification/log_cholesky.hpp"
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/model/inertia.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "core/identification/log_cholesky.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/model/inertia.hpp"
+#include "core/model/urdf.hpp"
 #include "support/reference.hpp"
 
 namespace chasles {

@@ -2,8 +2,8 @@
 // independent Pinocchio references (tests/data/<robot>.json), column by column against the change
 // of τ when one parameter changes, and without allocating. The base parameters: their count against
 // the grouping rules of Khalil and the literature, and Y_b β = Y π on states the QR never saw.
-#include "chasles/core/identification/regressor.hpp"
-#include "chasles/core/identification/base_parameters.hpp"
+#include "core/identification/regressor.hpp"
+#include "core/identification/base_parameters.hpp"
 
 #include <gtest/gtest.h>
 
@@ -11,8 +11,8 @@
 #include <iostream>
 #include <random>
 
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/reference.hpp"
 

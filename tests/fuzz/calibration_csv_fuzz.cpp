@@ -5,8 +5,8 @@
 #include <cstdint>
 #include <string>
 
-#include "chasles/core/calibration/dataset.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "core/calibration/dataset.hpp"
+#include "core/model/urdf.hpp"
 #include "fuzz/check.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

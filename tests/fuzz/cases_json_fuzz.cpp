@@ -4,9 +4,9 @@
 #include <cstdint>
 #include <string>
 
-#include "chasles/core/ik/ik.hpp"
-#include "chasles/core/model/urdf.hpp"
-#include "chasles/tools/cli/cases.hpp"
+#include "core/ik/ik.hpp"
+#include "core/model/urdf.hpp"
+#include "tools/cli/cases.hpp"
 #include "fuzz/check.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

@@ -7,8 +7,8 @@
 #include <cstdint>
 #include <string>
 
-#include "chasles/tools/cli/json_io.hpp"
-#include "chasles/tools/cli/lcm_log.hpp"
+#include "tools/cli/json_io.hpp"
+#include "tools/cli/lcm_log.hpp"
 #include "fuzz/check.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

@@ -29,17 +29,17 @@
 #include <type_traits>
 #include <vector>
 
-#include "chasles/controller/controller.hpp"
-#include "chasles/controller/lcm_io.hpp"
-#include "chasles/controller/protocol.hpp"
-#include "chasles/controller/realtime/bus.hpp"
-#include "chasles/controller/realtime/clock.hpp"
-#include "chasles/controller/realtime/fragments.hpp"
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/model/urdf.hpp"
-#include "chasles/lcmtypes/checked.hpp"
-#include "chasles/tools/cli/messages.hpp"
-#include "chasles/tools/simulation/messaging.hpp"
+#include "controller/controller.hpp"
+#include "controller/lcm_io.hpp"
+#include "controller/protocol.hpp"
+#include "controller/realtime/bus.hpp"
+#include "controller/realtime/clock.hpp"
+#include "controller/realtime/fragments.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/model/urdf.hpp"
+#include "lcmtypes/checked.hpp"
+#include "tools/cli/messages.hpp"
+#include "tools/simulation/messaging.hpp"
 #include "fuzz/check.hpp"
 
 namespace {
@@ -54,7 +54,7 @@ struct Readers {
   Mailbox<JointState> states{JointState(n)};
   SpscRing<Target> targets{4, Target(n)};
   FragmentAssembler fragments{1 << 20};  // across inputs, as the bus's assembler lives
-  SpscRing<Waypoints> trajectories{1, Waypoints(n)};
+  SpscRing<motion::Waypoints> trajectories{1, motion::Waypoints(n)};
   TrajectoryReceiver trajectory_receiver{model, trajectories};
   SpscRing<Setpoint> setpoints{1, Setpoint(n)};
   SetpointReceiver setpoint_receiver{n, setpoints};
@@ -333,9 +333,9 @@ void judge_a_datagram(Readers& r, const uint8_t* data, size_t size) {
 // times, the limits and the tolerances, and whatever it takes keeps the reference within them.
 void judge_a_trajectory(Readers& r, const uint8_t* message, int bytes) {
   if (!r.trajectory_receiver.receive(message, size_t(bytes)).empty()) return;
-  Waypoints w(r.n);
+  motion::Waypoints w(r.n);
   FUZZ_CHECK(r.trajectories.pop(w));
-  FUZZ_CHECK(w.count >= 1 && w.count <= Waypoints::kMaxPoints);
+  FUZZ_CHECK(w.count >= 1 && w.count <= motion::Waypoints::kMaxPoints);
   FUZZ_CHECK(w.time.head(w.count).allFinite() && w.q.leftCols(w.count).allFinite() &&
              w.qd.leftCols(w.count).allFinite() && w.qdd.leftCols(w.count).allFinite());
   if (r.controller.set_trajectory(w, r.now_ns)) {

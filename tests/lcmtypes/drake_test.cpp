@@ -20,7 +20,7 @@
 #include <utility>
 #include <vector>
 
-#include "chasles/lcmtypes/checked.hpp"
+#include "lcmtypes/checked.hpp"
 #include "support/allocation_counter.hpp"
 #include "wire.hpp"
 

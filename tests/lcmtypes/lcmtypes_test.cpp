@@ -23,7 +23,7 @@
 #include <utility>
 #include <vector>
 
-#include "chasles/lcmtypes/checked.hpp"
+#include "lcmtypes/checked.hpp"
 #include "wire.hpp"
 
 namespace chasles::testing {

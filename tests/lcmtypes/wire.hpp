@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "chasles/lcmtypes/checked.hpp"
+#include "lcmtypes/checked.hpp"
 
 namespace chasles::testing {
 

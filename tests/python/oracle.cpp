@@ -16,9 +16,9 @@
 #include <iterator>
 #include <vector>
 
-#include "chasles/core/contact/observer.hpp"
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "core/contact/observer.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/model/urdf.hpp"
 #include "support/reference.hpp"
 
 namespace {

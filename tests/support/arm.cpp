@@ -3,8 +3,8 @@
 #include <chrono>
 #include <sstream>
 
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/model/urdf.hpp"
 #include "support/reference.hpp"
 
 namespace chasles::testing {

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "chasles/core/model/model.hpp"
+#include "core/model/model.hpp"
 
 namespace chasles::testing {
 

@@ -4,7 +4,7 @@
 #include <chrono>
 #include <stdexcept>
 
-#include "chasles/lcmtypes/checked.hpp"
+#include "lcmtypes/checked.hpp"
 
 namespace chasles::testing {
 

@@ -8,7 +8,7 @@
 #include <Eigen/Core>
 #include <Eigen/SVD>
 
-#include "chasles/core/model/model.hpp"
+#include "core/model/model.hpp"
 
 extern template class Eigen::JacobiSVD<Eigen::MatrixXd>;
 extern template class Eigen::JacobiSVD<chasles::Matrix6Xd>;

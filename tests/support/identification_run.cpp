@@ -3,8 +3,8 @@
 #include <cmath>
 #include <random>
 
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/identification/log_cholesky.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/identification/log_cholesky.hpp"
 #include "support/arm.hpp"
 
 namespace chasles::testing {

@@ -7,7 +7,7 @@
 
 #include <cstdint>
 
-#include "chasles/core/identification/dynamic_fit.hpp"
+#include "core/identification/dynamic_fit.hpp"
 
 namespace chasles::testing {
 

@@ -16,11 +16,11 @@
 #include <chasles/robot_state_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 
-#include "chasles/core/identification/dynamic_fit.hpp"
-#include "chasles/core/kinematics/kinematics.hpp"
-#include "chasles/core/lie/se3.hpp"
-#include "chasles/core/model/payload.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "core/identification/dynamic_fit.hpp"
+#include "core/kinematics/kinematics.hpp"
+#include "core/lie/se3.hpp"
+#include "core/model/payload.hpp"
+#include "core/model/urdf.hpp"
 #include "support/arm.hpp"
 #include "support/identification_run.hpp"
 #include "support/process.hpp"

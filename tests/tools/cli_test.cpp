@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "chasles/core/kinematics/kinematics.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "core/kinematics/kinematics.hpp"
+#include "core/model/urdf.hpp"
 #include "support/process.hpp"
 #include "support/reference.hpp"
 

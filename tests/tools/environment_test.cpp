@@ -4,7 +4,7 @@
 // not come from the plant's code: statics (τ = g − J_bᵀ F holds an arm against a wrench F), a
 // trapezoid drawn by hand, a spring's rest length, energy, a point mass's kinetic and potential
 // energy, the friction law, the forward dynamics of the perturbed model, a Gaussian's moments.
-#include "chasles/core/simulation/environment.hpp"
+#include "core/simulation/environment.hpp"
 
 #include <gtest/gtest.h>
 
@@ -20,16 +20,16 @@
 #include <string>
 #include <vector>
 
-#include "chasles/controller/realtime/bus.hpp"
-#include "chasles/controller/realtime/clock.hpp"
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/identification/perturbation.hpp"
-#include "chasles/core/lie/so3.hpp"
-#include "chasles/core/model/urdf.hpp"
-#include "chasles/core/simulation/plant.hpp"
-#include "chasles/lcmtypes/checked.hpp"
-#include "chasles/tools/simulation/environment_forms.hpp"
-#include "chasles/tools/simulation/simulation.hpp"
+#include "controller/realtime/bus.hpp"
+#include "controller/realtime/clock.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/identification/perturbation.hpp"
+#include "core/lie/so3.hpp"
+#include "core/model/urdf.hpp"
+#include "core/simulation/plant.hpp"
+#include "lcmtypes/checked.hpp"
+#include "tools/simulation/environment_forms.hpp"
+#include "tools/simulation/simulation.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/arm.hpp"
 #include "support/decompositions.hpp"

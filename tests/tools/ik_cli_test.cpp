@@ -11,9 +11,9 @@
 #include <string>
 #include <vector>
 
-#include "chasles/core/kinematics/kinematics.hpp"
-#include "chasles/core/lie/se3.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "core/kinematics/kinematics.hpp"
+#include "core/lie/se3.hpp"
+#include "core/model/urdf.hpp"
 #include "support/process.hpp"
 #include "support/reference.hpp"
 

@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "chasles/lcmtypes/checked.hpp"
+#include "lcmtypes/checked.hpp"
 #include "support/bus_listener.hpp"
 #include "support/process.hpp"
 #include "support/reference.hpp"

@@ -25,14 +25,14 @@
 #include <tuple>
 #include <vector>
 
-#include "chasles/controller/protocol.hpp"
-#include "chasles/controller/realtime/bus.hpp"
-#include "chasles/controller/realtime/clock.hpp"
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/kinematics/kinematics.hpp"
-#include "chasles/core/model/urdf.hpp"
-#include "chasles/lcmtypes/checked.hpp"
-#include "chasles/tools/simulation/simulation.hpp"
+#include "controller/protocol.hpp"
+#include "controller/realtime/bus.hpp"
+#include "controller/realtime/clock.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/kinematics/kinematics.hpp"
+#include "core/model/urdf.hpp"
+#include "lcmtypes/checked.hpp"
+#include "tools/simulation/simulation.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/arm.hpp"
 #include "support/process.hpp"

@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "support/bus_listener.hpp"
-#include "chasles/lcmtypes/checked.hpp"
+#include "lcmtypes/checked.hpp"
 #include "support/process.hpp"
 #include "support/reference.hpp"
 

@@ -5,9 +5,9 @@
 #include <cstdio>
 #include <sstream>
 
-#include "chasles/controller/controller.hpp"
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "controller/controller.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/model/urdf.hpp"
 #include "support/reference.hpp"
 
 namespace chasles::faults {

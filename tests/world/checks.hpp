@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "chasles/core/model/model.hpp"
+#include "core/model/model.hpp"
 #include "support/arm.hpp"
 #include "support/statistics.hpp"
 

@@ -20,7 +20,7 @@
 #include <limits>
 #include <vector>
 
-#include "chasles/core/kinematics/kinematics.hpp"
+#include "core/kinematics/kinematics.hpp"
 #include "wires.hpp"
 #include "world.hpp"
 

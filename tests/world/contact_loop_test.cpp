@@ -14,9 +14,9 @@
 #include <string>
 #include <vector>
 
-#include "chasles/core/kinematics/kinematics.hpp"
-#include "chasles/core/model/payload.hpp"
-#include "chasles/core/model/urdf.hpp"
+#include "core/kinematics/kinematics.hpp"
+#include "core/model/payload.hpp"
+#include "core/model/urdf.hpp"
 #include "support/reference.hpp"
 #include "world.hpp"
 

@@ -24,7 +24,7 @@
 
 #include <Eigen/Geometry>
 
-#include "chasles/core/kinematics/kinematics.hpp"
+#include "core/kinematics/kinematics.hpp"
 #include "wires.hpp"
 #include "world.hpp"
 

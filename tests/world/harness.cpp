@@ -4,8 +4,8 @@
 #include <stdexcept>
 #include <type_traits>
 
-#include "chasles/controller/realtime/clock.hpp"
-#include "chasles/lcmtypes/checked.hpp"
+#include "controller/realtime/clock.hpp"
+#include "lcmtypes/checked.hpp"
 
 namespace chasles::faults {
 namespace {

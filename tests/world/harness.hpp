@@ -21,7 +21,7 @@
 #include <utility>
 #include <vector>
 
-#include "chasles/core/model/model.hpp"
+#include "core/model/model.hpp"
 #include "checks.hpp"
 #include "support/arm.hpp"
 

@@ -24,9 +24,9 @@
 #include <string>
 #include <vector>
 
-#include "chasles/controller/limits.hpp"
-#include "chasles/core/identification/dynamic_fit.hpp"
-#include "chasles/core/identification/excitation.hpp"
+#include "core/motion/limits.hpp"
+#include "core/identification/dynamic_fit.hpp"
+#include "core/identification/excitation.hpp"
 #include "world.hpp"
 
 namespace chasles::faults {
@@ -161,7 +161,7 @@ TEST_P(Identification, AnArmsOwnLogIdentifiesItsHiddenModelError) {
   const int n = nominal.dof();
 
   // The excitation, within the controller's own limits, from the middle of the joints' ranges.
-  const controller::MotionLimits limits(nominal, controller::LimitConfig{});
+  const motion::MotionLimits limits(nominal, motion::LimitConfig{});
   ExcitationLimits bounds;
   bounds.lower = limits.lower, bounds.upper = limits.upper, bounds.velocity = limits.velocity;
   bounds.acceleration = limits.acceleration, bounds.jerk = limits.jerk;

@@ -17,7 +17,7 @@
 #include <limits>
 #include <string>
 
-#include "chasles/core/kinematics/kinematics.hpp"
+#include "core/kinematics/kinematics.hpp"
 #include "wires.hpp"
 #include "world.hpp"
 

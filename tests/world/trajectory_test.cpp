@@ -12,8 +12,8 @@
 #include <random>
 #include <string>
 
-#include "chasles/controller/limits.hpp"
-#include "chasles/core/kinematics/kinematics.hpp"
+#include "core/motion/limits.hpp"
+#include "core/kinematics/kinematics.hpp"
 #include "world.hpp"
 
 namespace chasles::faults {
@@ -38,7 +38,7 @@ DaemonOptions options() {
 
 // `count` random waypoints within the limits, each timed as a trapezoidal profile at the limits
 // takes from the one before (as a planner times them).
-joint_trajectory_t random_trajectory(const RobotModel& model, const controller::MotionLimits& limits,
+joint_trajectory_t random_trajectory(const RobotModel& model, const motion::MotionLimits& limits,
                                      const VectorXd& from, int count, unsigned seed) {
   joint_trajectory_t t{};
   t.id = seed;
@@ -85,7 +85,7 @@ TEST(trajectory, FiftyWaypointsOverTheBusAreTrackedWithinAMilliradian) {
   world.add_controller(options());
   ASSERT_TRUE(world.run_until([&] { return world.recorder().status_is(controller_status_t::HOLDING); }, 1.0));
   const controller::Controller& c = world.controller().controller();
-  const controller::MotionLimits& limits = c.limits();
+  const motion::MotionLimits& limits = c.limits();
   const joint_trajectory_t t = random_trajectory(world.model(), limits, bent_pose(), 50, 5);
   world.recorder().publish("TRAJECTORY", t);
   double error_sq = 0.0, jerk_ratio = 0.0;
@@ -184,7 +184,7 @@ TEST(stream, ThirtyHertzOverTheBusIsFollowedAndComesToRestWhenItStops) {
   // The default jerk limits (a/0.02 s): libfranka's (a/0.002 s) ask the torque to change faster
   // than the torque-rate limit lets it at the start of a stream, and the arm falls behind.
   DaemonOptions o = options();
-  o.control.limits = controller::LimitConfig{};
+  o.control.limits = motion::LimitConfig{};
   world.add_controller(o);
   ASSERT_TRUE(world.run_until([&] { return world.recorder().status_is(controller_status_t::HOLDING); }, 1.0));
   const controller::Controller& c = world.controller().controller();

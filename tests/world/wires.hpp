@@ -11,9 +11,9 @@
 #include <string>
 #include <vector>
 
-#include "chasles/controller/daemon.hpp"
-#include "chasles/controller/protocol.hpp"
-#include "chasles/tools/simulation/simulation.hpp"
+#include "controller/daemon.hpp"
+#include "controller/protocol.hpp"
+#include "tools/simulation/simulation.hpp"
 #include "checks.hpp"
 
 namespace chasles::faults {

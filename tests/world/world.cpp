@@ -4,8 +4,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/lcmtypes/checked.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "lcmtypes/checked.hpp"
 
 namespace chasles::faults {
 namespace {

@@ -26,12 +26,12 @@
 #include <utility>
 #include <vector>
 
-#include "chasles/controller/node.hpp"
-#include "chasles/controller/protocol.hpp"
-#include "chasles/core/model/model.hpp"
-#include "chasles/controller/realtime/bus.hpp"
-#include "chasles/controller/realtime/clock.hpp"
-#include "chasles/tools/simulation/simulation.hpp"
+#include "controller/node.hpp"
+#include "controller/protocol.hpp"
+#include "core/model/model.hpp"
+#include "controller/realtime/bus.hpp"
+#include "controller/realtime/clock.hpp"
+#include "tools/simulation/simulation.hpp"
 #include "checks.hpp"
 
 namespace chasles::faults {

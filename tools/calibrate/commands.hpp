@@ -8,7 +8,7 @@
 #include <utility>
 #include <vector>
 
-#include "chasles/tools/cli/json_io.hpp"
+#include "tools/cli/json_io.hpp"
 
 namespace chasles {
 class RobotModel;

@@ -8,12 +8,12 @@
 #include <initializer_list>
 #include <iostream>
 
-#include "chasles/core/calibration/urdf_writer.hpp"
-#include "chasles/core/identification/dynamic_fit.hpp"
-#include "chasles/core/model/urdf.hpp"
-#include "chasles/tools/cli/messages.hpp"
-#include "chasles/tools/cli/state_log.hpp"
-#include "chasles/tools/error_line.hpp"
+#include "core/calibration/urdf_writer.hpp"
+#include "core/identification/dynamic_fit.hpp"
+#include "core/model/urdf.hpp"
+#include "tools/cli/messages.hpp"
+#include "tools/cli/state_log.hpp"
+#include "tools/error_line.hpp"
 #include "commands.hpp"
 
 namespace chasles::calibrate_cli {

@@ -12,12 +12,12 @@
 #include <iostream>
 #include <sstream>
 
-#include "chasles/controller/limits.hpp"
-#include "chasles/controller/waypoints.hpp"
-#include "chasles/core/identification/excitation.hpp"
-#include "chasles/core/model/urdf.hpp"
-#include "chasles/core/number_list.hpp"
-#include "chasles/tools/error_line.hpp"
+#include "core/motion/limits.hpp"
+#include "core/motion/waypoints.hpp"
+#include "core/identification/excitation.hpp"
+#include "core/model/urdf.hpp"
+#include "core/number_list.hpp"
+#include "tools/error_line.hpp"
 #include "commands.hpp"
 
 namespace chasles::calibrate_cli {
@@ -29,7 +29,7 @@ struct ExciteOptions {
   double position_margin = 0.01;  // the controller's default (--position-margin)
   double duration = 0.0;          // 0: three periods
   double lead_in = 1.0;           // s at rest at the start before the series
-  int waypoints = controller::Waypoints::kMaxPoints;
+  int waypoints = motion::Waypoints::kMaxPoints;
   bool unscaled = false;
   ExcitationOptions excitation;
 };
@@ -63,7 +63,7 @@ int periods_in(double duration, double period) {
   return static_cast<int>(count);
 }
 
-Eigen::VectorXd start_pose(const ExciteOptions& o, const RobotModel& model, const controller::MotionLimits& limits) {
+Eigen::VectorXd start_pose(const ExciteOptions& o, const RobotModel& model, const motion::MotionLimits& limits) {
   const int n = model.dof();
   if (o.start.empty()) {
     // The middle of each range; 0 for a joint without limits.
@@ -86,9 +86,9 @@ Eigen::VectorXd start_pose(const ExciteOptions& o, const RobotModel& model, cons
 // all three, follow the series itself. The lead-in is what an arm a little off the start (one that
 // sags under a model not yet identified) is brought back over: straight into the series' first
 // piece, a few tens of ms long, the controller refused it at waypoint 0 (jerk over its limit).
-controller::Waypoints waypoints_of(const FourierTrajectory& series, int count, double lead_in) {
+motion::Waypoints waypoints_of(const FourierTrajectory& series, int count, double lead_in) {
   const int n = series.dof();
-  controller::Waypoints w(n);
+  motion::Waypoints w(n);
   w.count = count;
   w.has_velocities = w.has_accelerations = true;
   w.time(0) = lead_in;
@@ -111,9 +111,9 @@ controller::Waypoints waypoints_of(const FourierTrajectory& series, int count, d
 
 // The largest distance, every millisecond, between the controller's spline after the lead-in and
 // the series.
-double spline_deviation(const controller::WaypointSpline& spline, const FourierTrajectory& series, double lead_in) {
+double spline_deviation(const motion::WaypointSpline& spline, const FourierTrajectory& series, double lead_in) {
   const int n = series.dof();
-  controller::Reference ref(n);
+  motion::Reference ref(n);
   Eigen::VectorXd q(n), qd(n), qdd(n), qddd(n);
   double worst = 0.0;
   const long steps = std::lround(series.duration() * 1e3);
@@ -134,7 +134,7 @@ const char* const kCollisionAdvice =
     "(its model error reads as external force): chasles_controller ... --collision-torque inf --collision-force inf "
     "--collision-moment inf";
 
-Json trajectory_json(const RobotModel& model, const controller::Waypoints& w) {
+Json trajectory_json(const RobotModel& model, const motion::Waypoints& w) {
   Json points = Json::array();
   for (int k = 0; k < w.count; ++k) {
     points.push_back({{"time_from_start", w.time(k)},
@@ -151,7 +151,7 @@ Json trajectory_json(const RobotModel& model, const controller::Waypoints& w) {
 }
 
 Json report_json(const RobotModel& model, const BaseParameters& base, const ExcitationResult& r,
-                 const controller::MotionLimits& limits, const ExciteOptions& o, int points, double deviation) {
+                 const motion::MotionLimits& limits, const ExciteOptions& o, int points, double deviation) {
   const FourierTrajectory& s = r.trajectory;
   Eigen::VectorXd q0 = s.start;  // the constant of Swevers's form
   for (int l = 0; l < s.harmonics(); ++l) q0 += s.b.col(l) / (s.omega() * (l + 1));
@@ -205,11 +205,11 @@ void run_excite(ExciteOptions o) {
   tools::warn("chasles_calibrate", o.urdf, model.warnings());
   const int n = model.dof();
 
-  controller::LimitConfig config;
+  motion::LimitConfig config;
   config.position_margin = o.position_margin;
   if (!o.acceleration_limit.empty()) config.acceleration = per_joint(o.acceleration_limit, n, "--acceleration-limit");
   if (!o.jerk_limit.empty()) config.jerk = per_joint(o.jerk_limit, n, "--jerk-limit");
-  const controller::MotionLimits limits(model, config);
+  const motion::MotionLimits limits(model, config);
   ExcitationLimits excitation_limits;
   excitation_limits.lower = limits.lower;
   excitation_limits.upper = limits.upper;
@@ -223,14 +223,14 @@ void run_excite(ExciteOptions o) {
   const BaseParameters base = base_parameters(model, 50, 1);
   const ExcitationResult result = optimize_excitation(model, base, excitation_limits, start, o.excitation);
 
-  const controller::Waypoints waypoints = waypoints_of(result.trajectory, o.waypoints, o.lead_in);
-  controller::Reference at_rest(n);
+  const motion::Waypoints waypoints = waypoints_of(result.trajectory, o.waypoints, o.lead_in);
+  motion::Reference at_rest(n);
   at_rest.hold(start);
-  controller::WaypointSpline spline(n);
+  motion::WaypointSpline spline(n);
   spline.build(at_rest, waypoints, limits);
-  if (const controller::WaypointExcess e = spline.excess(limits)) {
+  if (const motion::WaypointExcess e = spline.excess(limits)) {
     throw InputError("the controller's spline through " + std::to_string(o.waypoints) + " waypoints leaves the " +
-                     controller::to_string(e.excess.quantity) + " limit of joint " + model.joint(e.excess.joint).name +
+                     motion::to_string(e.excess.quantity) + " limit of joint " + model.joint(e.excess.joint).name +
                      " before waypoint " + std::to_string(e.waypoint) + " (" + text(e.excess.value) + " against " +
                      text(e.excess.limit) + "): give more --waypoints or a shorter --duration");
   }
@@ -309,7 +309,7 @@ Command register_excite(CLI::App& app) {
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   excite->add_option("--waypoints", o.waypoints, "Waypoints written (the message takes at most 1000)")
-      ->check(CLI::Range(2, controller::Waypoints::kMaxPoints))
+      ->check(CLI::Range(2, motion::Waypoints::kMaxPoints))
       ->capture_default_str();
   excite->add_flag("--unscaled", o.unscaled,
                    "Minimise the condition number of W_b as it is, not of W_b with unit-norm columns");

@@ -8,7 +8,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "chasles/core/model/model.hpp"
+#include "core/model/model.hpp"
 #include "commands.hpp"
 
 namespace chasles::calibrate_cli {

@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "chasles/tools/error_line.hpp"
-#include "chasles/tools/run_main.hpp"
+#include "tools/error_line.hpp"
+#include "tools/run_main.hpp"
 #include "commands.hpp"
 
 namespace {

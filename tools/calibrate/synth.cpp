@@ -5,12 +5,12 @@
 #include <iostream>
 #include <random>
 
-#include "chasles/core/calibration/calibration.hpp"
-#include "chasles/core/calibration/dataset.hpp"
-#include "chasles/core/calibration/urdf_writer.hpp"
-#include "chasles/core/lie/se3.hpp"
-#include "chasles/core/model/urdf.hpp"
-#include "chasles/tools/error_line.hpp"
+#include "core/calibration/calibration.hpp"
+#include "core/calibration/dataset.hpp"
+#include "core/calibration/urdf_writer.hpp"
+#include "core/lie/se3.hpp"
+#include "core/model/urdf.hpp"
+#include "tools/error_line.hpp"
 #include "commands.hpp"
 
 namespace chasles::calibrate_cli {

@@ -4,9 +4,9 @@
 #include <stdexcept>
 #include <vector>
 
-#include "chasles/core/model/urdf.hpp"
-#include "chasles/core/number_list.hpp"
-#include "chasles/tools/error_line.hpp"
+#include "core/model/urdf.hpp"
+#include "core/number_list.hpp"
+#include "tools/error_line.hpp"
 
 namespace chasles::cli {
 

@@ -9,8 +9,8 @@
 #include <functional>
 #include <string>
 
-#include "chasles/core/model/model.hpp"
-#include "chasles/tools/cli/json_io.hpp"
+#include "core/model/model.hpp"
+#include "tools/cli/json_io.hpp"
 
 namespace chasles::cli {
 

@@ -1,5 +1,5 @@
 // chasles rnea and chasles fd: inverse and forward dynamics at one state.
-#include "chasles/core/dynamics/dynamics.hpp"
+#include "core/dynamics/dynamics.hpp"
 
 #include <memory>
 

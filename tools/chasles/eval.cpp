@@ -1,8 +1,8 @@
 // chasles eval: kinematics at a list of joint configurations.
 #include <memory>
 
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/tools/cli/cases.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "tools/cli/cases.hpp"
 #include "command.hpp"
 
 namespace chasles::cli {

@@ -5,9 +5,9 @@
 #include <stdexcept>
 #include <vector>
 
-#include "chasles/core/ik/ik.hpp"
-#include "chasles/core/lie/so3.hpp"
-#include "chasles/tools/cli/cases.hpp"
+#include "core/ik/ik.hpp"
+#include "core/lie/so3.hpp"
+#include "tools/cli/cases.hpp"
 #include "command.hpp"
 
 namespace chasles::cli {

@@ -8,7 +8,7 @@
 #include <memory>
 #include <vector>
 
-#include "chasles/controller/realtime/clock.hpp"
+#include "controller/realtime/clock.hpp"
 #include "command.hpp"
 #include "lcm_start.hpp"
 

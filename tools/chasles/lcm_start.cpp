@@ -4,7 +4,7 @@
 
 #include <cstdio>
 
-#include "chasles/tools/cli/json_io.hpp"
+#include "tools/cli/json_io.hpp"
 
 namespace chasles::cli {
 

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "chasles/tools/cli/json_io.hpp"
+#include "tools/cli/json_io.hpp"
 
 namespace chasles::cli {
 

@@ -23,9 +23,9 @@
 #include <optional>
 #include <sstream>
 
-#include "chasles/tools/cli/lcm_log.hpp"
-#include "chasles/tools/cli/messages.hpp"
-#include "chasles/tools/cli/state_log.hpp"
+#include "tools/cli/lcm_log.hpp"
+#include "tools/cli/messages.hpp"
+#include "tools/cli/state_log.hpp"
 #include "command.hpp"
 
 extern char** environ;

@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "chasles/core/model/urdf.hpp"
-#include "chasles/tools/error_line.hpp"
-#include "chasles/tools/run_main.hpp"
+#include "core/model/urdf.hpp"
+#include "tools/error_line.hpp"
+#include "tools/run_main.hpp"
 #include "command.hpp"
 
 namespace {

@@ -19,12 +19,12 @@
 #include <string>
 #include <vector>
 
-#include "chasles/controller/law.hpp"
-#include "chasles/controller/lcm_io.hpp"
-#include "chasles/controller/realtime/clock.hpp"
-#include "chasles/core/model/payload.hpp"
-#include "chasles/core/number_list.hpp"
-#include "chasles/lcmtypes/checked.hpp"
+#include "controller/law.hpp"
+#include "controller/lcm_io.hpp"
+#include "controller/realtime/clock.hpp"
+#include "core/model/payload.hpp"
+#include "core/number_list.hpp"
+#include "lcmtypes/checked.hpp"
 #include "command.hpp"
 #include "lcm_start.hpp"
 

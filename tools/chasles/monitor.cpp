@@ -22,10 +22,10 @@
 #include <optional>
 #include <sstream>
 
-#include "chasles/controller/law.hpp"
-#include "chasles/controller/lcm_io.hpp"
-#include "chasles/controller/realtime/clock.hpp"
-#include "chasles/tools/cli/messages.hpp"
+#include "controller/law.hpp"
+#include "controller/lcm_io.hpp"
+#include "controller/realtime/clock.hpp"
+#include "tools/cli/messages.hpp"
 #include "command.hpp"
 #include "lcm_start.hpp"
 

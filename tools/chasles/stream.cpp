@@ -9,8 +9,8 @@
 #include <memory>
 #include <vector>
 
-#include "chasles/controller/realtime/clock.hpp"
-#include "chasles/core/lie/so3.hpp"
+#include "controller/realtime/clock.hpp"
+#include "core/lie/so3.hpp"
 #include "command.hpp"
 #include "lcm_start.hpp"
 

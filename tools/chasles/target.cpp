@@ -14,8 +14,8 @@
 #include <memory>
 #include <optional>
 
-#include "chasles/controller/realtime/clock.hpp"
-#include "chasles/core/lie/so3.hpp"
+#include "controller/realtime/clock.hpp"
+#include "core/lie/so3.hpp"
 #include "command.hpp"
 
 namespace chasles::cli {

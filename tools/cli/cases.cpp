@@ -1,8 +1,8 @@
-#include "chasles/tools/cli/cases.hpp"
+#include "tools/cli/cases.hpp"
 
 #include <stdexcept>
 
-#include "chasles/core/ik/ik.hpp"
+#include "core/ik/ik.hpp"
 
 namespace chasles::cli {
 

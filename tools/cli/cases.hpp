@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "chasles/core/model/model.hpp"
-#include "chasles/tools/cli/json_io.hpp"
+#include "core/model/model.hpp"
+#include "tools/cli/json_io.hpp"
 
 namespace chasles::cli {
 

@@ -1,4 +1,4 @@
-#include "chasles/tools/cli/json_io.hpp"
+#include "tools/cli/json_io.hpp"
 
 #include <cerrno>
 #include <cmath>

@@ -5,8 +5,8 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "chasles/core/error.hpp"
-#include "chasles/core/lie/types.hpp"
+#include "core/error.hpp"
+#include "core/lie/types.hpp"
 
 namespace chasles::cli {
 

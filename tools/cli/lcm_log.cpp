@@ -1,4 +1,4 @@
-#include "chasles/tools/cli/lcm_log.hpp"
+#include "tools/cli/lcm_log.hpp"
 
 #include <lcm/lcm.h>
 #include <sys/stat.h>
@@ -7,7 +7,7 @@
 #include <cerrno>
 #include <cstring>
 
-#include "chasles/tools/cli/json_io.hpp"
+#include "tools/cli/json_io.hpp"
 
 namespace chasles::cli {
 namespace {

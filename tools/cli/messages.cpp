@@ -1,4 +1,4 @@
-#include "chasles/tools/cli/messages.hpp"
+#include "tools/cli/messages.hpp"
 
 #include <algorithm>
 #include <array>

@@ -6,7 +6,7 @@
 // what was sent.
 #pragma once
 
-#include "chasles/lcmtypes/checked.hpp"
+#include "lcmtypes/checked.hpp"
 #include <cstdint>
 #include <string>
 #include <vector>

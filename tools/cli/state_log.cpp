@@ -1,8 +1,8 @@
-#include "chasles/tools/cli/state_log.hpp"
+#include "tools/cli/state_log.hpp"
 
-#include "chasles/tools/cli/json_io.hpp"
-#include "chasles/tools/cli/lcm_log.hpp"
-#include "chasles/tools/cli/messages.hpp"
+#include "tools/cli/json_io.hpp"
+#include "tools/cli/lcm_log.hpp"
+#include "tools/cli/messages.hpp"
 
 namespace chasles::cli {
 

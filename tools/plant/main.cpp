@@ -29,16 +29,16 @@
 #include <string_view>
 #include <vector>
 
-#include "chasles/controller/protocol.hpp"
-#include "chasles/controller/realtime/clock.hpp"
-#include "chasles/controller/realtime/realtime.hpp"
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/model/urdf.hpp"
-#include "chasles/core/number_list.hpp"
-#include "chasles/tools/error_line.hpp"
-#include "chasles/tools/run_main.hpp"
-#include "chasles/tools/simulation/environment_forms.hpp"
-#include "chasles/tools/simulation/simulation.hpp"
+#include "controller/protocol.hpp"
+#include "controller/realtime/clock.hpp"
+#include "controller/realtime/realtime.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/model/urdf.hpp"
+#include "core/number_list.hpp"
+#include "tools/error_line.hpp"
+#include "tools/run_main.hpp"
+#include "tools/simulation/environment_forms.hpp"
+#include "tools/simulation/simulation.hpp"
 
 namespace chasles::plant {
 

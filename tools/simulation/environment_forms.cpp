@@ -1,11 +1,11 @@
-#include "chasles/tools/simulation/environment_forms.hpp"
+#include "tools/simulation/environment_forms.hpp"
 
 #include <charconv>
 #include <utility>
 #include <vector>
 
-#include "chasles/core/error.hpp"
-#include "chasles/core/number_list.hpp"
+#include "core/error.hpp"
+#include "core/number_list.hpp"
 
 namespace chasles::plant {
 namespace {

@@ -6,9 +6,9 @@
 
 #include <string>
 
-#include "chasles/core/model/model.hpp"
-#include "chasles/core/simulation/environment.hpp"
-#include "chasles/tools/simulation/messaging.hpp"
+#include "core/model/model.hpp"
+#include "core/simulation/environment.hpp"
+#include "tools/simulation/messaging.hpp"
 
 namespace chasles::plant {
 

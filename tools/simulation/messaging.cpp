@@ -1,4 +1,4 @@
-#include "chasles/tools/simulation/messaging.hpp"
+#include "tools/simulation/messaging.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -7,8 +7,8 @@
 #include <limits>
 #include <stdexcept>
 
-#include "chasles/core/error.hpp"
-#include "chasles/lcmtypes/checked.hpp"
+#include "core/error.hpp"
+#include "lcmtypes/checked.hpp"
 
 namespace chasles::plant {
 

@@ -19,10 +19,10 @@
 #include <utility>
 #include <vector>
 
-#include "chasles/controller/protocol.hpp"
-#include "chasles/controller/realtime/bus.hpp"
-#include "chasles/controller/realtime/clock.hpp"
-#include "chasles/core/lie/types.hpp"
+#include "controller/protocol.hpp"
+#include "controller/realtime/bus.hpp"
+#include "controller/realtime/clock.hpp"
+#include "core/lie/types.hpp"
 
 namespace chasles::plant {
 

@@ -1,11 +1,11 @@
-#include "chasles/tools/simulation/simulation.hpp"
+#include "tools/simulation/simulation.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 
-#include "chasles/core/dynamics/dynamics.hpp"
-#include "chasles/core/error.hpp"
+#include "core/dynamics/dynamics.hpp"
+#include "core/error.hpp"
 
 namespace chasles::plant {
 namespace {

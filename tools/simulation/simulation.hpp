@@ -15,12 +15,12 @@
 #include <random>
 #include <string>
 
-#include "chasles/controller/protocol.hpp"
-#include "chasles/controller/realtime/bus.hpp"
-#include "chasles/controller/realtime/clock.hpp"
-#include "chasles/core/model/model.hpp"
-#include "chasles/core/simulation/plant.hpp"
-#include "chasles/tools/simulation/messaging.hpp"
+#include "controller/protocol.hpp"
+#include "controller/realtime/bus.hpp"
+#include "controller/realtime/clock.hpp"
+#include "core/model/model.hpp"
+#include "core/simulation/plant.hpp"
+#include "tools/simulation/messaging.hpp"
 
 namespace chasles::plant {
 

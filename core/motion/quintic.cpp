@@ -1,9 +1,9 @@
-#include "chasles/controller/trajectory.hpp"
+#include "core/motion/quintic.hpp"
 
 #include <algorithm>
 #include <cmath>
 
-namespace chasles::controller {
+namespace chasles::motion {
 
 void QuinticTrajectory::start(const Reference& from, const Eigen::VectorXd& goal, double duration) {
   duration_ = duration;
@@ -99,4 +99,4 @@ LimitExcess QuinticTrajectory::excess(const MotionLimits& limits) const {
   return {};
 }
 
-}  // namespace chasles::controller
+}  // namespace chasles::motion

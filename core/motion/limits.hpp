@@ -6,9 +6,9 @@
 
 #include <Eigen/Core>
 
-#include "chasles/core/model/model.hpp"
+#include "core/model/model.hpp"
 
-namespace chasles::controller {
+namespace chasles::motion {
 
 /// Defaults for an arm whose acceleration and jerk limits are not given: the velocity limit
 /// reached from rest in kAccelerationTime, the acceleration limit from zero in kJerkTime. Both are
@@ -84,4 +84,4 @@ double velocity_that_stops_in_range(double v, double p, double lower, double upp
 LimitExcess measured_excess(const MotionLimits& limits, const Eigen::VectorXd& q_before, const Eigen::VectorXd& q,
                             const Eigen::VectorXd& qd);
 
-}  // namespace chasles::controller
+}  // namespace chasles::motion

@@ -6,9 +6,9 @@
 #include <Eigen/Core>
 #include <utility>
 
-#include "chasles/controller/limits.hpp"
+#include "core/motion/limits.hpp"
 
-namespace chasles::controller {
+namespace chasles::motion {
 
 /// q_d(t), q̇_d(t), q̈_d(t).
 struct Reference {
@@ -68,4 +68,4 @@ class QuinticTrajectory {
   double duration_ = 0.0;
 };
 
-}  // namespace chasles::controller
+}  // namespace chasles::motion

@@ -1,13 +1,13 @@
-#include "chasles/controller/limits.hpp"
+#include "core/motion/limits.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
 
-#include "chasles/core/error.hpp"
+#include "core/error.hpp"
 
-namespace chasles::controller {
+namespace chasles::motion {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
@@ -181,4 +181,4 @@ LimitExcess measured_excess(const MotionLimits& limits, const Eigen::VectorXd& q
   return {};
 }
 
-}  // namespace chasles::controller
+}  // namespace chasles::motion

@@ -1,10 +1,10 @@
-#include "chasles/controller/waypoints.hpp"
+#include "core/motion/waypoints.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <utility>
 
-namespace chasles::controller {
+namespace chasles::motion {
 
 WaypointSpline::WaypointSpline(int n)
     : n_(n),
@@ -223,4 +223,4 @@ void WaypointSpline::sample(double t, Reference& out) const {
   for (int i = 0; i < n_; ++i) sample_quintic(c_.row(k * n_ + i).data(), local, out.q(i), out.qd(i), out.qdd(i));
 }
 
-}  // namespace chasles::controller
+}  // namespace chasles::motion

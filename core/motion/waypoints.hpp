@@ -9,10 +9,10 @@
 #include <Eigen/Core>
 #include <cstdint>
 
-#include "chasles/controller/limits.hpp"
-#include "chasles/controller/trajectory.hpp"
+#include "core/motion/limits.hpp"
+#include "core/motion/quintic.hpp"
 
-namespace chasles::controller {
+namespace chasles::motion {
 
 /// A trajectory as received, in the arm's joint order (Controller::set_trajectory checks it).
 struct Waypoints {
@@ -86,4 +86,4 @@ class WaypointSpline {
   Eigen::VectorXd solve_;                              // spline_derivatives' scratch, one per knot
 };
 
-}  // namespace chasles::controller
+}  // namespace chasles::motion
