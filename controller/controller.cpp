@@ -93,40 +93,6 @@ Config validated(const Config& config, int dof) {
 
 }  // namespace
 
-const char* to_string(Mode mode) {
-  switch (mode) {
-    case Mode::kWaiting:
-      return "WAITING";
-    case Mode::kRunning:
-      return "RUNNING";
-    case Mode::kHolding:
-      return "HOLDING";
-    case Mode::kFault:
-      return "FAULT";
-    case Mode::kReflex:
-      return "REFLEX";
-  }
-  return "?";
-}
-
-const char* to_string(TrajectoryProgress::Outcome outcome) {
-  switch (outcome) {
-    case TrajectoryProgress::kNone:
-      return "NONE";
-    case TrajectoryProgress::kActive:
-      return "ACTIVE";
-    case TrajectoryProgress::kSucceeded:
-      return "SUCCEEDED";
-    case TrajectoryProgress::kAborted:
-      return "ABORTED";
-    case TrajectoryProgress::kPreempted:
-      return "PREEMPTED";
-    case TrajectoryProgress::kRejected:
-      return "REJECTED";
-  }
-  return "?";
-}
-
 Config Config::critically_damped(int dof, double omega) {
   Config config;
   config.kp = Eigen::VectorXd::Constant(dof, omega * omega);

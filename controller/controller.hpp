@@ -24,6 +24,7 @@
 #include "controller/jog.hpp"
 #include "controller/law.hpp"
 #include "controller/semantics_check.hpp"
+#include "controller/signals.hpp"
 #include "core/motion/limits.hpp"
 #include "core/motion/quintic.hpp"
 #include "core/motion/waypoints.hpp"
@@ -70,62 +71,6 @@ struct Config {
   /// Throws ArgumentError naming what is wrong (sizes, signs, non-finite values).
   void validate(int dof) const;
 };
-
-/// A measured joint state, already checked for size and finiteness by whoever decoded it.
-struct JointState {
-  int64_t seq = -1;         ///< the sender's counter
-  int64_t utime = 0;        ///< the sender's timestamp, µs
-  int64_t arrival_ns = 0;   ///< CLOCK_MONOTONIC time it arrived here
-  Eigen::VectorXd q, qd;
-  Eigen::VectorXd effort;   ///< the torque applied over the step that ended at this state
-  explicit JointState(int n = 0)
-      : q(Eigen::VectorXd::Zero(n)), qd(Eigen::VectorXd::Zero(n)), effort(Eigen::VectorXd::Zero(n)) {}
-};
-
-/// A goal as received (arm_target_t's content); checked by Controller::set_target.
-struct Target {
-  enum Mode : int8_t { kHold = 0, kJoint = 1, kCartesian = 2 };
-  int8_t mode = kHold;
-  int num_joints = 0;  ///< entries of q the sender filled
-  Eigen::VectorXd q;   ///< capacity for the arm's joints
-  Eigen::Vector3d position = Eigen::Vector3d::Zero();
-  Eigen::Vector4d quaternion = Eigen::Vector4d(1, 0, 0, 0);  ///< (w, x, y, z)
-  double duration = 0.0;
-  explicit Target(int n = 0) : q(Eigen::VectorXd::Zero(n)) {}
-};
-
-/// One setpoint of a stream (joint_setpoint_t's content, sized and finite).
-struct Setpoint {
-  int64_t utime = 0;  ///< the sender's sample time, µs: orders the stream
-  Eigen::VectorXd q, qd;
-  explicit Setpoint(int n = 0) : q(Eigen::VectorXd::Zero(n)), qd(Eigen::VectorXd::Zero(n)) {}
-};
-
-/// One setpoint of a Cartesian stream (tip_setpoint_t's content, finite).
-struct TipSetpoint {
-  int64_t utime = 0;  ///< the sender's sample time, µs: orders the stream
-  Eigen::Vector3d position = Eigen::Vector3d::Zero();        ///< p_sb, m
-  Eigen::Vector4d quaternion = Eigen::Vector4d(1, 0, 0, 0);  ///< R_sb as (w, x, y, z), unit norm within 1e-3
-  /// How the pose moves on: the tip's angular velocity and its origin's velocity, rad/s and m/s,
-  /// both in the base frame's axes.
-  Vector6d twist = Vector6d::Zero();
-};
-
-enum class Mode : int8_t { kWaiting = 0, kRunning = 1, kHolding = 2, kFault = 3, kReflex = 4 };
-const char* to_string(Mode mode);
-
-/// How the latest waypoint trajectory went (control_msgs' FollowJointTrajectory outcomes).
-struct TrajectoryProgress {
-  enum Outcome : int8_t { kNone = 0, kActive = 1, kSucceeded = 2, kAborted = 3, kPreempted = 4, kRejected = 5 };
-  int64_t id = 0;
-  Outcome outcome = kNone;
-  double elapsed = 0.0;   ///< s since it started (frozen at its outcome)
-  double duration = 0.0;  ///< s, after time scaling
-  double scale = 1.0;     ///< the factor its times were multiplied by to fit the limits (1: none)
-  int waypoint = 0;       ///< the waypoint being approached, 0-based; count once past the last
-  char message[192] = {};  ///< why ABORTED, REJECTED or PREEMPTED, or what scaled it
-};
-const char* to_string(TrajectoryProgress::Outcome outcome);
 
 class Controller {
  public:

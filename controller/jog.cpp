@@ -19,20 +19,6 @@ constexpr double kProbeStep = 1e-3;
 
 }  // namespace
 
-const char* to_string(JogProgress::Limit limit) {
-  switch (limit) {
-    case JogProgress::kNone:
-      return "none";
-    case JogProgress::kVelocity:
-      return "velocity limit";
-    case JogProgress::kPosition:
-      return "position limit";
-    case JogProgress::kSingularity:
-      return "singularity";
-  }
-  return "?";
-}
-
 void JogConfig::validate() const {
   if (!(std::isfinite(slow_condition) && std::isfinite(stop_condition) && slow_condition >= 1.0 &&
         stop_condition > slow_condition)) {

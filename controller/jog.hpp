@@ -24,23 +24,9 @@
 #include "core/lie/types.hpp"
 #include "core/model/model.hpp"
 #include "core/motion/online_generator.hpp"
+#include "controller/signals.hpp"
 
 namespace chasles::controller {
-
-/// One jog command as received (jog_command_t's content, sized and finite).
-struct Jog {
-  enum Kind : int8_t { kJointVelocity = 0, kTwist = 1 };
-  /// The twist's frame: kBase, the tip's angular velocity and the velocity of its origin, both in
-  /// the base frame's axes (Pinocchio's LOCAL_WORLD_ALIGNED; what a space mouse in the robot's
-  /// frame means); kTool, the body twist V_b in the tip frame.
-  enum Frame : int8_t { kBase = 0, kTool = 1 };
-  int64_t utime = 0;  ///< the sender's sample time, µs: orders the commands
-  int8_t kind = kJointVelocity;
-  int8_t frame = kBase;
-  Eigen::VectorXd joint_velocity;     ///< rad/s (m/s), root to tip (kJointVelocity)
-  Vector6d twist = Vector6d::Zero();  ///< (ω, v), rad/s and m/s, in `frame` (kTwist)
-  explicit Jog(int n = 0) : joint_velocity(Eigen::VectorXd::Zero(n)) {}
-};
 
 struct JogConfig {
   /// Condition number of J_b where a twist toward a singularity starts slowing down (MoveIt
@@ -57,18 +43,6 @@ struct JogConfig {
   /// constant is positive and finite.
   void validate() const;
 };
-
-/// How the latest jog tick went.
-struct JogProgress {
-  /// What cut the command's speed, if anything: a joint's velocity limit, a joint that would
-  /// otherwise not stop before its position limit, a singularity ahead.
-  enum Limit : int8_t { kNone = 0, kVelocity = 1, kPosition = 2, kSingularity = 3 };
-  double condition = 0.0;  ///< κ(J_b) at the reference (σ_max / σ_min of its min(6, n) largest)
-  double scale = 1.0;      ///< the speed taken over the speed asked, in [0, 1]; 0: halted
-  Limit limited_by = kNone;
-  int joint = -1;          ///< the joint at its velocity or position limit (kVelocity, kPosition)
-};
-const char* to_string(JogProgress::Limit limit);
 
 /// The singular values of a 6 × n Jacobian J from the eigenvalues of J Jᵀ (6 × 6, fixed size: no
 /// allocation), its condition number and its pseudo-inverse applied to a twist.

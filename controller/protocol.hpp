@@ -37,7 +37,7 @@
 #include <string_view>
 #include <vector>
 
-#include "controller/controller.hpp"
+#include "controller/signals.hpp"
 
 namespace chasles::controller {
 
