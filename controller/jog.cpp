@@ -52,34 +52,42 @@ void JacobianSpectrum::solve(const Matrix6Xd& J, const Vector6d& V, Eigen::Vecto
   qd.noalias() = J.transpose() * w;
 }
 
-Jogger::Jogger(const RobotModel& model, const JogConfig& config)
+Jogger::Jogger(int dof, const JogConfig& config)
     : config_(config),
-      data_(model),
-      otg_(model.dof()),
-      qd_(Eigen::VectorXd::Zero(model.dof())),
-      probe_(Eigen::VectorXd::Zero(model.dof())),
-      stop_(Eigen::VectorXd::Zero(model.dof())) {
+      otg_(dof),
+      qd_(Eigen::VectorXd::Zero(dof)),
+      step_(Eigen::VectorXd::Zero(dof)),
+      stop_(Eigen::VectorXd::Zero(dof)),
+      J_(6, dof),
+      dJ_(6, dof),
+      J_ahead_(6, dof) {
   config_.validate();
   for (motion::KinematicState* state : {&from_, &out_}) {
-    state->p = state->v = state->a = Eigen::VectorXd::Zero(model.dof());
+    state->p = state->v = state->a = Eigen::VectorXd::Zero(dof);
   }
 }
 
-double Jogger::condition_at(const RobotModel& model, const Eigen::VectorXd& q) {
-  spectrum_.compute(body_jacobian(model, data_, q));
+// J_b at q + step to first order, from J_b at q: the look-ahead costs a 6 × n product and a 6 × 6
+// eigenproblem instead of a pass over the chain. Its error grows with the step's square; the
+// steps it looks along are the probe's 1e-3 and a brake's stop, short where a singularity is
+// near, since the speed is cut there first.
+double Jogger::condition_ahead(const Eigen::VectorXd& step) {
+  body_jacobian_change(J_, step, dJ_);
+  J_ahead_ = J_ + dJ_;
+  spectrum_.compute(J_ahead_);
   return spectrum_.condition();
 }
 
-bool Jogger::step(const RobotModel& model, const Jog& jog, bool halt, const motion::MotionLimits& limits,
+bool Jogger::step(const Data& at_reference, const Jog& jog, bool halt, const motion::MotionLimits& limits,
                   const motion::Limits& otg_limits, double dt, motion::Reference& ref, JogProgress& progress) {
   const bool twist = jog.kind == Jog::kTwist;
-  const Matrix6Xd& J = at_reference(model, ref, progress);
+  const Matrix6Xd& J = start_at(at_reference, progress);
   qd_.setZero();
   if (!halt) {
     if (twist) {
       Vector6d V_b = jog.twist;
       if (jog.frame == Jog::kBase) {  // both halves from the base's axes into the tip's
-        const Matrix3d& R = data_.T_sb.linear();
+        const Matrix3d& R = at_reference.T_sb.linear();
         V_b.head<3>() = R.transpose() * jog.twist.head<3>();
         V_b.tail<3>() = R.transpose() * jog.twist.tail<3>();
       }
@@ -88,37 +96,38 @@ bool Jogger::step(const RobotModel& model, const Jog& jog, bool halt, const moti
       qd_ = jog.joint_velocity;
     }
   }
-  return advance(model, twist, halt, limits, otg_limits, dt, ref, progress);
+  return advance(twist, halt, limits, otg_limits, dt, ref, progress);
 }
 
-bool Jogger::follow_pose(const RobotModel& model, const Transform& target, const Vector6d& twist, bool halt,
+bool Jogger::follow_pose(const Data& at_reference, const Transform& target, const Vector6d& twist, bool halt,
                          const motion::MotionLimits& limits, const motion::Limits& otg_limits, double dt, motion::Reference& ref,
                          JogProgress& progress) {
-  const Matrix6Xd& J = at_reference(model, ref, progress);
+  const Matrix6Xd& J = start_at(at_reference, progress);
   qd_.setZero();
   if (!halt) {
     // In the tip frame: the error's body twist (what moves the tip onto the target in a unit of
     // time) over the time constant, and the target's own twist.
-    const Matrix3d& R = data_.T_sb.linear();
-    Vector6d V_b = log6(inverse(data_.T_sb) * target) / config_.pose_time_constant;
+    const Matrix3d& R = at_reference.T_sb.linear();
+    Vector6d V_b = log6(inverse(at_reference.T_sb) * target) / config_.pose_time_constant;
     V_b.head<3>() += R.transpose() * twist.head<3>();
     V_b.tail<3>() += R.transpose() * twist.tail<3>();
     spectrum_.solve(J, V_b, qd_);
   }
-  return advance(model, true, halt, limits, otg_limits, dt, ref, progress);
+  return advance(true, halt, limits, otg_limits, dt, ref, progress);
 }
 
-const Matrix6Xd& Jogger::at_reference(const RobotModel& model, const motion::Reference& ref, JogProgress& progress) {
-  const Matrix6Xd& J = body_jacobian(model, data_, ref.q);
+const Matrix6Xd& Jogger::start_at(const Data& at_reference, JogProgress& progress) {
+  J_ = at_reference.J_b;
+  const Matrix6Xd& J = J_;
   spectrum_.compute(J);
   progress = JogProgress{};
   progress.condition = spectrum_.condition();
   return J;
 }
 
-bool Jogger::advance(const RobotModel& model, bool twist, bool halt, const motion::MotionLimits& limits,
+bool Jogger::advance(bool twist, bool halt, const motion::MotionLimits& limits,
                      const motion::Limits& otg_limits, double dt, motion::Reference& ref, JogProgress& progress) {
-  const int n = model.dof();
+  const int n = static_cast<int>(qd_.size());
   if (!halt) {
     // One factor for every joint, so that the motion keeps the direction asked for.
     double scale = 1.0;
@@ -139,8 +148,8 @@ bool Jogger::advance(const RobotModel& model, bool twist, bool halt, const motio
     }
     const double fastest = qd_.cwiseAbs().maxCoeff();
     if (twist && fastest > 0.0 && progress.condition > config_.slow_condition) {
-      probe_ = ref.q + (kProbeStep / fastest) * qd_;
-      if (condition_at(model, probe_) > progress.condition) {  // toward the singularity: slower as κ rises
+      step_ = (kProbeStep / fastest) * qd_;
+      if (condition_ahead(step_) > progress.condition) {  // toward the singularity: slower as κ rises
         const double allowed = std::clamp((config_.stop_condition - progress.condition) /
                                               (config_.stop_condition - config_.slow_condition),
                                           0.0, 1.0);
@@ -179,7 +188,8 @@ bool Jogger::advance(const RobotModel& model, bool twist, bool halt, const motio
       }
     }
     if (safe && twist) {
-      const double at_stop = condition_at(model, stop_);
+      step_ = stop_ - ref.q;
+      const double at_stop = condition_ahead(step_);
       if (at_stop >= config_.stop_condition && at_stop > progress.condition) {
         safe = false;
         progress.limited_by = JogProgress::kSingularity;

@@ -12,7 +12,10 @@
 // still stop before its position limit; the reference follows it through the online generator's
 // velocity interface (jerk-limited, C²). Before each step is taken, the stop the reference could
 // still make from it is checked: outside a position limit, or (for a twist) at a condition number
-// past the stop threshold, the step becomes a halt, so the arm always stops in time.
+// past the stop threshold, the step becomes a halt, so the arm always stops in time. The condition
+// numbers ahead — along the probe and at the stop — come from J_b at the reference and its first-
+// order change along the way (body_jacobian_change), so a jog computes the chain's kinematics once
+// per tick, at the reference.
 #pragma once
 
 #include <Eigen/Core>
@@ -60,44 +63,42 @@ class JacobianSpectrum {
   double condition_ = 0.0;
 };
 
-/// Turns the latest jog into the reference, tick by tick. Allocates everything when built.
+/// Turns the latest jog into the reference, tick by tick. Reads the kinematics at the reference
+/// from the caller's Data and keeps none of its own. Allocates everything when built.
 class Jogger {
  public:
-  Jogger(const RobotModel& model, const JogConfig& config);
-
+  Jogger(int dof, const JogConfig& config);
   /// Moves `ref` on by dt toward the jog's velocity (a zero command: a halt), within `limits`
   /// (`otg_limits`: the same, finite) and short of a singularity; says how in `progress`. Returns
-  /// whether the reference has come to rest with a zero command (the jog is over). The model
-  /// may be another of the same chain than the one built with (a payload). Allocates nothing.
-  bool step(const RobotModel& model, const Jog& jog, bool halt, const motion::MotionLimits& limits,
+  /// whether the reference has come to rest with a zero command (the jog is over). `at_reference`
+  /// holds the tip pose and J_b at ref.q. Allocates nothing.
+  bool step(const Data& at_reference, const Jog& jog, bool halt, const motion::MotionLimits& limits,
             const motion::Limits& otg_limits, double dt, motion::Reference& ref, JogProgress& progress);
-
   /// The same toward a tip pose `target` moving with `twist` (the tip's angular velocity and its
   /// origin's velocity in the base frame's axes): a Cartesian stream. The twist asked is the
   /// target's plus the body twist from the reference's tip to the target over the time constant,
   /// resolved and kept within limits as a twist jog.
-  bool follow_pose(const RobotModel& model, const Transform& target, const Vector6d& twist, bool halt,
-                   const motion::MotionLimits& limits, const motion::Limits& otg_limits, double dt, motion::Reference& ref,
-                   JogProgress& progress);
-
+  bool follow_pose(const Data& at_reference, const Transform& target, const Vector6d& twist, bool halt,
+                   const motion::MotionLimits& limits, const motion::Limits& otg_limits, double dt,
+                   motion::Reference& ref, JogProgress& progress);
   const JogConfig& config() const { return config_; }
 
  private:
   /// J_b and κ at the reference, progress started afresh.
-  const Matrix6Xd& at_reference(const RobotModel& model, const motion::Reference& ref, JogProgress& progress);
+  const Matrix6Xd& start_at(const Data& at_reference, JogProgress& progress);
   /// From the joint velocity asked (qd_): cut to the limits, slowed toward a singularity (`twist`),
   /// the reference moved on by dt, the step checked by the stop it leaves.
-  bool advance(const RobotModel& model, bool twist, bool halt, const motion::MotionLimits& limits,
-               const motion::Limits& otg_limits, double dt, motion::Reference& ref, JogProgress& progress);
-  /// κ(J_b) at q.
-  double condition_at(const RobotModel& model, const Eigen::VectorXd& q);
+  bool advance(bool twist, bool halt, const motion::MotionLimits& limits, const motion::Limits& otg_limits,
+               double dt, motion::Reference& ref, JogProgress& progress);
+  /// κ(J_b) at the reference moved by `step`, to first order.
+  double condition_ahead(const Eigen::VectorXd& step);
 
   JogConfig config_;
-  Data data_;  // J_b at the reference, the probe and the stop
   JacobianSpectrum spectrum_;
   motion::OnlineGenerator otg_;
   motion::KinematicState from_, out_;
-  Eigen::VectorXd qd_, probe_, stop_;
+  Eigen::VectorXd qd_, step_, stop_;
+  Matrix6Xd J_, dJ_, J_ahead_;  // J_b at the reference, its change along a step, J_b there
 };
 
 }  // namespace chasles::controller

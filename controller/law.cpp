@@ -72,7 +72,6 @@ LawSettings::LawSettings(int n)
 LawWorkspace::LawWorkspace(int n)
     : J_c(Matrix6Xd::Zero(6, n)),
       Minv_JcT(Eigen::MatrixXd::Zero(n, 6)),
-      M_llt(n),
       null_torque(Eigen::VectorXd::Zero(n)),
       damping(Eigen::VectorXd::Zero(n)),
       apparent_inertia(Eigen::VectorXd::Zero(n)),
@@ -183,17 +182,17 @@ void computed_torque(const RobotModel& /*model*/, const Data& data, const Eigen:
   inverse_dynamics_at(data, qdd_scratch, tau);
 }
 
-void joint_impedance(const RobotModel& /*model*/, const Data& data, LawWorkspace& work, const LawSettings& s,
+void joint_impedance(const RobotModel& /*model*/, Data& data, LawWorkspace& work, const LawSettings& s,
                      const motion::Reference& ref, const Eigen::VectorXd& q, const Eigen::VectorXd& qd, Eigen::VectorXd& tau) {
   const Eigen::VectorXd& K = s.joint_stiffness;
   if (s.damping_from_ratio) {
     work.damping = 2.0 * s.damping_ratio * (K.cwiseProduct(data.M.diagonal())).cwiseSqrt();
     if (work.period > 0.0) {
-      work.M_llt.compute(data.M);
+      data.M_llt.factorize(data.M);
       for (int i = 0; i < K.size(); ++i) {
         work.inverse_column.setZero();
         work.inverse_column(i) = 1.0;
-        work.M_llt.solveInPlace(work.inverse_column);
+        data.M_llt.solveInPlace(work.inverse_column);
         work.apparent_inertia(i) = 1.0 / work.inverse_column(i);
       }
       // Alone, a joint of inertia m damped by D under a torque held for T has its speed scaled by
@@ -211,7 +210,7 @@ void joint_impedance(const RobotModel& /*model*/, const Data& data, LawWorkspace
   tau += work.spring;
 }
 
-void cartesian_impedance(const RobotModel& model, const Data& data, const Data& data_ref, LawWorkspace& work,
+void cartesian_impedance(const RobotModel& model, Data& data, const Data& data_ref, LawWorkspace& work,
                          const LawSettings& s, const motion::Reference& ref, const Eigen::VectorXd& q,
                          const Eigen::VectorXd& qd, Eigen::VectorXd& tau) {
   const Transform& T_bc = s.T_tip_frame;
@@ -228,10 +227,10 @@ void cartesian_impedance(const RobotModel& model, const Data& data, const Data& 
   work.xi = log6(T_cd);
   work.xi_dot = adjoint_times(T_cd, V_d) - V_c;
 
-  work.M_llt.compute(data.M);
+  data.M_llt.factorize(data.M);
   // Λ⁻¹ = J_c M⁻¹ J_cᵀ, inverted on its eigenvectors with each eigenvalue of Λ bounded.
   work.Minv_JcT = work.J_c.transpose();
-  work.M_llt.solveInPlace(work.Minv_JcT);
+  data.M_llt.solveInPlace(work.Minv_JcT);
   const Matrix6d Lambda_inv = work.J_c * work.Minv_JcT;
   const Eigen::SelfAdjointEigenSolver<Matrix6d> eigen(0.5 * (Lambda_inv + Lambda_inv.transpose()));
   const Vector6d inertia = eigen.eigenvalues().cwiseMax(1.0 / kMaxCartesianInertia).cwiseInverse();

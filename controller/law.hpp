@@ -98,7 +98,6 @@ Matrix6d modal_damping(const Matrix6d& Lambda, const Matrix6d& K, double zeta);
 struct LawWorkspace {
   Matrix6Xd J_c;              ///< Jacobian of frame c, in frame c
   Eigen::MatrixXd Minv_JcT;   ///< M⁻¹ J_cᵀ, n × 6
-  Eigen::LLT<Eigen::MatrixXd> M_llt;
   Eigen::VectorXd null_torque;
   Eigen::VectorXd damping;  ///< the joint impedance's D at the last call
   Eigen::VectorXd apparent_inertia;  ///< 1 / (M⁻¹)_ii: joint i's inertia with the others free
@@ -120,7 +119,8 @@ struct LawWorkspace {
 inline constexpr double kMaxCartesianInertia = 100.0;
 
 // Each law reads the terms of the tick from `data`, computed at the state (q, q̇) by
-// compute_tick_terms (M, c + g, the tip pose and J_b), and owns no Data.
+// compute_tick_terms (M, c + g, the tip pose and J_b), and owns no Data; the impedances factor M
+// into data.M_llt, the one factor of M a tick keeps.
 
 /// Computed torque into tau: M (q̈_d + K_d ė + K_p e) + c + g.
 void computed_torque(const RobotModel& model, const Data& data, const Eigen::VectorXd& kp, const Eigen::VectorXd& kd,
@@ -128,12 +128,12 @@ void computed_torque(const RobotModel& model, const Data& data, const Eigen::Vec
                      Eigen::VectorXd& qdd_scratch, Eigen::VectorXd& tau);
 
 /// Joint impedance into tau.
-void joint_impedance(const RobotModel& model, const Data& data, LawWorkspace& work, const LawSettings& settings,
+void joint_impedance(const RobotModel& model, Data& data, LawWorkspace& work, const LawSettings& settings,
                      const motion::Reference& ref, const Eigen::VectorXd& q, const Eigen::VectorXd& qd, Eigen::VectorXd& tau);
 
 /// Cartesian impedance with nullspace into tau; work.xi, xi_dot, wrench and Lambda hold its parts.
 /// `data_ref` holds the tip pose and J_b at the reference q_d (body_jacobian at ref.q).
-void cartesian_impedance(const RobotModel& model, const Data& data, const Data& data_ref, LawWorkspace& work,
+void cartesian_impedance(const RobotModel& model, Data& data, const Data& data_ref, LawWorkspace& work,
                          const LawSettings& settings, const motion::Reference& ref, const Eigen::VectorXd& q,
                          const Eigen::VectorXd& qd, Eigen::VectorXd& tau);
 

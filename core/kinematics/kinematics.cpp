@@ -165,4 +165,13 @@ CHASLES_FLATTEN const Matrix6Xd& body_jacobian_from_poses(const RobotModel& mode
   return data.J_b;
 }
 
+void body_jacobian_change(const Matrix6Xd& J_b, const JointVector& dq, Matrix6Xd& dJ) {
+  // From the tip inward, carrying the twist of the joints beyond column i.
+  Vector6d beyond = Vector6d::Zero();
+  for (Eigen::Index i = J_b.cols() - 1; i >= 0; --i) {
+    dJ.col(i) = ad_times(J_b.col(i), beyond);
+    beyond += J_b.col(i) * dq(i);
+  }
+}
+
 }  // namespace chasles

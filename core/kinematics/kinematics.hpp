@@ -43,4 +43,11 @@ const Matrix6Xd& body_jacobian(const RobotModel& model, Data& data, const JointV
 /// compute_tick_terms leave them), without computing them again.
 const Matrix6Xd& body_jacobian_from_poses(const RobotModel& model, Data& data);
 
+/// dJ_b: how the body Jacobian changes for a change dq of the joints, to first order, from J_b
+/// alone (no pass over the chain): column i is [ad_{J_bi}] Σ_{j>i} J_bj dq_j, since a joint turns
+/// the axes between it and the base, seen from the tip, and leaves the ones beyond it. What lets a
+/// jog look ahead along its motion at the reference's Jacobian instead of computing another.
+/// Allocates nothing (dJ sized as J_b).
+void body_jacobian_change(const Matrix6Xd& J_b, const JointVector& dq, Matrix6Xd& dJ);
+
 }  // namespace chasles

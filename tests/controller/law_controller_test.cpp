@@ -3,12 +3,14 @@
 // costs in the model's terms, and no allocation. The laws themselves are law_test's.
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <array>
 #include <string>
 
 #include "controller/controller.hpp"
 #include "controller/law.hpp"
 #include "core/dynamics/dynamics.hpp"
+#include "core/kinematics/kinematics.hpp"
 #include "core/model/payload.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/arm.hpp"
@@ -171,28 +173,148 @@ TEST_F(LawController, ASwitchBetweenAnyTwoLawsMidMotionFadesInWithoutAJump) {
   }
 }
 
-// What a tick costs in the model's terms: the joint transforms and J_b once at the state, for every
-// law, and once more at the reference under the Cartesian law (frame c's desired pose), whatever the
-// observer, the contact monitor and the law read of them.
-TEST_F(LawController, EveryTickComputesTheJointTransformsOnceAndJbOnce) {
-  VectorXd goal = q0_;
-  goal(1) += 0.3;
-  for (Law law : kLaws) {
-    SCOPED_TRACE(to_string(law));
-    Controller controller(model_, config_);
-    ASSERT_TRUE(controller.tick(0, moving(0)));
-    ASSERT_TRUE(controller.set_law(settings(law), 0)) << controller.mode_rejection();
-    if (law != Law::kFreeDrive) {
-      ASSERT_TRUE(controller.set_target(joint_target(goal, 2.0), 0));
+// What a tick costs in the model's terms, for every law and every source of the reference: the
+// joint transforms and J_b once at the state, whatever the observer, the contact monitor and the
+// law read of them, and at most once at the reference — frame c's desired pose under the Cartesian
+// law, the Jacobian a jog or a tip stream resolves through and looks ahead along. The one tick
+// that needs two at the reference is the first of a jog or tip stream taken in the same period as
+// a switch to the Cartesian law: the jog resolves at the reference it starts from, which no tick
+// has computed yet, and the law reads the one the jog moved to; from its second tick on, the jog
+// reads what the law computed the tick before.
+enum class Source { kHold, kGoal, kWaypoints, kPath, kStream, kTipStream, kJointJog, kTwistJog, kStop };
+constexpr std::array<Source, 9> kSources = {Source::kHold,   Source::kGoal,      Source::kWaypoints,
+                                            Source::kPath,   Source::kStream,    Source::kTipStream,
+                                            Source::kJointJog, Source::kTwistJog, Source::kStop};
+const char* to_string(Source source) {
+  constexpr std::array<const char*, 9> kNames = {"hold",   "goal",       "waypoints",  "path", "stream",
+                                                 "tip stream", "joint jog", "twist jog", "stop"};
+  return kNames[static_cast<size_t>(source)];
+}
+
+class TickCost : public LawController {
+ protected:
+  // Starts `source` at t = 0 (the arm holding at q0): true once it drives the reference.
+  bool start(Controller& controller, Source source) {
+    VectorXd goal = q0_;
+    goal(1) += 0.3;
+    switch (source) {
+      case Source::kHold:
+        return true;
+      case Source::kGoal:
+        return controller.set_target(joint_target(goal, 2.0), 0);
+      case Source::kWaypoints: {
+        motion::Waypoints w(7);
+        w.id = 1;
+        w.count = 2;
+        w.time << 1.0, 2.0, VectorXd::Zero(motion::Waypoints::kMaxPoints - 2);
+        w.q.col(0) = 0.5 * (q0_ + goal);
+        w.q.col(1) = goal;
+        return controller.set_trajectory(w, 0);
+      }
+      case Source::kPath: {
+        Target target(7);
+        target.mode = Target::kCartesian;
+        const Transform T = forward_kinematics(model_, data_, controller.reference().q);
+        target.position = T.translation() + Eigen::Vector3d(0.02, 0.0, 0.0);
+        const Eigen::Quaterniond r(T.linear());
+        target.quaternion << r.w(), r.x(), r.y(), r.z();
+        target.duration = 1.0;
+        CartesianRequest request(7);
+        if (!controller.set_target(target, 0) || !controller.take_request(request)) return false;
+        JointPath path(7);  // two waypoints at rest: what the sampler follows, whatever IK found
+        path.request_id = request.id;
+        path.ok = true;
+        path.count = 2;
+        path.dt = 1.0;
+        path.q.col(0) = request.q_start;
+        path.q.col(1) = request.q_start + VectorXd::Constant(7, 0.05);
+        return controller.follow(path, 0);
+      }
+      default:
+        return feed(controller, source, 0) && (controller.streaming() || controller.jogging());
     }
-    const Data::Passes at_state = controller.data().passes, at_reference = controller.reference_data().passes;
-    for (int64_t t = kMs; t <= 200 * kMs; t += kMs) ASSERT_TRUE(controller.tick(t, moving(t)));
-    ASSERT_NE(controller.mode(), Mode::kReflex) << controller.reflex_reason();
-    const bool cartesian = law == Law::kCartesianImpedance;
-    EXPECT_EQ(controller.data().passes.joint_transforms - at_state.joint_transforms, 200);
-    EXPECT_EQ(controller.data().passes.body_jacobians - at_state.body_jacobians, 200);
-    EXPECT_EQ(controller.reference_data().passes.joint_transforms - at_reference.joint_transforms, cartesian ? 200 : 0);
-    EXPECT_EQ(controller.reference_data().passes.body_jacobians - at_reference.body_jacobians, cartesian ? 200 : 0);
+  }
+  // The stream's or the jog's message due at t, every 10 ms (a stop: none after the first, so the
+  // stream times out and the reference brakes).
+  bool feed(Controller& controller, Source source, int64_t t) {
+    if (t % (10 * kMs) != 0 || (source == Source::kStop && t > 0)) return true;
+    const double s = 1e-9 * static_cast<double>(t);
+    const int64_t utime = t / 1000 + 1;
+    switch (source) {
+      case Source::kStream:
+      case Source::kStop: {
+        Setpoint setpoint(7);
+        setpoint.utime = utime;
+        setpoint.q = q0_ + VectorXd::Constant(7, 0.05 * s);
+        setpoint.qd = VectorXd::Constant(7, 0.05);
+        return controller.set_setpoint(setpoint, t);
+      }
+      case Source::kTipStream: {
+        TipSetpoint setpoint;
+        setpoint.utime = utime;
+        const Transform T = forward_kinematics(model_, data_, q0_);
+        setpoint.position = T.translation() + Eigen::Vector3d(0.02 * s, 0.0, 0.0);
+        const Eigen::Quaterniond r(T.linear());
+        setpoint.quaternion << r.w(), r.x(), r.y(), r.z();
+        setpoint.twist(3) = 0.02;
+        return controller.set_tip_setpoint(setpoint, t);
+      }
+      case Source::kJointJog:
+      case Source::kTwistJog: {
+        Jog jog(7);
+        jog.utime = utime;
+        jog.kind = source == Source::kJointJog ? Jog::kJointVelocity : Jog::kTwist;
+        jog.joint_velocity.setConstant(0.05);
+        jog.twist(3) = 0.02;
+        return controller.set_jog(jog, t);
+      }
+      default:
+        return true;
+    }
+  }
+};
+
+TEST_F(TickCost, EveryTickComputesTheKinematicsOnceAtTheStateAndAtMostOnceAtTheReference) {
+  for (Law law : kLaws) {
+    for (Source source : kSources) {
+      if (law == Law::kFreeDrive && source != Source::kHold) continue;  // free drive follows no reference
+      SCOPED_TRACE(std::string(to_string(law)) + ", " + to_string(source));
+      Controller controller(model_, config_);
+      ASSERT_TRUE(controller.tick(0, moving(0)));
+      ASSERT_TRUE(controller.set_law(settings(law), 0)) << controller.mode_rejection();
+      ASSERT_TRUE(start(controller, source)) << controller.last_rejection();
+      const bool reads_reference = law == Law::kCartesianImpedance || source == Source::kTipStream ||
+                                   source == Source::kJointJog || source == Source::kTwistJog;
+      const bool jog_under_cartesian = law == Law::kCartesianImpedance && reads_reference &&
+                                       source != Source::kHold && source != Source::kGoal;
+      constexpr int kTicks = 200;
+      int64_t reference_passes = 0;
+      for (int64_t t = kMs; t <= kTicks * kMs; t += kMs) {
+        SCOPED_TRACE("t " + std::to_string(t / kMs) + " ms");
+        const Data::Passes at_state = controller.data().passes, at_reference = controller.reference_data().passes;
+        ASSERT_TRUE(feed(controller, source, t)) << controller.last_rejection();
+        ASSERT_TRUE(controller.tick(t, moving(t)));
+        EXPECT_EQ(controller.data().passes.joint_transforms - at_state.joint_transforms, 1);
+        EXPECT_EQ(controller.data().passes.body_jacobians - at_state.body_jacobians, 1);
+        const int64_t transforms = controller.reference_data().passes.joint_transforms - at_reference.joint_transforms;
+        const int64_t jacobians = controller.reference_data().passes.body_jacobians - at_reference.body_jacobians;
+        EXPECT_EQ(transforms, jacobians);
+        const bool first_jog_tick = t == kMs && jog_under_cartesian &&
+                                    (source == Source::kTipStream || source == Source::kJointJog ||
+                                     source == Source::kTwistJog);
+        EXPECT_LE(jacobians, first_jog_tick ? 2 : 1);
+        if (!reads_reference) {
+          EXPECT_EQ(jacobians, 0);
+        }
+        reference_passes += jacobians;
+      }
+      ASSERT_NE(controller.mode(), Mode::kReflex) << controller.reflex_reason();
+      EXPECT_EQ(controller.mode(), source == Source::kHold || source == Source::kStop ? Mode::kHolding : Mode::kRunning);
+      // Those that read the reference's kinematics do, every tick its position moved.
+      if (reads_reference && source != Source::kHold && source != Source::kStop) {
+        EXPECT_GE(reference_passes, kTicks);
+      }
+    }
   }
 }
 

@@ -114,6 +114,26 @@ TEST_P(Kinematics, SpaceJacobianIsTheFirstOrderMotion) {
   }
 }
 
+TEST_P(Kinematics, TheBodyJacobiansChangeIsItsFirstOrderMotion) {
+  // J_b(q + εδ) = J_b(q) + ε dJ_b[δ] + O(ε²): the error shrinks fourfold when ε halves.
+  std::mt19937_64 rng(12);
+  std::normal_distribution<double> normal;
+  Matrix6Xd dJ(6, model_->dof());
+  for (const auto& q : random_configurations(30)) {
+    Eigen::VectorXd delta(model_->dof());
+    for (int i = 0; i < delta.size(); ++i) delta(i) = normal(rng);
+    const Matrix6Xd J = body_jacobian(*model_, *data_, q);
+    body_jacobian_change(J, delta, dJ);
+    auto error = [&](double eps) {
+      const Eigen::VectorXd q_eps = q + eps * delta;
+      return (body_jacobian(*model_, *data_, q_eps) - (J + eps * dJ)).norm();
+    };
+    const double e1 = error(1e-3), e2 = error(5e-4);
+    EXPECT_LT(e1, 1e-4);
+    EXPECT_NEAR(e1 / e2, 4.0, 0.2);
+  }
+}
+
 TEST_P(Kinematics, AllocatesNothing) {
   const auto qs = random_configurations(10);
   testing::AllocationCounter counter;

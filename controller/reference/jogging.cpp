@@ -1,0 +1,76 @@
+#include "controller/reference/jogging.hpp"
+
+#include <Eigen/Geometry>
+
+#include "core/lie/so3.hpp"
+
+namespace chasles::controller {
+
+JogMotion::JogMotion(int dof, const JogConfig& config, const motion::MotionLimits& limits, GeneratorLimits& generator,
+                     double timeout, JogProgress& progress)
+    : limits_(limits), generator_(generator), timeout_(timeout), progress_(progress), jogger_(dof, config), jog_(dof) {}
+
+void JogMotion::start(int64_t now_ns) {
+  clock_.restart();
+  tick_ns_ = now_ns;
+}
+
+bool JogMotion::take(const Jog& jog, const Eigen::MatrixXd& M, int64_t now_ns) {
+  if (!clock_.take_if_newer(jog.utime)) return false;
+  clock_.take(jog.utime, now_ns, timeout_);
+  generator_.cap_jerk(M);
+  jog_.utime = jog.utime;
+  jog_.kind = jog.kind;
+  jog_.frame = jog.frame;
+  jog_.joint_velocity = jog.joint_velocity;
+  jog_.twist = jog.twist;
+  return true;
+}
+
+ReferenceSource::Progress JogMotion::advance(const Tick& tick, motion::Reference& ref) {
+  const double dt = stream_step(tick_ns_, tick.now_ns);
+  tick_ns_ = tick.now_ns;
+  const bool halt = clock_.silent(tick.now_ns, timeout_);
+  const Data& at_reference = tick.kinematics->at(*tick.model, ref.q);
+  const bool at_rest =
+      jogger_.step(at_reference, jog_, halt, limits_, generator_.limits(), dt, ref, progress_) && halt;
+  return at_rest ? Progress::kArrived : Progress::kMoving;
+}
+
+TipStreamMotion::TipStreamMotion(int dof, const JogConfig& config, const motion::MotionLimits& limits,
+                                 GeneratorLimits& generator, double timeout, JogProgress& progress)
+    : limits_(limits), generator_(generator), timeout_(timeout), progress_(progress), jogger_(dof, config) {}
+
+void TipStreamMotion::start(int64_t now_ns) {
+  clock_.restart();
+  tick_ns_ = now_ns;
+}
+
+bool TipStreamMotion::take(const TipSetpoint& setpoint, const Eigen::MatrixXd& M, int64_t now_ns) {
+  if (!clock_.take_if_newer(setpoint.utime)) return false;
+  generator_.cap_jerk(M);
+  const double age = clock_.take(setpoint.utime, now_ns, timeout_);
+  const Eigen::Vector4d& w = setpoint.quaternion;
+  twist_ = setpoint.twist;
+  target_.linear() = exp3(twist_.head<3>() * age) *
+                     Eigen::Quaterniond(w(0), w(1), w(2), w(3)).normalized().toRotationMatrix();
+  target_.translation() = setpoint.position + twist_.tail<3>() * age;
+  return true;
+}
+
+ReferenceSource::Progress TipStreamMotion::advance(const Tick& tick, motion::Reference& ref) {
+  const double dt = stream_step(tick_ns_, tick.now_ns);
+  tick_ns_ = tick.now_ns;
+  const bool halt = clock_.silent(tick.now_ns, timeout_);
+  if (!halt) {  // the pose moves on with its twist: the rotation in the base's axes, on the left
+    target_.linear() = exp3(twist_.head<3>() * dt) * target_.linear();
+    target_.translation() += twist_.tail<3>() * dt;
+  }
+  const Data& at_reference = tick.kinematics->at(*tick.model, ref.q);
+  const bool at_rest =
+      jogger_.follow_pose(at_reference, target_, twist_, halt, limits_, generator_.limits(), dt, ref, progress_) &&
+      halt;
+  return at_rest ? Progress::kArrived : Progress::kMoving;
+}
+
+}  // namespace chasles::controller
