@@ -54,15 +54,16 @@ void ContactConfig::fill_defaults(const RobotModel& model) {
   if (collision_torque.size() == 0) collision_torque = share_of_effort(kCollisionShareOfEffort);
 }
 
-void ContactConfig::validate(int dof) const {
-  auto check_joints = [dof](const Eigen::VectorXd& v, const char* name) {
+void ContactConfig::validate(const RobotModel& model) const {
+  const int dof = model.dof();
+  auto check_joints = [&model, dof](const Eigen::VectorXd& v, const char* name) {
     if (v.size() != dof) {
       throw ArgumentError(std::string(name) + " has " + std::to_string(v.size()) + " entries; the arm has " +
                           std::to_string(dof) + " joints");
     }
     for (int i = 0; i < dof; ++i) {
       if (!positive_or_infinite(v(i))) {
-        throw ArgumentError(std::string(name) + ": entry " + std::to_string(i + 1) + " is " + std::to_string(v(i)) +
+        throw ArgumentError(std::string(name) + ", joint " + model.joint(i).name + ": " + std::to_string(v(i)) +
                             "; thresholds and gains must be positive");
       }
     }
@@ -73,7 +74,7 @@ void ContactConfig::validate(int dof) const {
   check_joints(collision_torque, "the collision torque thresholds");
   for (int i = 0; i < dof; ++i) {
     if (contact_torque(i) > collision_torque(i)) {
-      throw ArgumentError("joint " + std::to_string(i + 1) + ": the contact torque threshold " +
+      throw ArgumentError("joint " + model.joint(i).name + ": the contact torque threshold " +
                           std::to_string(contact_torque(i)) + " is above the collision threshold " +
                           std::to_string(collision_torque(i)));
     }
@@ -103,7 +104,7 @@ void ContactConfig::validate(int dof) const {
 namespace {
 ContactConfig filled(ContactConfig config, const RobotModel& model) {
   config.fill_defaults(model);
-  config.validate(model.dof());
+  config.validate(model);
   return config;
 }
 }  // namespace

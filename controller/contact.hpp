@@ -42,7 +42,7 @@ struct ContactConfig {
   void fill_defaults(const RobotModel& model);
   /// Throws ArgumentError naming what is wrong: sizes, non-positive or NaN thresholds, a contact
   /// threshold above its collision threshold, non-positive gains or retract settings.
-  void validate(int dof) const;
+  void validate(const RobotModel& model) const;
 };
 
 /// The estimate of one tick.

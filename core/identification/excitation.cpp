@@ -395,7 +395,8 @@ void sample_fourier(const FourierTrajectory& trajectory, double t, Eigen::Ref<Ei
   }
 }
 
-void ExcitationLimits::validate(int dof) const {
+void ExcitationLimits::validate(const RobotModel& model) const {
+  const int dof = model.dof();
   for (const auto* v : {&lower, &upper, &velocity, &acceleration, &jerk}) {
     if (v->size() != dof) {
       throw ArgumentError("excitation limits: " + std::to_string(v->size()) + " values where the arm has " +
@@ -403,7 +404,7 @@ void ExcitationLimits::validate(int dof) const {
     }
   }
   for (int i = 0; i < dof; ++i) {
-    const std::string joint = "excitation limits, joint " + std::to_string(i) + ": ";
+    const std::string joint = "excitation limits, joint " + model.joint(i).name + ": ";
     if (std::isnan(lower(i)) || std::isnan(upper(i)) || !(lower(i) <= upper(i))) {
       throw ArgumentError(joint + "position limits [" + text(lower(i)) + ", " + text(upper(i)) +
                           "] are not a range");
@@ -495,7 +496,7 @@ ExcitationResult optimize_excitation(const RobotModel& model, const BaseParamete
   const auto clock_start = std::chrono::steady_clock::now();
   const int n = model.dof();
   options.validate();
-  limits.validate(n);
+  limits.validate(model);
   if (start.size() != n) {
     throw ArgumentError("excitation start: " + std::to_string(start.size()) + " values where the arm has " +
                         std::to_string(n) + " joints");

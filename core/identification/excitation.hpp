@@ -54,7 +54,7 @@ struct ExcitationLimits {
   Eigen::VectorXd lower, upper;                ///< rad (m)
   Eigen::VectorXd velocity, acceleration, jerk;  ///< rad/s, rad/s², rad/s³ (m/s, ...), > 0
   /// Throws ArgumentError naming the joint for wrong sizes, lower > upper, a rate limit ≤ 0 or NaN.
-  void validate(int dof) const;
+  void validate(const RobotModel& model) const;
 };
 
 struct ExcitationOptions {

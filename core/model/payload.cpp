@@ -51,4 +51,12 @@ RobotModel with_payload(const RobotModel& model, const Payload& payload) {
   return RobotModel(std::move(description));
 }
 
+void add_payload_gravity(const RobotModel& model, const Data& data, const Payload& payload, Eigen::VectorXd& tau) {
+  // Holding the load still takes the wrench opposite its weight's, carried to the joints by J_bᵀ.
+  const Vector3d f = data.T_sb.linear().transpose() * (-payload.mass * model.gravity());
+  Vector6d wrench;
+  wrench << payload.centre.cross(f), f;
+  tau.noalias() += data.J_b.transpose() * wrench;
+}
+
 }  // namespace chasles

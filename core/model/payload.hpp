@@ -27,4 +27,11 @@ std::string payload_problem(const Payload& payload);
 /// frame). Throws ModelError for a payload_problem. Allocates: built once, off any real-time loop.
 RobotModel with_payload(const RobotModel& model, const Payload& payload);
 
+/// τ += what the payload's weight asks of the joints at the state whose tip pose and J_b are in
+/// `data` (forward kinematics and body_jacobian, or compute_tick_terms): J_bᵀ (c × f, f) with f
+/// the weight m g in the tip frame — what with_payload adds to the arm's gravity torques g(q), from
+/// the Data of the tick instead of another pass over the chain. Subtracted from the loaded
+/// model's g(q), the bare arm's. Allocates nothing.
+void add_payload_gravity(const RobotModel& model, const Data& data, const Payload& payload, Eigen::VectorXd& tau);
+
 }  // namespace chasles

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "core/kinematics/kinematics.hpp"
+#include "core/model/payload.hpp"
 #include "core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/decompositions.hpp"
@@ -116,6 +117,22 @@ TEST_P(ReferenceDynamics, TickTermsMatchTheReference) {
 
 // compute_tick_terms against the algorithms one by one, and what it costs: one pass of the joint
 // transforms and one body Jacobian, however many terms it fills.
+TEST_P(Dynamics, APayloadsGravityIsWhatWithPayloadAddsToTheArms) {
+  // An off-centre load with an inertia of its own (which gravity does not see).
+  Payload payload;
+  payload.mass = 2.5;
+  payload.centre = Vector3d(0.03, -0.02, 0.08);
+  payload.inertia = Vector3d(0.01, 0.02, 0.015).asDiagonal();
+  const RobotModel loaded = with_payload(*model_, payload);
+  Data loaded_data(loaded);
+  for (const State& s : random_states(20)) {
+    compute_tick_terms(loaded, loaded_data, s.q, s.qd);
+    Eigen::VectorXd tau = gravity_torques(*model_, *data_, s.q);
+    add_payload_gravity(loaded, loaded_data, payload, tau);
+    EXPECT_TRUE(matrices_near(tau, gravity_torques(loaded, loaded_data, s.q), 1e-10));
+  }
+}
+
 TEST_P(Dynamics, TickTermsAreTheSeparateAlgorithmsInOnePass) {
   Data separate(*model_);
   for (const auto& s : random_states(20)) {
