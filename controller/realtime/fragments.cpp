@@ -39,7 +39,8 @@ bool parse_lcm_fragment(const uint8_t* data, size_t size, LcmFragment& out) {
     f.data += length + 1;
     f.size -= length + 1;
   }
-  if (uint64_t{f.offset} + f.size > f.message_size) return false;
+  // LCM cuts a message into fragments that each carry part of it: one with nothing is not LCM's.
+  if (f.size == 0 || uint64_t{f.offset} + f.size > f.message_size) return false;
   out = f;
   return true;
 }

@@ -47,9 +47,7 @@ void GoalMotion::start(int64_t now_ns) {
 }
 
 ReferenceSource::Progress GoalMotion::advance(const Tick& tick, motion::Reference& ref) {
-  const double t = 1e-9 * static_cast<double>(tick.now_ns - start_ns_);
-  trajectory_.sample(t, ref);  // the goal at rest once t is past the end
-  return t >= trajectory_.duration() ? Progress::kArrived : Progress::kMoving;
+  return sample_at(trajectory_, start_ns_, tick.now_ns, ref);  // the goal at rest once past the end
 }
 
 }  // namespace chasles::controller

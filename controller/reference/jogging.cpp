@@ -6,14 +6,25 @@
 
 namespace chasles::controller {
 
-JogMotion::JogMotion(int dof, const JogConfig& config, const motion::MotionLimits& limits, GeneratorLimits& generator,
-                     double timeout, JogProgress& progress)
-    : limits_(limits), generator_(generator), timeout_(timeout), progress_(progress), jogger_(dof, config), jog_(dof) {}
+JoggedMotion::JoggedMotion(int dof, const JogConfig& config, const motion::MotionLimits& limits,
+                           GeneratorLimits& generator, double timeout, JogProgress& progress)
+    : limits_(limits), generator_(generator), timeout_(timeout), progress_(progress), jogger_(dof, config) {}
 
-void JogMotion::start(int64_t now_ns) {
+void JoggedMotion::start(int64_t now_ns) {
   clock_.restart();
   tick_ns_ = now_ns;
 }
+
+double JoggedMotion::step(int64_t now_ns, bool& halt) {
+  const double dt = stream_step(tick_ns_, now_ns);
+  tick_ns_ = now_ns;
+  halt = clock_.silent(now_ns, timeout_);
+  return dt;
+}
+
+JogMotion::JogMotion(int dof, const JogConfig& config, const motion::MotionLimits& limits, GeneratorLimits& generator,
+                     double timeout, JogProgress& progress)
+    : JoggedMotion(dof, config, limits, generator, timeout, progress), jog_(dof) {}
 
 bool JogMotion::take(const Jog& jog, const Eigen::MatrixXd& M, int64_t now_ns) {
   if (!clock_.take_if_newer(jog.utime)) return false;
@@ -28,9 +39,8 @@ bool JogMotion::take(const Jog& jog, const Eigen::MatrixXd& M, int64_t now_ns) {
 }
 
 ReferenceSource::Progress JogMotion::advance(const Tick& tick, motion::Reference& ref) {
-  const double dt = stream_step(tick_ns_, tick.now_ns);
-  tick_ns_ = tick.now_ns;
-  const bool halt = clock_.silent(tick.now_ns, timeout_);
+  bool halt = false;
+  const double dt = step(tick.now_ns, halt);
   const Data& at_reference = tick.kinematics->at(*tick.model, ref.q);
   const bool at_rest =
       jogger_.step(at_reference, jog_, halt, limits_, generator_.limits(), dt, ref, progress_) && halt;
@@ -39,12 +49,7 @@ ReferenceSource::Progress JogMotion::advance(const Tick& tick, motion::Reference
 
 TipStreamMotion::TipStreamMotion(int dof, const JogConfig& config, const motion::MotionLimits& limits,
                                  GeneratorLimits& generator, double timeout, JogProgress& progress)
-    : limits_(limits), generator_(generator), timeout_(timeout), progress_(progress), jogger_(dof, config) {}
-
-void TipStreamMotion::start(int64_t now_ns) {
-  clock_.restart();
-  tick_ns_ = now_ns;
-}
+    : JoggedMotion(dof, config, limits, generator, timeout, progress) {}
 
 bool TipStreamMotion::take(const TipSetpoint& setpoint, const Eigen::MatrixXd& M, int64_t now_ns) {
   if (!clock_.take_if_newer(setpoint.utime)) return false;
@@ -59,9 +64,8 @@ bool TipStreamMotion::take(const TipSetpoint& setpoint, const Eigen::MatrixXd& M
 }
 
 ReferenceSource::Progress TipStreamMotion::advance(const Tick& tick, motion::Reference& ref) {
-  const double dt = stream_step(tick_ns_, tick.now_ns);
-  tick_ns_ = tick.now_ns;
-  const bool halt = clock_.silent(tick.now_ns, timeout_);
+  bool halt = false;
+  const double dt = step(tick.now_ns, halt);
   if (!halt) {  // the pose moves on with its twist: the rotation in the base's axes, on the left
     target_.linear() = exp3(twist_.head<3>() * dt) * target_.linear();
     target_.translation() += twist_.tail<3>() * dt;

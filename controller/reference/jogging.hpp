@@ -11,54 +11,57 @@
 
 namespace chasles::controller {
 
-class JogMotion final : public ReferenceSource {
+/// What a jog and a tip stream share: the Jogger that moves the reference, the timing of their
+/// messages, the limits. No command for `timeout` s: the reference halts, and once at rest the
+/// motion is over.
+class JoggedMotion : public ReferenceSource {
  public:
-  /// No command for `timeout` s: the jog halts; the reference at rest, it is over.
-  JogMotion(int dof, const JogConfig& config, const motion::MotionLimits& limits, GeneratorLimits& generator,
-            double timeout, JogProgress& progress);
-  /// The jog (re)starts at now_ns: its next command is taken whatever its stamp.
+  /// The messages (re)start at now_ns: the next is taken whatever its stamp.
   void start(int64_t now_ns);
-  /// Takes a command newer than the last (false, counted as dropped, if it is not), its jerk
-  /// capped at the pose of the state, whose mass matrix is M. Allocates nothing.
-  bool take(const Jog& jog, const Eigen::MatrixXd& M, int64_t now_ns);
-  Progress advance(const Tick& tick, motion::Reference& ref) override;
-  const JogConfig& config() const { return jogger_.config(); }
   const StreamClock& clock() const { return clock_; }
+  const JogConfig& config() const { return jogger_.config(); }
 
- private:
+ protected:
+  JoggedMotion(int dof, const JogConfig& config, const motion::MotionLimits& limits, GeneratorLimits& generator,
+               double timeout, JogProgress& progress);
+  /// The time the reference moves by at this tick, s; `halt`: whether the messages stopped.
+  double step(int64_t now_ns, bool& halt);
+
   const motion::MotionLimits& limits_;
   GeneratorLimits& generator_;
   double timeout_;
   JogProgress& progress_;
   Jogger jogger_;
-  Jog jog_;  // the latest command taken
   StreamClock clock_;
   int64_t tick_ns_ = 0;
 };
 
-class TipStreamMotion final : public ReferenceSource {
+class JogMotion final : public JoggedMotion {
  public:
-  /// No setpoint for `timeout` s: the reference brakes to rest, and it is over.
+  JogMotion(int dof, const JogConfig& config, const motion::MotionLimits& limits, GeneratorLimits& generator,
+            double timeout, JogProgress& progress);
+  /// Takes a command newer than the last (false, counted as dropped, if it is not), its jerk
+  /// capped at the pose of the state, whose mass matrix is M. Allocates nothing.
+  bool take(const Jog& jog, const Eigen::MatrixXd& M, int64_t now_ns);
+  Progress advance(const Tick& tick, motion::Reference& ref) override;
+
+ private:
+  Jog jog_;  // the latest command taken
+};
+
+class TipStreamMotion final : public JoggedMotion {
+ public:
   TipStreamMotion(int dof, const JogConfig& config, const motion::MotionLimits& limits, GeneratorLimits& generator,
                   double timeout, JogProgress& progress);
-  void start(int64_t now_ns);
   /// Takes a setpoint newer than the last (false, counted as dropped, if it is not): the pose,
   /// moved on with its twist by how late it came, its jerk capped at the pose of the state, whose
   /// mass matrix is M. Its quaternion is taken as unit (checked by the caller). Allocates nothing.
   bool take(const TipSetpoint& setpoint, const Eigen::MatrixXd& M, int64_t now_ns);
   Progress advance(const Tick& tick, motion::Reference& ref) override;
-  const StreamClock& clock() const { return clock_; }
 
  private:
-  const motion::MotionLimits& limits_;
-  GeneratorLimits& generator_;
-  double timeout_;
-  JogProgress& progress_;
-  Jogger jogger_;
   Transform target_;  // the pose, moved on with twist_ every tick
   Vector6d twist_ = Vector6d::Zero();
-  StreamClock clock_;
-  int64_t tick_ns_ = 0;
 };
 
 }  // namespace chasles::controller

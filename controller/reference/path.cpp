@@ -35,9 +35,7 @@ void PathMotion::start(const JointPath& path, int64_t now_ns) {
 }
 
 ReferenceSource::Progress PathMotion::advance(const Tick& tick, motion::Reference& ref) {
-  const double t = 1e-9 * static_cast<double>(tick.now_ns - start_ns_);
-  sampler_.sample(t, ref);  // the goal at rest once t is past the end
-  return t >= sampler_.duration() ? Progress::kArrived : Progress::kMoving;
+  return sample_at(sampler_, start_ns_, tick.now_ns, ref);  // the goal at rest once past the end
 }
 
 }  // namespace chasles::controller

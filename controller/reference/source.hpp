@@ -105,6 +105,15 @@ class ReferenceSource {
   virtual const char* failure() const { return ""; }
 };
 
+/// A motion laid out in time from start_ns (a quintic, a path, a spline: anything with
+/// sample(t, ref) and duration()) sampled at now_ns: past its end it holds its goal at rest.
+template <typename Motion>
+ReferenceSource::Progress sample_at(const Motion& motion, int64_t start_ns, int64_t now_ns, motion::Reference& ref) {
+  const double t = 1e-9 * static_cast<double>(now_ns - start_ns);
+  motion.sample(t, ref);
+  return t >= motion.duration() ? ReferenceSource::Progress::kArrived : ReferenceSource::Progress::kMoving;
+}
+
 /// The time between two ticks a stream's reference moves by, s: from `last_ns` to now_ns, at most
 /// 0.1 s (a loop that stalled longer does not jump the reference).
 double stream_step(int64_t last_ns, int64_t now_ns);

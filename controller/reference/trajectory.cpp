@@ -141,9 +141,7 @@ void TrajectoryMotion::start(const motion::Waypoints& w, int64_t now_ns) {
 }
 
 ReferenceSource::Progress TrajectoryMotion::advance(const Tick& tick, motion::Reference& ref) {
-  const double t = 1e-9 * static_cast<double>(tick.now_ns - start_ns_);
-  spline_.sample(t, ref);  // the last waypoint at rest once t is past the end
-  return t >= spline_.duration() ? Progress::kArrived : Progress::kMoving;
+  return sample_at(spline_, start_ns_, tick.now_ns, ref);  // the goal at rest once past the end
 }
 
 bool TrajectoryMotion::judge(const RobotModel& model, const Eigen::VectorXd& error, bool running, int64_t now_ns) {

@@ -71,6 +71,11 @@ TEST(Fragments, RefusesWhatIsNotOne) {
   broken.assign(d.begin(), d.begin() + 20);
   broken.insert(broken.end(), 64, 'C');  // 64 characters and no NUL
   EXPECT_FALSE(parse_lcm_fragment(broken.data(), broken.size(), f));
+  const auto last = lcm_fragments("A", payload_of(100'000, 1), 1)[1];
+  broken.assign(last.begin(), last.begin() + 20);  // a later fragment carrying nothing
+  EXPECT_FALSE(parse_lcm_fragment(broken.data(), broken.size(), f));
+  broken.assign(d.begin(), d.begin() + 22);  // the first, with its channel "A" and nothing after
+  EXPECT_FALSE(parse_lcm_fragment(broken.data(), broken.size(), f));
 }
 
 TEST(Fragments, PutsMessagesBackTogetherInAnyOrderFromSeveralSenders) {
