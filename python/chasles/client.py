@@ -24,12 +24,13 @@ stamps them.
 Threading: one LCM instance; a receive thread, started by start() or `with`, runs the callbacks
 and keeps the latest state and status; close() (or leaving `with`) stops it within 50 ms. Sending
 is safe from any thread.
+
+The checks of what is sent live in chasles._command_checks and the received values in
+chasles._messages; every name of theirs is importable from here, where callers import it.
 """
 from __future__ import annotations
 
 import collections
-import dataclasses
-import math
 import re
 import struct
 import threading
@@ -39,6 +40,22 @@ from typing import Callable, Iterator, Optional, Sequence, Union
 import lcm
 import numpy as np
 
+from chasles._command_checks import (
+    _LAW_OPTIONS,
+    DAMPING_RATIO_RANGE,
+    LAWS,
+    MAX_WAYPOINTS,
+    ArrayLike,
+    InvalidCommand,
+    _cartesian_stiffness,
+    _duration,
+    _number,
+    _vector,
+    pose_parts,
+    quaternion_from_rotation,
+    rotation_from_quaternion,
+    unit_quaternion,
+)
 from chasles._core import ArgumentError, Error
 # The bounds and defaults of the C++ that judges the same commands (the controller, the CLI), read
 # from it: a quaternion's norm tolerance (core/lie/so3.hpp), a law's bounds and defaults
@@ -62,6 +79,7 @@ from chasles._core import (
     MIN_DAMPING_RATIO,
     QUATERNION_NORM_TOLERANCE,
 )
+from chasles._messages import STATES, JointSetpoint, State, Status, TipSetpoint
 from chasles.lcmtypes import (
     arm_target_t,
     control_mode_t,
@@ -74,38 +92,12 @@ from chasles.lcmtypes import (
     tip_setpoint_t,
 )
 
-ArrayLike = Union[Sequence[float], np.ndarray]
 
-DAMPING_RATIO_RANGE = (MIN_DAMPING_RATIO, MAX_DAMPING_RATIO)
-#: joint_trajectory_t holds 1 to this many waypoints.
-MAX_WAYPOINTS = 1000
-
-LAWS = {
-    "computed-torque": control_mode_t.COMPUTED_TORQUE,
-    "joint-impedance": control_mode_t.JOINT_IMPEDANCE,
-    "cartesian-impedance": control_mode_t.CARTESIAN_IMPEDANCE,
-    "free-drive": control_mode_t.FREE_DRIVE,
-}
-#: The options each law reads (`chasles mode` refuses the others as well).
-_LAW_OPTIONS = {
-    "computed-torque": set(),
-    "joint-impedance": {"stiffness", "damping", "damping_ratio"},
-    "cartesian-impedance": {"damping_ratio", "translational", "rotational", "cartesian_stiffness", "frame", "posture",
-                            "nullspace_stiffness"},
-    "free-drive": {"damping"},
-}
-STATES = {
-    controller_status_t.WAITING: "WAITING",
-    controller_status_t.RUNNING: "RUNNING",
-    controller_status_t.HOLDING: "HOLDING",
-    controller_status_t.FAULT: "FAULT",
-    controller_status_t.REFLEX: "REFLEX",
-}
-
-
-class InvalidCommand(ArgumentError):
-    """A command refused before anything was sent; the message says which input and why. A
-    :class:`chasles.ArgumentError`, hence a :class:`chasles.Error` and a ``ValueError``."""
+# The classes defined apart carry this module's name, where callers import them from: tracebacks
+# say chasles.client.InvalidCommand, and pickles name the module that will go on holding them.
+for _moved in (InvalidCommand, State, Status, JointSetpoint, TipSetpoint):
+    _moved.__module__ = __name__
+del _moved
 
 
 class ArmError(Error):
@@ -123,226 +115,6 @@ class ArmFault(ArmError):
 def now_us() -> int:
     """Microseconds since the Unix epoch (CLOCK_REALTIME), as every chasles tool stamps utime."""
     return time.time_ns() // 1000
-
-
-# ---- checks, each naming the input -------------------------------------------------------------
-
-
-def _vector(values: ArrayLike, name: str, size: Optional[int] = None) -> np.ndarray:
-    """`values` as a finite float vector of `size` entries (any size when None)."""
-    try:
-        v = np.array(values, dtype=float)
-    except (TypeError, ValueError) as e:
-        raise InvalidCommand(f"{name}: not a list of numbers ({e})") from None
-    if v.ndim == 0:
-        v = v.reshape(1)
-    if v.ndim != 1:
-        raise InvalidCommand(f"{name}: a vector is needed, got an array of shape {v.shape}")
-    if size is not None and v.size != size:
-        raise InvalidCommand(f"{name} has {v.size} entries, expected {size}")
-    bad = np.flatnonzero(~np.isfinite(v))
-    if bad.size:
-        raise InvalidCommand(f"{name}: entry {bad[0]} is {v[bad[0]]}, not a finite number")
-    return v
-
-
-def _number(value: float, name: str) -> float:
-    x = float(value)
-    if not math.isfinite(x):
-        raise InvalidCommand(f"{name} is {x}, not a finite number")
-    return x
-
-
-def _duration(value: float) -> float:
-    seconds = _number(value, "duration")
-    if seconds <= 0.0:
-        raise InvalidCommand(f"duration: {seconds} s; the time to reach the goal must be positive and finite")
-    return seconds
-
-
-def unit_quaternion(quaternion: ArrayLike, name: str = "quaternion") -> np.ndarray:
-    """A quaternion (w, x, y, z) normalised; refused when its norm is more than 1e-3 from 1."""
-    q = _vector(quaternion, name, 4)
-    norm = float(np.linalg.norm(q))
-    if not abs(norm - 1.0) <= QUATERNION_NORM_TOLERANCE:
-        raise InvalidCommand(
-            f"{name} (w, x, y, z) = ({', '.join(repr(float(x)) for x in q)}) has norm {norm!r}; give a unit "
-            f"quaternion (norms within {QUATERNION_NORM_TOLERANCE} of 1 are normalised)"
-        )
-    return q / norm
-
-
-def quaternion_from_rotation(R: np.ndarray) -> np.ndarray:
-    """The unit quaternion (w, x, y, z), w ≥ 0, of a rotation matrix (Shepperd's method: the
-    largest of the four squared components is taken first, so no branch divides by a small one)."""
-    trace = R[0, 0] + R[1, 1] + R[2, 2]
-    squares = np.array([1.0 + trace, 1.0 + 2 * R[0, 0] - trace, 1.0 + 2 * R[1, 1] - trace, 1.0 + 2 * R[2, 2] - trace])
-    k = int(np.argmax(squares))
-    s = 2.0 * math.sqrt(squares[k])  # 4 × the k-th component
-    if k == 0:
-        q = [s / 4, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s]
-    elif k == 1:
-        q = [(R[2, 1] - R[1, 2]) / s, s / 4, (R[0, 1] + R[1, 0]) / s, (R[0, 2] + R[2, 0]) / s]
-    elif k == 2:
-        q = [(R[0, 2] - R[2, 0]) / s, (R[0, 1] + R[1, 0]) / s, s / 4, (R[1, 2] + R[2, 1]) / s]
-    else:
-        q = [(R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, s / 4]
-    q = np.array(q)
-    return -q if q[0] < 0 else q
-
-
-def rotation_from_quaternion(quaternion: ArrayLike) -> np.ndarray:
-    """R of a unit quaternion (w, x, y, z)."""
-    w, x, y, z = quaternion
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-        ]
-    )
-
-
-def pose_parts(pose) -> tuple[np.ndarray, np.ndarray]:
-    """(p, quaternion (w, x, y, z)) of a pose given as a 4×4 homogeneous T or as (p, quaternion);
-    the rotation must be one (orthonormal within 1e-6, determinant +1), the quaternion unit."""
-    if isinstance(pose, (tuple, list)) and len(pose) == 2:
-        return _vector(pose[0], "pose position", 3), unit_quaternion(pose[1], "pose quaternion")
-    T = np.asarray(pose, dtype=float)
-    if T.shape != (4, 4):
-        raise InvalidCommand(f"pose: a 4x4 transform or (position, quaternion) is needed, got shape {T.shape}")
-    if not np.all(np.isfinite(T)):
-        raise InvalidCommand("pose: the transform holds a number that is not finite")
-    R = T[:3, :3]
-    if not np.array_equal(T[3], [0.0, 0.0, 0.0, 1.0]):
-        raise InvalidCommand(f"pose: the last row is {T[3].tolist()}, not [0, 0, 0, 1]")
-    if np.abs(R.T @ R - np.eye(3)).max() > 1e-6 or abs(np.linalg.det(R) - 1.0) > 1e-6:
-        raise InvalidCommand("pose: the upper-left 3x3 block is not a rotation (orthonormal, determinant +1)")
-    return T[:3, 3].copy(), quaternion_from_rotation(R)
-
-
-# ---- what is received ---------------------------------------------------------------------------
-
-
-@dataclasses.dataclass(frozen=True)
-class State:
-    """One robot_state_t (PREFIX STATE, from the plant or the arm's driver)."""
-
-    utime: int  #: when the state was sampled, µs since the Unix epoch, sender's clock
-    seq: int  #: the sender's step counter
-    position: np.ndarray  #: q, rad or m, root to tip
-    velocity: np.ndarray  #: q̇, rad/s or m/s
-    effort: np.ndarray  #: the torque applied over the step that ended at the sample, N·m or N
-
-    @classmethod
-    def from_message(cls, m: robot_state_t) -> "State":
-        return cls(m.utime, m.seq, np.array(m.position), np.array(m.velocity), np.array(m.effort))
-
-
-@dataclasses.dataclass(frozen=True)
-class Status:
-    """One controller_status_t (PREFIX STATUS, ~100 Hz); lcmtypes/chasles_controller_status_t.lcm
-    documents every field. Joint arrays have num_joints entries, root to tip."""
-
-    utime: int  #: µs since the Unix epoch, the controller's clock
-    state: int  #: WAITING 0, RUNNING 1, HOLDING 2, FAULT 3, REFLEX 4 (STATES names them)
-    message: str  #: why FAULT or REFLEX, or the last refusal; may be empty
-    num_joints: int
-    q: np.ndarray  #: measured joint positions, rad or m
-    q_desired: np.ndarray  #: the reference at this tick, rad or m
-    tracking_error: np.ndarray  #: q_desired - q, rad or m
-    tip_position: np.ndarray  #: p_sb, m, the tip frame's origin in the base frame (FK of q)
-    tip_quaternion: np.ndarray  #: R_sb as (w, x, y, z)
-    torque: np.ndarray  #: last commanded joint torques, N·m or N
-    ik_iterations: int
-    ik_residual: float
-    ik_converged: bool
-    jitter_p50_us: float
-    jitter_p99_us: float
-    jitter_max_us: float
-    compute_p50_us: float
-    compute_p99_us: float
-    compute_max_us: float
-    latency_p50_us: float
-    latency_p99_us: float
-    latency_max_us: float
-    ticks: int
-    overruns: int
-    stale_states: int
-    rejected_messages: int  #: malformed or refused messages, since start
-    faults: int
-    tau_ext: np.ndarray  #: estimated external joint torque, N·m or N
-    tip_wrench_ext: np.ndarray  #: (m, f) on the tip, N·m and N, base-aligned, about the tip origin
-    contact: bool
-    collision: bool
-    contacts: int
-    reflexes: int
-    law: int  #: the control law in force (LAWS maps names to it)
-    payload_mass: float  #: kg
-    state_period: float  #: s
-    trajectory_id: int
-    trajectory_outcome: int  #: controller_status_t.TRAJECTORY_*
-    trajectory_elapsed: float  #: s
-    trajectory_duration: float  #: s
-    trajectory_time_scale: float
-    trajectory_waypoint: int
-    trajectory_message: str
-    streaming: bool
-    setpoints: int
-    setpoints_dropped: int
-    jogging: bool
-    jogs: int
-    jogs_dropped: int
-    jog_condition: float
-    jog_scale: float
-    jog_limited_by: int
-    jog_joint: int
-    #: the limits streams, jogs and stops are planned with now, per joint: velocity rad/s, acceleration
-    #: rad/s², jerk rad/s³ (the configured jerk capped by the torque rate at the latest goal's pose)
-    generator_velocity_limit: np.ndarray
-    generator_acceleration_limit: np.ndarray
-    generator_jerk_limit: np.ndarray
-
-    @property
-    def state_name(self) -> str:
-        """WAITING, RUNNING, HOLDING, FAULT or REFLEX."""
-        return STATES.get(self.state, str(self.state))
-
-    @property
-    def T_sb(self) -> np.ndarray:
-        """The tip pose as a 4×4 homogeneous transform, base (space) frame."""
-        T = np.eye(4)
-        T[:3, :3] = rotation_from_quaternion(self.tip_quaternion)
-        T[:3, 3] = self.tip_position
-        return T
-
-    @classmethod
-    def from_message(cls, m: controller_status_t) -> "Status":
-        values = {}
-        for field in dataclasses.fields(cls):
-            value = getattr(m, field.name)
-            values[field.name] = np.array(value, dtype=float) if isinstance(value, (list, tuple)) else value
-        return cls(**values)
-
-
-@dataclasses.dataclass(frozen=True)
-class JointSetpoint:
-    """One setpoint of a joint stream (joint_setpoint_t): positions, rad or m, and how fast the
-    setpoint moves on, rad/s or m/s (None: 0, a stream of positions alone)."""
-
-    position: ArrayLike
-    velocity: Optional[ArrayLike] = None
-
-
-@dataclasses.dataclass(frozen=True)
-class TipSetpoint:
-    """One setpoint of a Cartesian stream (tip_setpoint_t): the tip pose in the base frame, p_sb in
-    m and R_sb as a unit quaternion (w, x, y, z), and its twist (ω, v) in the base frame's axes,
-    rad/s and m/s (None: 0)."""
-
-    position: ArrayLike
-    quaternion: ArrayLike
-    twist: Optional[ArrayLike] = None
 
 
 class StateStream:
@@ -967,37 +739,3 @@ class Arm:
             message.num_joints = 0
             message.twist = _vector(twist, "twist", 6).tolist()
         return self._publish("JOG", message)
-
-
-def _cartesian_stiffness(matrix: Optional[ArrayLike], translational: Optional[float],
-                         rotational: Optional[float]) -> np.ndarray:
-    """K_c, (ω, v) order, checked as law_problem checks it: symmetric, positive definite, each
-    diagonal block's eigenvalues within their bounds."""
-    if matrix is None:
-        r = DEFAULT_ROTATIONAL_STIFFNESS if rotational is None else _number(rotational, "rotational")
-        t = DEFAULT_TRANSLATIONAL_STIFFNESS if translational is None else _number(translational, "translational")
-        K = np.diag([r, r, r, t, t, t])
-    else:
-        K = np.asarray(matrix, dtype=float)
-        if K.shape == (6,):
-            K = np.diag(K)
-        elif K.shape != (6, 6):
-            raise InvalidCommand(f"cartesian_stiffness has shape {K.shape}; give 6 numbers (the diagonal, rotational "
-                                 "first) or a 6x6 matrix")
-    if not np.all(np.isfinite(K)):
-        raise InvalidCommand("the Cartesian stiffness is not finite")
-    if not np.abs(K - K.T).max() <= 1e-9 * np.abs(K).max():
-        raise InvalidCommand("the Cartesian stiffness is not symmetric")
-    rotational_eigenvalues = np.linalg.eigvalsh(K[:3, :3])
-    translational_eigenvalues = np.linalg.eigvalsh(K[3:, 3:])
-    if not (rotational_eigenvalues[0] > 0 and translational_eigenvalues[0] > 0 and np.linalg.eigvalsh(K)[0] > 0):
-        raise InvalidCommand(
-            "the Cartesian stiffness is not positive definite (eigenvalues of its rotational block from "
-            f"{rotational_eigenvalues[0]}, of its translational block from {translational_eigenvalues[0]})")
-    if rotational_eigenvalues[-1] > MAX_ROTATIONAL_STIFFNESS:
-        raise InvalidCommand(f"the Cartesian rotational stiffness reaches {rotational_eigenvalues[-1]} N*m/rad, over "
-                             f"{MAX_ROTATIONAL_STIFFNESS}")
-    if translational_eigenvalues[-1] > MAX_TRANSLATIONAL_STIFFNESS:
-        raise InvalidCommand(f"the Cartesian translational stiffness reaches {translational_eigenvalues[-1]} N/m, over "
-                             f"{MAX_TRANSLATIONAL_STIFFNESS}")
-    return K
