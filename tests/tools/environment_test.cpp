@@ -20,8 +20,8 @@
 #include <string>
 #include <vector>
 
-#include "controller/realtime/bus.hpp"
-#include "controller/realtime/clock.hpp"
+#include "controller/transport/realtime/bus.hpp"
+#include "controller/transport/realtime/clock.hpp"
 #include "core/dynamics/dynamics.hpp"
 #include "core/identification/perturbation.hpp"
 #include "core/lie/so3.hpp"
