@@ -5,9 +5,9 @@
 #include <thread>
 
 #include "controller/node.hpp"
-#include "controller/realtime/bus.hpp"
-#include "controller/realtime/clock.hpp"
-#include "controller/realtime/realtime.hpp"
+#include "controller/transport/realtime/bus.hpp"
+#include "controller/transport/realtime/clock.hpp"
+#include "controller/transport/realtime/realtime.hpp"
 
 namespace chasles::controller {
 namespace {

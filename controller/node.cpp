@@ -6,17 +6,10 @@
 #include <cstdio>
 #include <cstring>
 
+#include "controller/transport/wire.hpp"
 #include "core/dynamics/dynamics.hpp"
 
 namespace chasles::controller {
-
-static_assert(TrajectoryProgress::kNone == controller_status_t::TRAJECTORY_NONE &&
-                  TrajectoryProgress::kActive == controller_status_t::TRAJECTORY_ACTIVE &&
-                  TrajectoryProgress::kSucceeded == controller_status_t::TRAJECTORY_SUCCEEDED &&
-                  TrajectoryProgress::kAborted == controller_status_t::TRAJECTORY_ABORTED &&
-                  TrajectoryProgress::kPreempted == controller_status_t::TRAJECTORY_PREEMPTED &&
-                  TrajectoryProgress::kRejected == controller_status_t::TRAJECTORY_REJECTED,
-              "the status's trajectory outcomes are TrajectoryProgress's");
 
 Node::Snapshot::Snapshot(int n)
     : q(Eigen::VectorXd::Zero(n)),
@@ -488,7 +481,7 @@ void Node::fill_status() {
   const Snapshot& s = reporter_.last;
   controller_status_t& status = reporter_.status;
   status.utime = clock_.utime_us();
-  status.state = static_cast<int8_t>(s.mode);
+  status.state = to_wire(s.mode);
   status.message = s.mode == Mode::kFault    ? s.fault
                    : s.mode == Mode::kReflex ? s.reflex
                    : *s.period_warning != '\0' ? s.period_warning
@@ -509,11 +502,11 @@ void Node::fill_status() {
   status.collision = s.collision;
   status.contacts = s.contacts;
   status.reflexes = s.reflexes;
-  status.law = law_to_wire(s.law);
+  status.law = to_wire(s.law);
   status.payload_mass = s.payload_mass;
   status.state_period = s.state_period;
   status.trajectory_id = s.trajectory.id;
-  status.trajectory_outcome = static_cast<int8_t>(s.trajectory.outcome);
+  status.trajectory_outcome = to_wire(s.trajectory.outcome);
   status.trajectory_elapsed = s.trajectory.elapsed;
   status.trajectory_duration = s.trajectory.duration;
   status.trajectory_time_scale = s.trajectory.scale;
@@ -527,7 +520,7 @@ void Node::fill_status() {
   status.jogs_dropped = s.dropped_jogs;
   status.jog_condition = s.jog.condition;
   status.jog_scale = s.jog.scale;
-  status.jog_limited_by = static_cast<int8_t>(s.jog.limited_by);
+  status.jog_limited_by = to_wire(s.jog.limited_by);
   status.jog_joint = s.jog.joint;
   const Transform& T = forward_kinematics(model_, reporter_.data, s.q);
   const Eigen::Quaterniond quaternion(T.linear());

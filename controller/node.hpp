@@ -24,12 +24,12 @@
 #include <vector>
 
 #include "controller/controller.hpp"
-#include "controller/lcm_io.hpp"
+#include "controller/transport/lcm_io.hpp"
 #include "controller/options.hpp"
-#include "controller/realtime/bus.hpp"
-#include "controller/realtime/clock.hpp"
-#include "controller/realtime/mailbox.hpp"
-#include "controller/realtime/realtime.hpp"
+#include "controller/transport/realtime/bus.hpp"
+#include "controller/transport/realtime/clock.hpp"
+#include "controller/transport/realtime/mailbox.hpp"
+#include "controller/transport/realtime/realtime.hpp"
 #include "controller/statistics.hpp"
 #include "core/kinematics/kinematics.hpp"
 

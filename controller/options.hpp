@@ -8,7 +8,7 @@
 #include <string>
 
 #include "controller/controller.hpp"
-#include "controller/protocol.hpp"
+#include "controller/transport/protocol.hpp"
 #include "controller/statistics.hpp"
 #include "core/model/payload.hpp"
 

@@ -374,7 +374,7 @@ bool fits_arm(int32_t count, int arm_joints) {
 }
 // A control mode carries all of the arm's joints or none, in each of its two counts; so do Drake's
 // commands, in each of theirs (which counts a driver needs depends on its mode, and is the
-// protocol's to judge: controller/protocol.hpp).
+// protocol's to judge: controller/transport/protocol.hpp).
 inline bool all_or_none(int32_t count, int arm_joints) { return count == 0 || count == arm_joints; }
 inline bool fits_arm(const control_mode_t& m, int arm_joints) {
   return all_or_none(m.num_joints, arm_joints) && all_or_none(m.num_posture, arm_joints);

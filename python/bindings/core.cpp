@@ -24,7 +24,7 @@
 #include "core/model/payload.hpp"
 #include "core/model/urdf.hpp"
 // Only LawBounds's and LawDefaults' constants: nothing of the controller library is linked.
-#include "controller/law.hpp"
+#include "controller/law_settings.hpp"
 
 namespace chasles::python {
 
@@ -478,7 +478,7 @@ void bind_observer(nb::module_& m) {
 
 // The bounds and defaults chasles.client checks and fills a command with before sending, read from
 // the C++ the controller and the CLI use, so that no copy of them can drift: the quaternion norm
-// tolerance (core/lie/so3.hpp), a law's bounds and defaults (controller/law.hpp), the payload's
+// tolerance (core/lie/so3.hpp), a law's bounds and defaults (controller/law_settings.hpp), the payload's
 // bounds (core/model/payload.hpp).
 void bind_limits(nb::module_& m) {
   using controller::LawBounds;

@@ -59,7 +59,7 @@ from chasles._command_checks import (
 from chasles._core import ArgumentError, Error
 # The bounds and defaults of the C++ that judges the same commands (the controller, the CLI), read
 # from it: a quaternion's norm tolerance (core/lie/so3.hpp), a law's bounds and defaults
-# (controller/law.hpp LawBounds, LawDefaults: control_mode_t documents them), the payload's bounds
+# (controller/law_settings.hpp LawBounds, LawDefaults: control_mode_t documents them), the payload's bounds
 # (core/model/payload.hpp). The payload's principal moments are judged with core/model/inertia.cpp's
 # tolerance: 2e-3 × the largest + m·(1 µm)².
 from chasles._core import (

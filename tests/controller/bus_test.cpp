@@ -18,7 +18,7 @@
 #include <thread>
 #include <vector>
 
-#include "controller/realtime/bus.hpp"
+#include "controller/transport/realtime/bus.hpp"
 #include "core/error.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/lcm_wire.hpp"

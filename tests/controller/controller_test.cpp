@@ -15,8 +15,8 @@
 #include <vector>
 
 #include "controller/controller.hpp"
-#include "controller/lcm_io.hpp"
-#include "controller/realtime/mailbox.hpp"
+#include "controller/transport/lcm_io.hpp"
+#include "controller/transport/realtime/mailbox.hpp"
 #include "controller/statistics.hpp"
 #include "core/motion/quintic.hpp"
 #include "core/dynamics/dynamics.hpp"
@@ -92,29 +92,6 @@ TEST(Trajectory, ContinuesAMovingReferenceAndItsDerivativesAreConsistent) {
 }
 
 // --- statistics -------------------------------------------------------------------------------
-
-// The laws on the wire are control_mode_t's constants, one each, and nothing else reads as a law.
-TEST(LawWire, EveryLawHasItsConstantAndNothingElseIsALaw) {
-  const std::pair<Law, int8_t> expected[] = {{Law::kComputedTorque, control_mode_t::COMPUTED_TORQUE},
-                                             {Law::kJointImpedance, control_mode_t::JOINT_IMPEDANCE},
-                                             {Law::kCartesianImpedance, control_mode_t::CARTESIAN_IMPEDANCE},
-                                             {Law::kFreeDrive, control_mode_t::FREE_DRIVE}};
-  for (const auto& [law, wire] : expected) {
-    EXPECT_EQ(law_to_wire(law), wire) << to_string(law);
-    Law back = Law::kComputedTorque;
-    ASSERT_TRUE(law_from_wire(wire, back));
-    EXPECT_EQ(back, law);
-  }
-  for (int wire : {-1, 4, 127}) {
-    Law back = Law::kJointImpedance;
-    EXPECT_FALSE(law_from_wire(static_cast<int8_t>(wire), back)) << wire;
-  }
-  control_mode_t message{};
-  message.law = 7;
-  LawSettings settings(7);
-  EXPECT_EQ(law_from_message(message, 7, settings),
-            "unknown law 7 (0 computed-torque, 1 joint-impedance, 2 cartesian-impedance, 3 free-drive)");
-}
 
 TEST(Histogram, PercentilesAreExactToTheBinWidth) {
   std::mt19937 rng(7);

@@ -25,9 +25,9 @@
 #include <vector>
 
 #include "controller/controller.hpp"
-#include "controller/lcm_io.hpp"
-#include "controller/realtime/bus.hpp"
-#include "controller/realtime/clock.hpp"
+#include "controller/transport/lcm_io.hpp"
+#include "controller/transport/realtime/bus.hpp"
+#include "controller/transport/realtime/clock.hpp"
 #include "core/dynamics/dynamics.hpp"
 #include "core/lie/se3.hpp"
 #include "core/model/urdf.hpp"

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "controller/realtime/fragments.hpp"
+#include "controller/transport/realtime/fragments.hpp"
 #include "support/lcm_wire.hpp"
 
 namespace chasles::controller {

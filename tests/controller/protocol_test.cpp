@@ -1,4 +1,4 @@
-// The protocols at the edge (controller/protocol.hpp): their names and defaults, the sequence Drake's
+// The protocols at the edge (controller/transport/protocol.hpp): their names and defaults, the sequence Drake's
 // statuses lack, and each translation on real bytes — a message built by hand, encoded by lcm-gen,
 // read back by the protocol's checked decoder and translated — with Drake's sign conventions and the
 // overlay's subtraction of g(q) asserted exactly.
@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "controller/protocol.hpp"
+#include "controller/transport/protocol.hpp"
 #include "lcmtypes/checked.hpp"
 #include "support/allocation_counter.hpp"
 

@@ -30,11 +30,11 @@
 #include <vector>
 
 #include "controller/controller.hpp"
-#include "controller/lcm_io.hpp"
-#include "controller/protocol.hpp"
-#include "controller/realtime/bus.hpp"
-#include "controller/realtime/clock.hpp"
-#include "controller/realtime/fragments.hpp"
+#include "controller/transport/lcm_io.hpp"
+#include "controller/transport/protocol.hpp"
+#include "controller/transport/realtime/bus.hpp"
+#include "controller/transport/realtime/clock.hpp"
+#include "controller/transport/realtime/fragments.hpp"
 #include "core/dynamics/dynamics.hpp"
 #include "core/model/urdf.hpp"
 #include "lcmtypes/checked.hpp"

@@ -4,7 +4,7 @@
 #include <stdexcept>
 #include <type_traits>
 
-#include "controller/realtime/clock.hpp"
+#include "controller/transport/realtime/clock.hpp"
 #include "lcmtypes/checked.hpp"
 
 namespace chasles::faults {

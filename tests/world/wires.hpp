@@ -1,5 +1,5 @@
 // The wires the simulated-time suites run over: each protocol the controller speaks with an arm's
-// driver (controller/protocol.hpp) at its driver's rate and at the other — chasles's own, Drake's
+// driver (controller/transport/protocol.hpp) at its driver's rate and at the other — chasles's own, Drake's
 // iiwa (FRI's 200 Hz) and Drake's Panda (libfranka's 1 kHz) — and the options of a controller and
 // a plant on one.
 #pragma once
@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "controller/daemon.hpp"
-#include "controller/protocol.hpp"
+#include "controller/transport/protocol.hpp"
 #include "tools/simulation/simulation.hpp"
 #include "checks.hpp"
 

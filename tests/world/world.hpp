@@ -27,10 +27,10 @@
 #include <vector>
 
 #include "controller/node.hpp"
-#include "controller/protocol.hpp"
+#include "controller/transport/protocol.hpp"
 #include "core/model/model.hpp"
-#include "controller/realtime/bus.hpp"
-#include "controller/realtime/clock.hpp"
+#include "controller/transport/realtime/bus.hpp"
+#include "controller/transport/realtime/clock.hpp"
 #include "tools/simulation/simulation.hpp"
 #include "checks.hpp"
 

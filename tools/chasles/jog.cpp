@@ -8,7 +8,7 @@
 #include <memory>
 #include <vector>
 
-#include "controller/realtime/clock.hpp"
+#include "controller/transport/realtime/clock.hpp"
 #include "command.hpp"
 #include "lcm_start.hpp"
 

@@ -20,8 +20,8 @@
 #include <vector>
 
 #include "controller/law.hpp"
-#include "controller/lcm_io.hpp"
-#include "controller/realtime/clock.hpp"
+#include "controller/transport/lcm_io.hpp"
+#include "controller/transport/realtime/clock.hpp"
 #include "core/model/payload.hpp"
 #include "core/number_list.hpp"
 #include "lcmtypes/checked.hpp"
@@ -124,7 +124,7 @@ std::string law_names(const std::vector<Law>& laws) {
 control_mode_t mode_message(const ModeOptions& o, Law law, const RobotModel& model) {
   const int n = model.dof();
   control_mode_t m{};
-  m.law = controller::law_to_wire(law);
+  m.law = controller::to_wire(law);
   m.num_joints = 0;
   m.damping_ratio = o.damping_ratio.empty() ? LawDefaults::kDampingRatio : one_number(o.damping_ratio, "--damping-ratio");
   m.stiffness_frame_quaternion[0] = 1.0;  // the tip frame itself, for every law

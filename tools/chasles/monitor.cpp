@@ -22,9 +22,9 @@
 #include <optional>
 #include <sstream>
 
-#include "controller/law.hpp"
-#include "controller/lcm_io.hpp"
-#include "controller/realtime/clock.hpp"
+#include "controller/law_settings.hpp"
+#include "controller/transport/wire.hpp"
+#include "controller/transport/realtime/clock.hpp"
 #include "tools/cli/messages.hpp"
 #include "command.hpp"
 #include "lcm_start.hpp"
@@ -166,27 +166,17 @@ std::string printf_text(const char* format, ...) {
   return buffer;
 }
 
+// The status's values by the wire tables (controller/transport/wire.hpp), named as the controller
+// names them; a value no enumerator has, as its number.
 std::string state_name(int8_t state) {
-  switch (state) {
-    case controller_status_t::WAITING: return "WAITING";
-    case controller_status_t::RUNNING: return "RUNNING";
-    case controller_status_t::HOLDING: return "HOLDING";
-    case controller_status_t::FAULT: return "FAULT";
-    case controller_status_t::REFLEX: return "REFLEX";
-    default: return "state " + std::to_string(int{state});
-  }
+  controller::Mode mode{};
+  return controller::from_wire(state, mode) ? controller::to_string(mode) : "state " + std::to_string(int{state});
 }
 
 std::string outcome_name(int8_t outcome) {
-  switch (outcome) {
-    case controller_status_t::TRAJECTORY_NONE: return "NONE";
-    case controller_status_t::TRAJECTORY_ACTIVE: return "ACTIVE";
-    case controller_status_t::TRAJECTORY_SUCCEEDED: return "SUCCEEDED";
-    case controller_status_t::TRAJECTORY_ABORTED: return "ABORTED";
-    case controller_status_t::TRAJECTORY_PREEMPTED: return "PREEMPTED";
-    case controller_status_t::TRAJECTORY_REJECTED: return "REJECTED";
-    default: return "outcome " + std::to_string(int{outcome});
-  }
+  controller::TrajectoryProgress::Outcome value{};
+  return controller::from_wire(outcome, value) ? controller::to_string(value)
+                                               : "outcome " + std::to_string(int{outcome});
 }
 
 // The latest waypoint trajectory's progress, once the controller has seen one: its id and outcome,
@@ -291,7 +281,7 @@ std::string Monitor::frame(int64_t now_ns) {
                        status_rate_.rate(now_ns, start_ns_))
         << bus << "\n";
     controller::Law law = controller::Law::kComputedTorque;
-    const bool known = controller::law_from_wire(s.law, law);
+    const bool known = controller::from_wire(s.law, law);
     out << "law         " << (known ? controller::to_string(law) : "law " + std::to_string(int{s.law}))
         << printf_text("; payload %.3f kg at the tip; states every %.3f ms\n\n", s.payload_mass,
                        1e3 * s.state_period);

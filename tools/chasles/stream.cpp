@@ -9,7 +9,7 @@
 #include <memory>
 #include <vector>
 
-#include "controller/realtime/clock.hpp"
+#include "controller/transport/realtime/clock.hpp"
 #include "core/lie/so3.hpp"
 #include "command.hpp"
 #include "lcm_start.hpp"

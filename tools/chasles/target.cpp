@@ -14,7 +14,7 @@
 #include <memory>
 #include <optional>
 
-#include "controller/realtime/clock.hpp"
+#include "controller/transport/realtime/clock.hpp"
 #include "core/lie/so3.hpp"
 #include "command.hpp"
 

@@ -29,9 +29,9 @@
 #include <string_view>
 #include <vector>
 
-#include "controller/protocol.hpp"
-#include "controller/realtime/clock.hpp"
-#include "controller/realtime/realtime.hpp"
+#include "controller/transport/protocol.hpp"
+#include "controller/transport/realtime/clock.hpp"
+#include "controller/transport/realtime/realtime.hpp"
 #include "core/dynamics/dynamics.hpp"
 #include "core/model/urdf.hpp"
 #include "core/number_list.hpp"

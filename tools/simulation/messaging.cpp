@@ -51,13 +51,19 @@ CommandInbox::CommandInbox(const Clock& clock, const std::string& channel, int n
   panda_.joint_position.assign(n, 0.0);
   panda_.joint_velocity.assign(n, 0.0);
   panda_.joint_torque.assign(n, 0.0);
-  panda_.control_mode_expected = drake::lcmt_panda_status::CONTROL_MODE_TORQUE;
+  panda_.control_mode_expected = conventions(Protocol::kDrakePanda).command_control_mode;
 }
 
 namespace {
 
 void copy_to(const std::vector<double>& from, Eigen::VectorXd& to) {
   for (size_t i = 0; i < from.size(); ++i) to[static_cast<Eigen::Index>(i)] = from[i];
+}
+
+// A command's torque in chasles's sign, as the protocol's row says it comes.
+void copy_torque(Protocol protocol, const std::vector<double>& from, Eigen::VectorXd& to) {
+  const double sign = factor(conventions(protocol).command_torque);
+  for (size_t i = 0; i < from.size(); ++i) to[static_cast<Eigen::Index>(i)] = sign * from[i];
 }
 
 }  // namespace
@@ -71,7 +77,7 @@ std::string CommandInbox::decode(const void* data, size_t size) {
         return why;
       }
       incoming_.state_seq = chasles_.state_seq;
-      copy_to(chasles_.torque, incoming_.torque);
+      copy_torque(Protocol::kChasles, chasles_.torque, incoming_.torque);
       incoming_.has_position = false;
       return {};
     case Protocol::kDrakeIiwa:
@@ -83,7 +89,7 @@ std::string CommandInbox::decode(const void* data, size_t size) {
                std::to_string(num_joints_);
       }
       incoming_.state_seq = times_->seq(iiwa_.utime);
-      copy_to(iiwa_.joint_torque, incoming_.torque);
+      copy_torque(Protocol::kDrakeIiwa, iiwa_.joint_torque, incoming_.torque);
       incoming_.has_position = iiwa_.num_joints == num_joints_;
       if (incoming_.has_position) copy_to(iiwa_.joint_position, incoming_.position);
       return {};
@@ -91,16 +97,17 @@ std::string CommandInbox::decode(const void* data, size_t size) {
       if (std::string why = decode_checked(data, size, panda_, num_joints_, Finite::Required); !why.empty()) {
         return why;
       }
-      if ((panda_.control_mode_expected & drake::lcmt_panda_status::CONTROL_MODE_TORQUE) == 0) {
+      if (const int8_t torque_mode = conventions(Protocol::kDrakePanda).command_control_mode;
+          (panda_.control_mode_expected & torque_mode) == 0) {
         return "expecting control mode " + std::to_string(panda_.control_mode_expected) +
-               ": the driver runs in torque mode (CONTROL_MODE_TORQUE, 4)";
+               ": the driver runs in torque mode (CONTROL_MODE_TORQUE, " + std::to_string(torque_mode) + ")";
       }
       if (panda_.num_joint_torque != num_joints_) {
         return "with no torques: the driver runs in torque mode, which needs num_joint_torque " +
                std::to_string(num_joints_);
       }
       incoming_.state_seq = times_->seq(panda_.utime);
-      copy_to(panda_.joint_torque, incoming_.torque);
+      copy_torque(Protocol::kDrakePanda, panda_.joint_torque, incoming_.torque);
       incoming_.has_position = panda_.num_joint_position == num_joints_;
       if (incoming_.has_position) copy_to(panda_.joint_position, incoming_.position);
       return {};
@@ -227,11 +234,12 @@ void StatePublisher::encode(int64_t utime, int64_t seq, const Eigen::VectorXd& q
   message_.utime = utime;
   message_.seq = seq;
   const Eigen::VectorXd& effort_measured = measured(effort);
+  const double effort_sign = factor(conventions(Protocol::kChasles).effort);
   for (size_t i = 0; i < message_.position.size(); ++i) {
     const auto j = static_cast<Eigen::Index>(i);
     message_.position[i] = noisy(q[j]);
     message_.velocity[i] = qd[j];
-    message_.effort[i] = effort_measured[j];
+    message_.effort[i] = effort_sign * effort_measured[j];
   }
   message_.encode(bytes_.data(), 0, static_cast<int>(bytes_.size()));
 }
@@ -248,9 +256,11 @@ void StatePublisher::encode(int64_t utime, int64_t seq, const Eigen::VectorXd& q
 }
 
 // As Drake's simulated driver (manipulation/kuka_iiwa: BuildSimplifiedIiwaControl and
-// IiwaStatusSender) reports: the measured and the commanded torque both negated, the external one
-// not; joint_position_ipo as drake-iiwa-driver: NaN outside FRI's commanding state.
+// IiwaStatusSender) reports, in the signs of the conventions table (the measured and the commanded
+// torque both negated, the external one not: what StatusReader undoes); joint_position_ipo as
+// drake-iiwa-driver: NaN outside FRI's commanding state.
 void StatePublisher::encode_iiwa(int64_t utime, const Eigen::VectorXd& q, const DriverReport& report) {
+  constexpr const ProtocolConventions& iiwa = conventions(Protocol::kDrakeIiwa);
   iiwa_.utime = utime;
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const Eigen::VectorXd& effort_measured = measured(report.effort);
@@ -260,16 +270,18 @@ void StatePublisher::encode_iiwa(int64_t utime, const Eigen::VectorXd& q, const 
     iiwa_.joint_velocity_estimated[i] = report.qd[j];
     iiwa_.joint_position_commanded[i] = report.position_commanded[j];
     iiwa_.joint_position_ipo[i] = report.commanding ? report.position_commanded[j] : nan;
-    iiwa_.joint_torque_measured[i] = -effort_measured[j];
-    iiwa_.joint_torque_commanded[i] = -report.torque_commanded[j];
-    iiwa_.joint_torque_external[i] = report.tau_ext[j];
+    iiwa_.joint_torque_measured[i] = factor(iiwa.effort) * effort_measured[j];
+    iiwa_.joint_torque_commanded[i] = factor(iiwa.torque_commanded) * report.torque_commanded[j];
+    iiwa_.joint_torque_external[i] = factor(iiwa.tau_ext) * report.tau_ext[j];
   }
   iiwa_.encode(bytes_.data(), 0, static_cast<int>(bytes_.size()));
 }
 
 // As libfranka's RobotState through drake-franka-driver: tau_J the torque at the joints (gravity
-// included), tau_J_d the command without gravity, tau_ext_hat_filtered negated.
+// included), tau_J_d the command without gravity, tau_ext_hat_filtered negated (the conventions
+// table's signs).
 void StatePublisher::encode_panda(int64_t utime, const Eigen::VectorXd& q, const DriverReport& report) {
+  constexpr const ProtocolConventions& panda = conventions(Protocol::kDrakePanda);
   panda_.utime = utime;
   const Eigen::VectorXd& effort_measured = measured(report.effort);
   for (size_t i = 0; i < panda_.joint_position.size(); ++i) {
@@ -279,9 +291,9 @@ void StatePublisher::encode_panda(int64_t utime, const Eigen::VectorXd& q, const
     panda_.joint_velocity[i] = report.qd[j];
     panda_.joint_velocity_desired[i] = 0.0;
     panda_.joint_acceleration_desired[i] = 0.0;
-    panda_.joint_torque[i] = effort_measured[j];
-    panda_.joint_torque_desired[i] = report.torque_desired[j];
-    panda_.joint_torque_external[i] = -report.tau_ext[j];
+    panda_.joint_torque[i] = factor(panda.effort) * effort_measured[j];
+    panda_.joint_torque_desired[i] = factor(panda.torque_commanded) * report.torque_desired[j];
+    panda_.joint_torque_external[i] = factor(panda.tau_ext) * report.tau_ext[j];
   }
   panda_.control_command_success_rate = report.success_rate;
   panda_.robot_mode = report.robot_mode;

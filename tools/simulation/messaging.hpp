@@ -2,7 +2,9 @@
 // truth out beside them, untouched by the faults. Every class preallocates every buffer on
 // construction; receiving a valid command, encoding and publishing allocate nothing afterwards (a
 // refusal builds its reason). Commands and states are in one of the protocols the controller
-// speaks (controller/protocol.hpp): chasles's own, or Drake's iiwa or Panda driver's.
+// speaks (controller/transport/protocol.hpp): chasles's own, or Drake's iiwa or Panda driver's, with
+// the signs and control modes of the conventions table (controller/transport/conventions.hpp) that
+// the controller's side decodes by.
 #pragma once
 
 #include <Eigen/Core>
@@ -19,16 +21,19 @@
 #include <utility>
 #include <vector>
 
-#include "controller/protocol.hpp"
-#include "controller/realtime/bus.hpp"
-#include "controller/realtime/clock.hpp"
+#include "controller/transport/protocol.hpp"
+#include "controller/transport/realtime/bus.hpp"
+#include "controller/transport/realtime/clock.hpp"
 #include "core/lie/types.hpp"
 
 namespace chasles::plant {
 
 using controller::Bus;
 using controller::Clock;
+using controller::conventions;
+using controller::factor;
 using controller::Protocol;
+using controller::ProtocolConventions;
 
 /// The utime of every state the plant sends: the plant's clock at its first state plus seq periods,
 /// µs. Drake's commands carry no seq, only the utime of the status they answer (what chasles's

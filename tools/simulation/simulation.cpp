@@ -120,7 +120,8 @@ void Simulation::publish_state(int64_t now_ns) {
                               !commanded_ever_ ? drake::lcmt_panda_status::kIdle
                               : commanding_    ? drake::lcmt_panda_status::kMove
                                                : drake::lcmt_panda_status::kReflex,
-                              commanded_ever_ ? drake::lcmt_panda_status::CONTROL_MODE_TORQUE : int8_t{0},
+                              commanded_ever_ ? controller::conventions(controller::Protocol::kDrakePanda).command_control_mode
+                                              : int8_t{0},
                               robot_utime};
     publisher_.encode(utime, seq_, plant_.q(), report);
   }

@@ -1,6 +1,6 @@
 // The simulated arm on a bus: dynamics (Plant) in its environment, zero-order hold of the latest
 // valid command, the watchdog's brake, injected faults on the states it sends, the truth beside
-// them, one step at a time on a Clock. It speaks one protocol (controller/protocol.hpp): chasles's
+// them, one step at a time on a Clock. It speaks one protocol (controller/transport/protocol.hpp): chasles's
 // own, or Drake's iiwa or Panda driver's, with that driver's conventions (docs/protocols.md, "The
 // plant speaks them too").
 // chasles_plant runs it on the system clock and UDP multicast; the in-process tests run it beside
@@ -15,9 +15,9 @@
 #include <random>
 #include <string>
 
-#include "controller/protocol.hpp"
-#include "controller/realtime/bus.hpp"
-#include "controller/realtime/clock.hpp"
+#include "controller/transport/protocol.hpp"
+#include "controller/transport/realtime/bus.hpp"
+#include "controller/transport/realtime/clock.hpp"
 #include "core/model/model.hpp"
 #include "core/simulation/plant.hpp"
 #include "tools/simulation/messaging.hpp"

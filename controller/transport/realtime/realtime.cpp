@@ -1,4 +1,4 @@
-#include "controller/realtime/realtime.hpp"
+#include "controller/transport/realtime/realtime.hpp"
 
 #include <poll.h>
 #include <pthread.h>
@@ -13,7 +13,7 @@
 #include <cstring>
 #include <system_error>
 
-#include "controller/realtime/clock.hpp"
+#include "controller/transport/realtime/clock.hpp"
 
 namespace chasles::controller {
 

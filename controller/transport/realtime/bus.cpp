@@ -1,4 +1,4 @@
-#include "controller/realtime/bus.hpp"
+#include "controller/transport/realtime/bus.hpp"
 
 #include <arpa/inet.h>
 #include <lcm/lcm.h>
@@ -17,9 +17,9 @@
 #include <thread>
 #include <vector>
 
-#include "controller/realtime/fragments.hpp"
-#include "controller/realtime/mailbox.hpp"
-#include "controller/realtime/realtime.hpp"
+#include "controller/transport/realtime/fragments.hpp"
+#include "controller/transport/realtime/mailbox.hpp"
+#include "controller/transport/realtime/realtime.hpp"
 #include "core/error.hpp"
 
 namespace chasles::controller {

@@ -1,4 +1,4 @@
-#include "controller/lcm_io.hpp"
+#include "controller/transport/lcm_io.hpp"
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -40,7 +40,7 @@ TargetReceiver::TargetReceiver(int num_joints, SpscRing<Target>& queue)
 std::string TargetReceiver::receive(const void* data, size_t size) {
   // 0 entries (HOLD, CARTESIAN) or the arm's count; the controller says which the mode needs.
   if (std::string why = messages::decode_checked(data, size, message_, num_joints_); !why.empty()) return why;
-  target_.mode = message_.mode;
+  target_.mode = message_.mode;  // as it came (wire_is_value<Target::Mode>): the controller names an unknown one
   target_.num_joints = message_.num_joints;
   target_.q.setZero();
   for (int i = 0; i < message_.num_joints; ++i) target_.q(i) = message_.joint_position[size_t(i)];
@@ -91,11 +91,12 @@ std::string JogReceiver::receive(const void* data, size_t size) {
       !why.empty()) {
     return why;
   }
-  if (message_.kind == jog_command_t::JOINT_VELOCITY && message_.num_joints != num_joints_) {
+  if (message_.kind == to_wire(Jog::kJointVelocity) && message_.num_joints != num_joints_) {
     return "JOINT_VELOCITY for " + std::to_string(message_.num_joints) + " joints; the arm has " +
            std::to_string(num_joints_);
   }
   jog_.utime = message_.utime;
+  // As they came (wire_is_value<Jog::Kind>, <Jog::Frame>): the controller names an unknown one.
   jog_.kind = message_.kind;
   jog_.frame = message_.frame;
   if (message_.num_joints == num_joints_) {
@@ -165,36 +166,12 @@ std::string TrajectoryReceiver::receive(const void* data, size_t size) {
   return {};
 }
 
-namespace {
-constexpr std::pair<Law, int8_t> kWireLaws[] = {
-    {Law::kComputedTorque, control_mode_t::COMPUTED_TORQUE},
-    {Law::kJointImpedance, control_mode_t::JOINT_IMPEDANCE},
-    {Law::kCartesianImpedance, control_mode_t::CARTESIAN_IMPEDANCE},
-    {Law::kFreeDrive, control_mode_t::FREE_DRIVE},
-};
-}  // namespace
-
-int8_t law_to_wire(Law law) {
-  for (const auto& [l, wire] : kWireLaws) {
-    if (l == law) return wire;
-  }
-  return -1;
-}
-
-bool law_from_wire(int8_t wire, Law& law) {
-  for (const auto& [l, w] : kWireLaws) {
-    if (w == wire) {
-      law = l;
-      return true;
-    }
-  }
-  return false;
-}
-
 std::string law_from_message(const control_mode_t& m, int n, LawSettings& s) {
-  if (!law_from_wire(m.law, s.law)) {
+  if (!from_wire(m.law, s.law)) {
     std::string known;
-    for (const auto& [l, w] : kWireLaws) known += (known.empty() ? "" : ", ") + std::to_string(w) + " " + to_string(l);
+    for (const auto& [l, w] : WireTable<Law>::kPairs) {
+      known += (known.empty() ? "" : ", ") + std::to_string(w) + " " + to_string(l);
+    }
     return "unknown law " + std::to_string(m.law) + " (" + known + ")";
   }
   if (s.law == Law::kJointImpedance && m.num_joints != n) {

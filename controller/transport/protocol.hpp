@@ -5,7 +5,8 @@
 // sees one JointState and emits one torque, and nothing else knows which robot is on the wire: the
 // protocols are a seam at the edge. docs/protocols.md is the field-by-field account.
 //
-// Drake's conventions, which the translations below apply:
+// Drake's conventions, which the translations below apply (conventions.hpp holds them as one table,
+// which the plant's side of the wire encodes the mirror image of):
 //  - Torque semantics. chasles's law computes the whole joint torque τ, gravity included. Drake's
 //    iiwa drivers (drake-iiwa-driver on KUKA's FRI, Drake's simulated driver in torque-only mode)
 //    add their own gravity compensation g(q) to the torque commanded, and drake-franka-driver's
@@ -38,21 +39,14 @@
 #include <vector>
 
 #include "controller/signals.hpp"
+#include "controller/transport/conventions.hpp"
 
 namespace chasles::controller {
-
-enum class Protocol { kChasles, kDrakeIiwa, kDrakePanda };
 
 /// "chasles", "drake-iiwa", "drake-panda": the names --protocol takes.
 const char* to_string(Protocol protocol);
 /// The protocol a name gives; false (and `protocol` untouched) for any other text.
 bool parse_protocol(std::string_view text, Protocol& protocol);
-
-/// What the torque in a command means to its receiver.
-enum class TorqueSemantics {
-  kFull,     ///< the whole joint torque τ: the receiver adds nothing (chasles's plant)
-  kOverlay,  ///< τ − g(q): the receiver adds its own gravity compensation (Drake's iiwa and Panda drivers)
-};
 
 /// "full", "overlay": the names --torque-semantics takes.
 const char* to_string(TorqueSemantics semantics);

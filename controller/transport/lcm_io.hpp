@@ -22,12 +22,15 @@
 #include <string>
 #include <vector>
 
-#include "controller/controller.hpp"
-#include "controller/law.hpp"
-#include "controller/protocol.hpp"
-#include "controller/realtime/mailbox.hpp"
-#include "controller/realtime/realtime.hpp"
+#include "controller/law_settings.hpp"
+#include "controller/signals.hpp"
+#include "controller/transport/protocol.hpp"
+#include "controller/transport/realtime/mailbox.hpp"
+#include "controller/transport/realtime/realtime.hpp"
+#include "controller/transport/wire.hpp"
+#include "core/model/model.hpp"
 #include "core/model/payload.hpp"
+#include "core/motion/waypoints.hpp"
 
 namespace chasles::controller {
 
@@ -175,12 +178,8 @@ class TrajectoryReceiver {
   SpscRing<motion::Waypoints>& queue_;
 };
 
-/// A law's value on the wire (control_mode_t.law, controller_status_t.law), and back: false for a
-/// value no law has. The one mapping between the two.
-int8_t law_to_wire(Law law);
-bool law_from_wire(int8_t wire, Law& law);
-
-/// A decoded control_mode_t (counts already checked against the arm: 0 or n) as LawSettings sized for
+/// A decoded control_mode_t (counts already checked against the arm: 0 or n; the law's value by
+/// WireTable<Law>, wire.hpp) as LawSettings sized for
 /// n joints: an empty string, or why its structure cannot be a law (an unknown law, a quaternion not
 /// of unit norm, a joint impedance without stiffness). What the numbers mean — bounds, positive
 /// definiteness, limits — is law_problem's, which the controller and `chasles mode` both apply.

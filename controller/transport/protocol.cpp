@@ -1,4 +1,4 @@
-#include "controller/protocol.hpp"
+#include "controller/transport/protocol.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -7,22 +7,12 @@
 
 namespace chasles::controller {
 
-const char* to_string(Protocol protocol) {
-  switch (protocol) {
-    case Protocol::kChasles:
-      return "chasles";
-    case Protocol::kDrakeIiwa:
-      return "drake-iiwa";
-    case Protocol::kDrakePanda:
-      return "drake-panda";
-  }
-  return "?";
-}
+const char* to_string(Protocol protocol) { return conventions(protocol).name; }
 
 bool parse_protocol(std::string_view text, Protocol& protocol) {
-  for (const Protocol p : {Protocol::kChasles, Protocol::kDrakeIiwa, Protocol::kDrakePanda}) {
-    if (text == to_string(p)) {
-      protocol = p;
+  for (const ProtocolConventions& row : kProtocolConventions) {
+    if (text == row.name) {
+      protocol = row.protocol;
       return true;
     }
   }
@@ -44,33 +34,15 @@ bool parse_torque_semantics(std::string_view text, TorqueSemantics& semantics) {
   return true;
 }
 
-TorqueSemantics default_torque_semantics(Protocol protocol) {
-  return protocol == Protocol::kChasles ? TorqueSemantics::kFull : TorqueSemantics::kOverlay;
-}
+TorqueSemantics default_torque_semantics(Protocol protocol) { return conventions(protocol).torque_semantics; }
 
 ProtocolChannels default_channels(Protocol protocol, const std::string& prefix) {
-  switch (protocol) {
-    case Protocol::kDrakeIiwa:
-      return {"IIWA_STATUS", "IIWA_COMMAND"};
-    case Protocol::kDrakePanda:
-      return {"PANDA_STATUS", "PANDA_COMMAND"};
-    case Protocol::kChasles:
-      break;
-  }
-  return {prefix + "STATE", prefix + "COMMAND"};
+  const ProtocolConventions& row = conventions(protocol);
+  const std::string before = row.prefixed_channels ? prefix : std::string();
+  return {before + row.status_channel, before + row.command_channel};
 }
 
-double nominal_status_period(Protocol protocol) {
-  switch (protocol) {
-    case Protocol::kDrakeIiwa:
-      return 0.005;
-    case Protocol::kDrakePanda:
-      return 0.001;
-    case Protocol::kChasles:
-      break;
-  }
-  return 0.0;
-}
+double nominal_status_period(Protocol protocol) { return conventions(protocol).status_period; }
 
 int64_t default_stale_ns(double period) {
   return std::max<int64_t>(10'000'000, std::llround(3e9 * period));
@@ -119,28 +91,34 @@ ConstMap map(const std::vector<double>& values) { return ConstMap(values.data(),
 
 }  // namespace
 
+// The signs are the conventions table's (the iiwa's measured torque negated on the wire, the Panda's
+// external torque negated), the same rows the plant encodes by.
 void state_from_iiwa(const drake::lcmt_iiwa_status& status, int64_t seq, int64_t arrival_ns, JointState& state,
                      Eigen::VectorXd& tau_ext) {
+  constexpr const ProtocolConventions& iiwa = conventions(Protocol::kDrakeIiwa);
   state.seq = seq;
   state.utime = status.utime;
   state.arrival_ns = arrival_ns;
   state.q = map(status.joint_position_measured);
   state.qd = map(status.joint_velocity_estimated);
-  state.effort = -map(status.joint_torque_measured);  // negated on the wire
-  tau_ext = map(status.joint_torque_external);        // not negated
+  state.effort = factor(iiwa.effort) * map(status.joint_torque_measured);
+  tau_ext = factor(iiwa.tau_ext) * map(status.joint_torque_external);
 }
 
 void state_from_panda(const drake::lcmt_panda_status& status, int64_t seq, int64_t arrival_ns, JointState& state,
                       Eigen::VectorXd& tau_ext) {
+  constexpr const ProtocolConventions& panda = conventions(Protocol::kDrakePanda);
   state.seq = seq;
   state.utime = status.utime;
   state.arrival_ns = arrival_ns;
   state.q = map(status.joint_position);
   state.qd = map(status.joint_velocity);
-  state.effort = map(status.joint_torque);              // tau_J: not negated
-  tau_ext = -map(status.joint_torque_external);         // tau_ext_hat_filtered: negated on the wire
+  state.effort = factor(panda.effort) * map(status.joint_torque);               // tau_J
+  tau_ext = factor(panda.tau_ext) * map(status.joint_torque_external);          // tau_ext_hat_filtered
 }
 
+// Every protocol's command torque is in chasles's sign (the table's command_torque: kSame on each),
+// so the torque is written as the law computed it, less g under overlay.
 void torque_for_receiver(const Eigen::VectorXd& tau, const Eigen::VectorXd& g, TorqueSemantics semantics,
                          double* out) {
   Eigen::Map<Eigen::VectorXd> torque(out, tau.size());
@@ -150,6 +128,10 @@ void torque_for_receiver(const Eigen::VectorXd& tau, const Eigen::VectorXd& g, T
     torque = tau;
   }
 }
+static_assert(conventions(Protocol::kChasles).command_torque == Sign::kSame &&
+                  conventions(Protocol::kDrakeIiwa).command_torque == Sign::kSame &&
+                  conventions(Protocol::kDrakePanda).command_torque == Sign::kSame,
+              "torque_for_receiver writes every protocol's command torque in chasles's sign");
 
 void iiwa_command(int64_t utime, const Eigen::VectorXd& tau, const Eigen::VectorXd& g, TorqueSemantics semantics,
                   IiwaPositions positions, const Eigen::VectorXd& q_measured, drake::lcmt_iiwa_command& command) {
@@ -176,7 +158,7 @@ void panda_command(int64_t utime, const Eigen::VectorXd& tau, const Eigen::Vecto
   command.num_joint_torque = int32_t(n);
   command.joint_torque.resize(n);
   torque_for_receiver(tau, g, semantics, command.joint_torque.data());
-  command.control_mode_expected = drake::lcmt_panda_status::CONTROL_MODE_TORQUE;
+  command.control_mode_expected = conventions(Protocol::kDrakePanda).command_control_mode;
 }
 
 StatusReader::StatusReader(Protocol protocol, int num_joints)
@@ -213,7 +195,7 @@ std::string StatusReader::read(const void* data, size_t size, int64_t arrival_ns
     state.arrival_ns = arrival_ns;
     state.q = map(chasles_.position);
     state.qd = map(chasles_.velocity);
-    state.effort = map(chasles_.effort);
+    state.effort = factor(conventions(Protocol::kChasles).effort) * map(chasles_.effort);
     return {};
   }
   if (protocol_ == Protocol::kDrakeIiwa) {
@@ -265,7 +247,7 @@ CommandWriter::CommandWriter(Protocol protocol, int num_joints, TorqueSemantics 
   panda_.num_joint_position = panda_.num_joint_velocity = 0;
   panda_.num_joint_torque = num_joints;
   panda_.joint_torque.assign(n, 0.0);
-  panda_.control_mode_expected = drake::lcmt_panda_status::CONTROL_MODE_TORQUE;
+  panda_.control_mode_expected = conventions(Protocol::kDrakePanda).command_control_mode;
   // Every command of a protocol has one size.
   const int size = protocol == Protocol::kChasles     ? chasles_.getEncodedSize()
                    : protocol == Protocol::kDrakeIiwa ? iiwa_.getEncodedSize()

@@ -1,4 +1,4 @@
-#include "controller/realtime/fragments.hpp"
+#include "controller/transport/realtime/fragments.hpp"
 
 #include <algorithm>
 #include <cstring>
