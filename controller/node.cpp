@@ -42,20 +42,19 @@ void Node::Timing::reset() {
   publish.reset();
 }
 
-Node::Loop::Loop(const RobotModel& model, const DaemonOptions& options, double payload_mass_in)
+Node::Loop::Loop(const RobotModel& model, const DaemonOptions& options, const Payload& payload_in)
     : controller(model, options.control),
       command_writer(options.protocol, model.dof(),
                      options.torque_semantics.value_or(default_torque_semantics(options.protocol)),
                      options.iiwa_positions),
-      gravity_data(model),
-      no_gravity(Eigen::VectorXd::Zero(model.dof())),
+      driver_gravity(Eigen::VectorXd::Zero(model.dof())),
       state(model.dof()),
       target(model.dof()),
       waypoints(model.dof()),
       setpoint(model.dof()),
       jog(model.dof()),
       mode(model.dof()),
-      payload_mass(payload_mass_in),
+      payload(payload_in),
       request(model.dof()),
       path(model.dof()),
       plant_state(model.dof()) {}
@@ -76,8 +75,8 @@ Channels channels_of(const DaemonOptions& options) {
 }
 
 Node::LoadedModel Node::loaded(const RobotModel& model, const std::optional<Payload>& payload) {
-  if (!payload) return {model, 0.0};
-  return {with_payload(model, *payload), payload->mass};
+  if (!payload) return {model, Payload{}};
+  return {with_payload(model, *payload), *payload};
 }
 
 Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& clock, Buses buses)
@@ -88,90 +87,24 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
       n_(model.dof()),
       period_ns_(static_cast<int64_t>(std::llround(options.control.period * 1e9))),
       channels_(channels_of(options)),
+      inbox_(model, options.protocol, channels_, clock, period_ns_, buses.receive, planner_bell_),
       models_(loaded(model, options.payload)),
-      payloads_(Payload{}),
-      modes_(8, LawSettings(n_)),
-      states_(JointState(n_)),
-      targets_(16, Target(n_)),
-      trajectories_(2, motion::Waypoints(n_)),
-      setpoints_(16, Setpoint(n_)),
-      jogs_(16, Jog(n_)),
-      tip_setpoints_(16, TipSetpoint{}),
       snapshots_(Snapshot(n_)),
       requests_(CartesianRequest(n_)),
       paths_(2, JointPath(n_)),
-      state_receiver_(n_, states_, options.protocol),
-      target_receiver_(n_, targets_),
-      trajectory_receiver_(model, trajectories_),
-      setpoint_receiver_(n_, setpoints_),
-      jog_receiver_(n_, jogs_),
-      tip_setpoint_receiver_(tip_setpoints_),
-      mode_receiver_(n_, modes_),
-      payload_receiver_(payloads_, planner_bell_),
-      command_watch_(sent_commands_),
-      digest_watch_(sent_digests_),
-      loop_(models_.front().model, options, models_.front().payload_mass),
+      loop_(models_.front().model, options, models_.front().payload),
       planner_(model, options.control.limits),
       reporter_(model) {
-  subscriptions_.push_back(buses.receive.subscribe(channels_.state, [this](const uint8_t* data, size_t size) {
-    if (const std::string why = state_receiver_.receive(data, size, arrival_ns(buses_.receive)); !why.empty()) {
-      rejections_.add("robot state " + why);
-    }
-  }));
-  subscriptions_.push_back(buses.receive.subscribe(channels_.target, [this](const uint8_t* data, size_t size) {
-    if (const std::string why = target_receiver_.receive(data, size); !why.empty()) rejections_.add("target " + why);
-  }));
-  subscriptions_.push_back(buses.receive.subscribe(channels_.trajectory, [this](const uint8_t* data, size_t size) {
-    if (const std::string why = trajectory_receiver_.receive(data, size); !why.empty()) {
-      rejections_.add("trajectory " + why);
-    }
-  }));
-  subscriptions_.push_back(buses.receive.subscribe(channels_.setpoint, [this](const uint8_t* data, size_t size) {
-    if (const std::string why = setpoint_receiver_.receive(data, size); !why.empty()) rejections_.add("setpoint " + why);
-  }));
-  subscriptions_.push_back(buses.receive.subscribe(channels_.tip_setpoint, [this](const uint8_t* data, size_t size) {
-    if (const std::string why = tip_setpoint_receiver_.receive(data, size); !why.empty()) {
-      rejections_.add("tip setpoint " + why);
-    }
-  }));
-  subscriptions_.push_back(buses.receive.subscribe(channels_.jog, [this](const uint8_t* data, size_t size) {
-    if (const std::string why = jog_receiver_.receive(data, size); !why.empty()) rejections_.add("jog " + why);
-  }));
-  subscriptions_.push_back(buses.receive.subscribe(channels_.mode, [this](const uint8_t* data, size_t size) {
-    if (const std::string why = mode_receiver_.receive(data, size); !why.empty()) rejections_.add("control mode " + why);
-  }));
-  subscriptions_.push_back(buses.receive.subscribe(channels_.payload, [this](const uint8_t* data, size_t size) {
-    if (const std::string why = payload_receiver_.receive(data, size); !why.empty()) rejections_.add("payload " + why);
-  }));
-  subscriptions_.push_back(buses.receive.subscribe(
-      channels_.command, [this](const uint8_t* data, size_t size) {
-        if (options_.protocol == Protocol::kChasles) {
-          command_watch_.receive(data, size);
-        } else {
-          digest_watch_.receive(data, size);
-        }
-      }));
   reporter_.status.num_joints = n_;
 }
 
 std::string Node::refusal() const {
   if (foreign_commands() == 0) return {};
-  const std::string first = options_.protocol == Protocol::kChasles
-                                ? "first seq " + std::to_string(command_watch_.first_seq())
-                                : "the first answering utime " + std::to_string(digest_watch_.first_utime());
+  char first[96];
+  inbox_.own_commands().describe_first_foreign(first, sizeof(first));
   return "another controller is already commanding " + channels_.command + " (heard " +
-         std::to_string(foreign_commands()) + " command(s) before this one sent any, " + first +
+         std::to_string(foreign_commands()) + " command(s) before this one sent any, the first " + first +
          "); refusing to start";
-}
-
-// When the message being handled reached this host: the kernel's stamp where the bus has one,
-// so that the latency includes LCM's receive thread and the hand-over to this one; else now.
-int64_t Node::arrival_ns(const Bus& bus) const {
-  const int64_t now = clock_.now_ns();
-  const int64_t stamp_us = bus.arrival_utime();
-  if (stamp_us < 0) return now;
-  const int64_t age_ns = (clock_.utime_us() - stamp_us) * 1000;
-  return now - std::clamp<int64_t>(age_ns, 0, period_ns_ * 1000);  // a wall clock stepped meanwhile: bounded
 }
 
 int64_t Node::first_tick() const { return clock_.now_ns() + period_ns_; }
@@ -182,7 +115,7 @@ int64_t Node::tick(int64_t scheduled) {
   const Mode mode_before = loop_.controller.mode();
   TickRecord record;
 
-  const bool fresh = states_.read(loop_.state);
+  const bool fresh = inbox_.states.read(loop_.state);
   if (fresh) loop_.have_state = true;
   const int64_t trigger = state_driven && fresh ? loop_.state.arrival_ns : scheduled;
   record.jitter_us = 1e-3 * static_cast<double>(wake - trigger);
@@ -201,15 +134,15 @@ int64_t Node::tick(int64_t scheduled) {
   if (foreign_commands() > 0 && !loop_.controller.stood_down()) stand_down();
   if (models_.take()) {  // a payload built by the worker, between two ticks
     loop_.controller.set_model(models_.front().model);
-    loop_.payload_mass = models_.front().payload_mass;
+    loop_.payload = models_.front().payload;
   }
   // Modes before targets: a target sent after a law is meant for it.
-  while (modes_.pop(loop_.mode)) loop_.controller.set_law(loop_.mode, now);
-  while (targets_.pop(loop_.target)) loop_.controller.set_target(loop_.target, now);
-  while (trajectories_.pop(loop_.waypoints)) loop_.controller.set_trajectory(loop_.waypoints, now);
-  while (setpoints_.pop(loop_.setpoint)) loop_.controller.set_setpoint(loop_.setpoint, now);
-  while (jogs_.pop(loop_.jog)) loop_.controller.set_jog(loop_.jog, now);
-  while (tip_setpoints_.pop(loop_.tip_setpoint)) loop_.controller.set_tip_setpoint(loop_.tip_setpoint, now);
+  while (inbox_.modes.pop(loop_.mode)) loop_.controller.set_law(loop_.mode, now);
+  while (inbox_.targets.pop(loop_.target)) loop_.controller.set_target(loop_.target, now);
+  while (inbox_.trajectories.pop(loop_.waypoints)) loop_.controller.set_trajectory(loop_.waypoints, now);
+  while (inbox_.setpoints.pop(loop_.setpoint)) loop_.controller.set_setpoint(loop_.setpoint, now);
+  while (inbox_.jogs.pop(loop_.jog)) loop_.controller.set_jog(loop_.jog, now);
+  while (inbox_.tip_setpoints.pop(loop_.tip_setpoint)) loop_.controller.set_tip_setpoint(loop_.tip_setpoint, now);
   if (loop_.controller.take_request(loop_.request)) {
     requests_.write(loop_.request);
     planner_bell_.ring();
@@ -223,20 +156,23 @@ int64_t Node::tick(int64_t scheduled) {
   const bool command = !silent_simulator && loop_.controller.tick(now, state);
   int64_t utime = 0;
   if (command) {
-    const bool overlay = loop_.command_writer.semantics() == TorqueSemantics::kOverlay;
-    const Eigen::VectorXd& g = overlay ? gravity_torques(model_, loop_.gravity_data, loop_.state.q) : loop_.no_gravity;
-    loop_.command_writer.write(utime = clock_.utime_us(), ++loop_.seq, loop_.state, loop_.controller.torque(), g);
+    if (loop_.command_writer.semantics() == TorqueSemantics::kOverlay) {
+      // The controller's Data holds g(q) at this state of the arm it drives, payload included:
+      // less the payload's part, from the same Data, it is the bare arm's.
+      const Data& data = loop_.controller.data();
+      loop_.driver_gravity.setZero();
+      add_payload_gravity(loop_.controller.model(), data, loop_.payload, loop_.driver_gravity);
+      loop_.driver_gravity = data.g - loop_.driver_gravity;
+    }
+    loop_.command_writer.write(utime = clock_.utime_us(), ++loop_.seq, loop_.state, loop_.controller.torque(),
+                               loop_.driver_gravity);
   }
   const int64_t computed = clock_.now_ns();
   record.compute_us = 1e-3 * static_cast<double>(computed - wake);
   int64_t sent = computed;
   if (command) {
     // Before the send: our own copy may come back at once.
-    if (options_.protocol == Protocol::kChasles) {
-      sent_commands_.record(loop_.seq, utime);
-    } else {
-      sent_digests_.record(loop_.command_writer.bytes());
-    }
+    inbox_.own_commands().record(loop_.seq, utime, loop_.command_writer.bytes());
     if (!buses_.command.publish(channels_.command, loop_.command_writer.bytes())) ++loop_.counters.send_failures;
     sent = clock_.now_ns();
     record.publish_us = 1e-3 * static_cast<double>(sent - computed);
@@ -300,19 +236,13 @@ void Node::follow_plant_time(int64_t wake) {
 // commanding for good and reports a FAULT; the arm's own watchdog takes over if the other sender
 // stops too. Latched: only an operator can tell which sender should drive.
 void Node::stand_down() {
-  if (options_.protocol == Protocol::kChasles) {
-    loop_.controller.stand_down(
-        "another sender is commanding %s (seq %lld answering state %lld; our latest state %lld): stopped commanding",
-        channels_.command.c_str(), static_cast<long long>(command_watch_.first_seq()),
-        static_cast<long long>(command_watch_.first_state_seq()),
-        static_cast<long long>(loop_.have_state ? loop_.state.seq : -1));
-  } else {  // Drake's commands carry no seq: the status each answers, by its utime
-    loop_.controller.stand_down(
-        "another sender is commanding %s (a command not ours answering utime %lld; our latest state utime %lld): "
-        "stopped commanding",
-        channels_.command.c_str(), static_cast<long long>(digest_watch_.first_utime()),
-        static_cast<long long>(loop_.have_state ? loop_.state.utime : -1));
-  }
+  char first[96];
+  inbox_.own_commands().describe_first_foreign(first, sizeof(first));
+  const bool by_seq = inbox_.own_commands().by_seq();  // else by the utime of the status answered
+  const int64_t latest = !loop_.have_state ? -1 : by_seq ? loop_.state.seq : loop_.state.utime;
+  loop_.controller.stand_down("another sender is commanding %s (%s; our latest state %s%lld): stopped commanding",
+                              channels_.command.c_str(), first, by_seq ? "" : "utime ",
+                              static_cast<long long>(latest));
 }
 
 // Written straight into the mailbox's free slot: nothing is copied twice on the loop.
@@ -340,7 +270,7 @@ void Node::publish_snapshot() {
   s.foreign_commands = foreign_commands();
   s.rejected_targets = loop_.controller.rejected_targets();
   s.law = loop_.controller.law().law;
-  s.payload_mass = loop_.payload_mass;
+  s.payload_mass = loop_.payload.mass;
   s.state_period = loop_.controller.state_period();
   std::snprintf(s.period_warning, sizeof(s.period_warning), "%s", loop_.controller.period_warning());
   std::memcpy(s.mode_rejection, loop_.controller.mode_rejection(), sizeof(s.mode_rejection));
@@ -372,7 +302,7 @@ void Node::publish_snapshot() {
 // Ceres allocates and takes milliseconds: never on the loop, which only hands over requests and
 // paths without waiting.
 bool Node::plan() {
-  if (payloads_.read(planner_.payload)) {
+  if (inbox_.payloads.read(planner_.payload)) {
     // The receiver checked it (payload_problem), so with_payload has nothing left to refuse; if it
     // does, the model in force stays, and the operator hears why.
     LoadedModel& next = models_.back();
@@ -382,7 +312,7 @@ bool Node::plan() {
       std::fprintf(stderr, "chasles_controller: payload refused: %s\n", e.what());
       return false;
     }
-    next.payload_mass = planner_.payload.mass;
+    next.payload = planner_.payload;
     models_.publish();
     return true;
   }
@@ -456,10 +386,10 @@ int64_t Node::report() {
   }
   reporter_.reported_trajectory = s.trajectory.id;
   reporter_.reported_outcome = s.trajectory.outcome;
-  if (rejections_.count() != reporter_.reported_wire) {
+  if (inbox_.rejections().count() != reporter_.reported_wire) {
     std::fprintf(stderr, "chasles_controller: rejected %lld message(s), last: %s\n",
-                 static_cast<long long>(rejections_.count() - reporter_.reported_wire), rejections_.last());
-    reporter_.reported_wire = rejections_.count();
+                 static_cast<long long>(inbox_.rejections().count() - reporter_.reported_wire), inbox_.rejections().last());
+    reporter_.reported_wire = inbox_.rejections().count();
   }
   if (const int64_t lost = buses_.receive.lost(); lost != reporter_.reported_lost) {
     std::fprintf(stderr, "chasles_controller: lost %lld message(s) before they could be read, last: %s\n",
@@ -540,7 +470,7 @@ void Node::fill_status() {
   status.ticks = s.loop.ticks;
   status.overruns = s.loop.overruns;
   status.stale_states = s.stale;
-  status.rejected_messages = rejections_.count() + s.rejected_targets + s.rejected_modes + buses_.receive.lost();
+  status.rejected_messages = inbox_.rejections().count() + s.rejected_targets + s.rejected_modes + buses_.receive.lost();
   status.faults = s.faults;
 }
 
@@ -567,7 +497,7 @@ Summary Node::summary(double seconds) {
   summary.tracking_max = reporter_.error_max;
   summary.commands = s.loop.commands;
   summary.stale_states = s.stale;
-  summary.rejected_messages = rejections_.count() + s.rejected_targets + s.rejected_modes + buses_.receive.lost();
+  summary.rejected_messages = inbox_.rejections().count() + s.rejected_targets + s.rejected_modes + buses_.receive.lost();
   summary.faults = s.faults;
   summary.foreign_commands = s.foreign_commands;
   summary.contacts = s.contacts;

@@ -24,7 +24,7 @@
 #include <vector>
 
 #include "controller/controller.hpp"
-#include "controller/transport/lcm_io.hpp"
+#include "controller/transport/inbox.hpp"
 #include "controller/options.hpp"
 #include "controller/transport/realtime/bus.hpp"
 #include "controller/transport/realtime/clock.hpp"
@@ -61,7 +61,7 @@ class Node {
   /// The first tick's scheduled time: now + one period.
   int64_t first_tick() const;
   /// State-driven: a state has arrived that no tick has read yet (tick now).
-  bool state_waiting() const { return states_.fresh(); }
+  bool state_waiting() const { return inbox_.states.fresh(); }
   /// One tick, scheduled for `scheduled` (it reads the clock for its measurements); returns the
   /// time the next is scheduled for.
   ///   clock-driven: a tick that finishes past the next schedule counts the periods missed and
@@ -145,19 +145,16 @@ class Node {
     void reset();
   };
 
-  // The model the loop controls with, and the payload it carries.
+  // The model the loop controls with, and the payload it carries (mass 0: none).
   struct LoadedModel {
     RobotModel model;
-    double payload_mass = 0.0;
+    Payload payload;
   };
   static LoadedModel loaded(const RobotModel& model, const std::optional<Payload>& payload);
 
   void stand_down();
   /// Messages heard on the command channel that this process did not send.
-  int64_t foreign_commands() const {
-    return options_.protocol == Protocol::kChasles ? command_watch_.foreign() : digest_watch_.foreign();
-  }
-  int64_t arrival_ns(const Bus& bus) const;
+  int64_t foreign_commands() const { return inbox_.own_commands().foreign(); }
   void publish_snapshot();
   void follow_plant_time(int64_t wake);
   void drain();
@@ -170,38 +167,15 @@ class Node {
   const int n_;
   const int64_t period_ns_;
   Channels channels_;
-  Rejections rejections_;
   Doorbell planner_bell_, reporter_bell_;
+  Inbox inbox_;
   // Built by the worker from model_ and a payload, swapped in by the loop between ticks; the
   // controller drives the mailbox's front, which the worker never writes.
   Mailbox<LoadedModel> models_;
-  Mailbox<Payload> payloads_;
-  SpscRing<LawSettings> modes_;
-  Mailbox<JointState> states_;
-  SpscRing<Target> targets_;
-  SpscRing<motion::Waypoints> trajectories_;
-  SpscRing<Setpoint> setpoints_;
-  SpscRing<Jog> jogs_;
-  SpscRing<TipSetpoint> tip_setpoints_;
   Mailbox<Snapshot> snapshots_;
   SpscRing<TickRecord> records_{8192};
   Mailbox<CartesianRequest> requests_;  // loop → IK: only the newest request matters
   SpscRing<JointPath> paths_;           // IK → loop
-  StateReceiver state_receiver_;
-  TargetReceiver target_receiver_;
-  TrajectoryReceiver trajectory_receiver_;
-  SetpointReceiver setpoint_receiver_;
-  JogReceiver jog_receiver_;
-  TipSetpointReceiver tip_setpoint_receiver_;
-  ModeReceiver mode_receiver_;
-  PayloadReceiver payload_receiver_;
-  // Our own commands, to tell them from another sender's on the command channel: by seq on
-  // chasles's protocol, by their bytes on Drake's (which carry none).
-  SentCommands sent_commands_;
-  CommandWatch command_watch_;
-  SentDigests sent_digests_;
-  DigestCommandWatch digest_watch_;
-  std::vector<Bus::Subscription> subscriptions_;  // after what they feed: ended first
   bool realtime_granted_ = false;
 
   // Each thread's own state, touched by its step alone; the threads meet only in the mailboxes,
@@ -209,13 +183,13 @@ class Node {
 
   // The real-time loop's: tick() and what it calls.
   struct Loop {
-    Loop(const RobotModel& model, const DaemonOptions& options, double payload_mass);
+    Loop(const RobotModel& model, const DaemonOptions& options, const Payload& payload);
     Controller controller;
     CommandWriter command_writer;
-    // g(q) of the bare arm at the state answered, for a driver that adds its own (kOverlay): it
-    // knows the arm, not a payload chasles was told of, whose weight stays in the torque sent.
-    Data gravity_data;
-    Eigen::VectorXd no_gravity;
+    // What the driver adds to the torque sent: under kOverlay, g(q) of the bare arm at the state
+    // answered — it knows the arm, not a payload chasles was told of, whose weight stays in the
+    // torque sent; zero under kFull.
+    Eigen::VectorXd driver_gravity;
     JointState state;
     Target target;
     motion::Waypoints waypoints;
@@ -223,7 +197,7 @@ class Node {
     Jog jog;
     TipSetpoint tip_setpoint;
     LawSettings mode;
-    double payload_mass;
+    Payload payload;
     int64_t modes_seen = 0, targets_seen = 0;  // refused, to tell which refusal came last
     bool mode_refused_last = false;
     CartesianRequest request;
