@@ -17,9 +17,7 @@ Node::Snapshot::Snapshot(int n)
       error(Eigen::VectorXd::Zero(n)),
       torque(Eigen::VectorXd::Zero(n)),
       tau_ext(Eigen::VectorXd::Zero(n)),
-      generator_velocity(Eigen::VectorXd::Zero(n)),
-      generator_acceleration(Eigen::VectorXd::Zero(n)),
-      generator_jerk(Eigen::VectorXd::Zero(n)) {}
+      generator{Eigen::VectorXd::Zero(n), Eigen::VectorXd::Zero(n), Eigen::VectorXd::Zero(n)} {}
 
 void Node::Timing::record(const TickRecord& r) {
   jitter.record(r.jitter_us);
@@ -292,10 +290,7 @@ void Node::publish_snapshot() {
   s.jogs = loop_.controller.jogs();
   s.dropped_jogs = loop_.controller.dropped_jogs();
   s.jog = loop_.controller.jog_progress();
-  const motion::Limits& generator = loop_.controller.generator_limits();
-  s.generator_velocity = generator.velocity;
-  s.generator_acceleration = generator.acceleration;
-  s.generator_jerk = generator.jerk;
+  s.generator = loop_.controller.generator_limits();
   snapshots_.publish();
 }
 
@@ -424,9 +419,9 @@ void Node::fill_status() {
   status.tracking_error = copy(s.error);
   status.torque = copy(s.torque);
   status.tau_ext = copy(s.tau_ext);
-  status.generator_velocity_limit = copy(s.generator_velocity);
-  status.generator_acceleration_limit = copy(s.generator_acceleration);
-  status.generator_jerk_limit = copy(s.generator_jerk);
+  status.generator_velocity_limit = copy(s.generator.velocity);
+  status.generator_acceleration_limit = copy(s.generator.acceleration);
+  status.generator_jerk_limit = copy(s.generator.jerk);
   for (int i = 0; i < 6; ++i) status.tip_wrench_ext[i] = s.wrench_ext(i);
   status.contact = s.contact;
   status.collision = s.collision;

@@ -24,14 +24,15 @@
 #include <vector>
 
 #include "controller/controller.hpp"
-#include "controller/transport/inbox.hpp"
 #include "controller/options.hpp"
+#include "controller/statistics.hpp"
+#include "controller/transport/inbox.hpp"
 #include "controller/transport/realtime/bus.hpp"
 #include "controller/transport/realtime/clock.hpp"
 #include "controller/transport/realtime/mailbox.hpp"
 #include "controller/transport/realtime/realtime.hpp"
-#include "controller/statistics.hpp"
 #include "core/kinematics/kinematics.hpp"
+#include "core/motion/online_generator.hpp"
 
 namespace chasles::controller {
 
@@ -112,7 +113,7 @@ class Node {
     char rejection[192] = {};
     char reflex[192] = {};
     Eigen::VectorXd q, q_desired, error, torque, tau_ext;
-    Eigen::VectorXd generator_velocity, generator_acceleration, generator_jerk;
+    motion::Limits generator;  // the stream generator's limits in force
     Vector6d wrench_ext = Vector6d::Zero();  // base-aligned at the tip
     bool contact = false, collision = false;
     int64_t contacts = 0, reflexes = 0;

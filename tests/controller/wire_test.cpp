@@ -49,7 +49,9 @@ void expect_wire(const std::vector<std::pair<Enum, int8_t>>& expected, int8_t Me
     for (const auto& pair : expected) listed = listed || pair.second == w;
     Enum back = expected.front().first;
     EXPECT_EQ(from_wire(static_cast<int8_t>(w), back), listed) << w;
-    if (!listed) EXPECT_EQ(back, expected.front().first) << "untouched on a refusal";
+    if (!listed) {
+      EXPECT_EQ(back, expected.front().first) << "untouched on a refusal";
+    }
   }
 }
 

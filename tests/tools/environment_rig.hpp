@@ -16,8 +16,8 @@
 #include <utility>
 #include <vector>
 
-#include "controller/realtime/bus.hpp"
-#include "controller/realtime/clock.hpp"
+#include "controller/transport/realtime/bus.hpp"
+#include "controller/transport/realtime/clock.hpp"
 #include "core/dynamics/dynamics.hpp"
 #include "core/model/urdf.hpp"
 #include "core/simulation/environment.hpp"

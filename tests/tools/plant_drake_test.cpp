@@ -13,9 +13,9 @@
 #include <string>
 #include <vector>
 
-#include "controller/protocol.hpp"
-#include "controller/realtime/bus.hpp"
-#include "controller/realtime/clock.hpp"
+#include "controller/transport/protocol.hpp"
+#include "controller/transport/realtime/bus.hpp"
+#include "controller/transport/realtime/clock.hpp"
 #include "core/dynamics/dynamics.hpp"
 #include "core/kinematics/kinematics.hpp"
 #include "lcmtypes/checked.hpp"

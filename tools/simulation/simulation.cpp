@@ -4,7 +4,6 @@
 #include <cmath>
 #include <cstdio>
 
-#include "core/dynamics/dynamics.hpp"
 #include "core/error.hpp"
 
 namespace chasles::plant {
@@ -17,10 +16,6 @@ constexpr int64_t kLockstepRepeatNs = 10'000'000;
 // several steps long to stay stable at low rates.
 constexpr double kBrakeTimeConstant = 0.05;
 constexpr int kBrakeStepsPerTimeConstant = 10;
-
-// The number of steps whose freshness the Panda's control_command_success_rate counts (libfranka's
-// "last 100 control commands").
-constexpr int64_t kSuccessWindow = 100;
 
 controller::TorqueSemantics semantics_of(const SimulationOptions& options) {
   return options.torque_semantics.value_or(controller::default_torque_semantics(options.protocol));
@@ -38,17 +33,31 @@ std::string command_channel_of(const SimulationOptions& options) {
 
 }  // namespace
 
+StallSchedule::StallSchedule(const Stalls& stalls, double rate_hz)
+    : stalls_(stalls), every_(std::max<int64_t>(1, std::llround(stalls.every_s * rate_hz))), rng_(stalls.seed) {
+  if (stalls.any() && !(stalls.min_ms >= 0.0 && stalls.min_ms <= stalls.max_ms)) {
+    throw ArgumentError("stalls: 0 <= min <= max ms");
+  }
+}
+
+int64_t StallSchedule::due(int64_t seq) {
+  if (!stalls_.any()) return 0;
+  if (next_seq_ == 0) next_seq_ = every_;
+  if (seq < next_seq_) return 0;
+  next_seq_ += every_;
+  std::uniform_real_distribution<double> ms(stalls_.min_ms, stalls_.max_ms);
+  return std::llround(ms(rng_) * 1e6);
+}
+
 Simulation::Simulation(const RobotModel& model, const SimulationOptions& options, const Eigen::VectorXd& q0,
                        const Eigen::VectorXd& damping, Bus& bus, const Clock& clock)
     : options_(options),
       bus_(bus),
       clock_(clock),
-      model_(model),
-      semantics_(semantics_of(options)),
       status_channel_(status_channel_of(options)),
       command_channel_(command_channel_of(options)),
       plant_(model, q0, damping, 1.0 / options.rate_hz, options.substeps, options.environment),
-      data_(model),
+      driver_(model, semantics_of(options)),
       times_(1.0 / options.rate_hz, &seq_),
       inbox_(clock, command_channel_, model.dof(), options.protocol, &times_),
       publisher_(bus, status_channel_, model.dof(), options.faults, max_in_flight(options), options.protocol),
@@ -57,14 +66,7 @@ Simulation::Simulation(const RobotModel& model, const SimulationOptions& options
       dt_(1.0 / options.rate_hz),
       period_ns_(static_cast<int64_t>(std::llround(1e9 / options.rate_hz))),
       brake_time_constant_(std::max(kBrakeTimeConstant, kBrakeStepsPerTimeConstant * dt_)),
-      torque_(Eigen::VectorXd::Zero(model.dof())),
-      desired_(Eigen::VectorXd::Zero(model.dof())),
-      position_commanded_(Eigen::VectorXd::Zero(model.dof())),
-      zero_(Eigen::VectorXd::Zero(model.dof())),
-      stall_rng_(options.stalls.seed) {
-  if (options.stalls.any() && !(options.stalls.min_ms >= 0.0 && options.stalls.min_ms <= options.stalls.max_ms)) {
-    throw ArgumentError("stalls: 0 <= min <= max ms");
-  }
+      stalls_(options.stalls, options.rate_hz) {
   if (options.protocol != controller::Protocol::kChasles && options.rate_hz > 1e6) {
     throw ArgumentError(std::string("a rate of more than 10^6 steps per second for ") +
                         controller::to_string(options.protocol) +
@@ -107,23 +109,7 @@ void Simulation::publish_state(int64_t now_ns) {
   } else {
     if (options_.environment.any()) truth = &plant_.sample_truth();
     const int64_t robot_utime = std::llround(1e6 * static_cast<double>(seq_) * dt_);
-    const DriverReport report{plant_.qd(),
-                              plant_.effort(),
-                              torque_,
-                              desired_,
-                              has_position_ ? position_commanded_ : plant_.q(),
-                              truth != nullptr ? truth->tau_ext : zero_,
-                              commanding_,
-                              judged_steps_ > 0 ? static_cast<double>(fresh_steps_.count()) /
-                                                      static_cast<double>(std::min(judged_steps_, kSuccessWindow))
-                                                : 0.0,
-                              !commanded_ever_ ? drake::lcmt_panda_status::kIdle
-                              : commanding_    ? drake::lcmt_panda_status::kMove
-                                               : drake::lcmt_panda_status::kReflex,
-                              commanded_ever_ ? controller::conventions(controller::Protocol::kDrakePanda).command_control_mode
-                                              : int8_t{0},
-                              robot_utime};
-    publisher_.encode(utime, seq_, plant_.q(), report);
+    publisher_.encode(utime, seq_, plant_.q(), driver_.report(plant_, truth != nullptr ? &truth->tau_ext : nullptr, robot_utime));
   }
   publisher_.send(now_ns);
   last_send_ns_ = now_ns;
@@ -143,41 +129,10 @@ void Simulation::on_command(const uint8_t* data, size_t size) {
     ++stale_;
     return;
   }
-  apply_command(command, true);
+  step_and_publish(driver_.command(command, true, plant_.q()));
 }
 
-// The driver's side: under overlay it adds the gravity of its own model (the nominal one, the bare
-// arm) at the present state to the torque commanded, every step, as drake-iiwa-driver's KUKA
-// controller, Drake's simulated iiwa driver and libfranka do.
-void Simulation::apply_command(const Command& command, bool fresh) {
-  desired_ = command.torque;
-  if (semantics_ == controller::TorqueSemantics::kOverlay) {
-    torque_ = command.torque + gravity_torques(model_, data_, plant_.q());
-  } else {
-    torque_ = command.torque;
-  }
-  has_position_ = command.has_position;
-  if (has_position_) position_commanded_ = command.position;
-  commanding_ = commanded_ever_ = true;
-  fresh_steps_[static_cast<size_t>(judged_steps_ % kSuccessWindow)] = fresh;
-  ++judged_steps_;
-  step_and_publish(torque_);
-}
-
-void Simulation::apply_brake() {
-  torque_ = plant_.brake_torque(brake_time_constant_);
-  desired_ = torque_;
-  if (semantics_ == controller::TorqueSemantics::kOverlay) desired_ -= gravity_torques(model_, data_, plant_.q());
-  has_position_ = false;
-  commanding_ = false;
-  if (commanded_ever_) {
-    fresh_steps_[static_cast<size_t>(judged_steps_ % kSuccessWindow)] = false;
-    ++judged_steps_;
-  }
-  step_and_publish(torque_);
-}
-
-void Simulation::step_and_publish(const Eigen::Ref<const Eigen::VectorXd>& tau) {
+void Simulation::step_and_publish(const Eigen::VectorXd& tau) {
   plant_.step(tau);
   ++seq_;
   publish_state(clock_.now_ns());
@@ -188,25 +143,16 @@ void Simulation::step() {
   count_late_cycle(now);
   update_brake(now);
   if (braking_) {
-    apply_brake();
+    step_and_publish(driver_.brake(plant_.brake_torque(brake_time_constant_), plant_.q()));
   } else {
     const bool fresh = inbox_.fresh();
-    apply_command(inbox_.take(), fresh);
+    step_and_publish(driver_.command(inbox_.take(), fresh, plant_.q()));
   }
   publisher_.flush(now);
   inbox_.report_rejections(now);
 }
 
-int64_t Simulation::stall_due() {
-  const Stalls& stalls = options_.stalls;
-  if (!stalls.any() || options_.lockstep) return 0;
-  const auto every = std::max<int64_t>(1, std::llround(stalls.every_s * options_.rate_hz));
-  if (next_stall_seq_ == 0) next_stall_seq_ = every;
-  if (seq_ < next_stall_seq_) return 0;
-  next_stall_seq_ += every;
-  std::uniform_real_distribution<double> ms(stalls.min_ms, stalls.max_ms);
-  return std::llround(ms(stall_rng_) * 1e6);
-}
+int64_t Simulation::stall_due() { return options_.lockstep ? 0 : stalls_.due(seq_); }
 
 int64_t Simulation::serve_lockstep() {
   const int64_t now = clock_.now_ns();

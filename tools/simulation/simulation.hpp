@@ -8,7 +8,6 @@
 #pragma once
 
 #include <Eigen/Core>
-#include <bitset>
 #include <cstdint>
 #include <atomic>
 #include <optional>
@@ -20,6 +19,7 @@
 #include "controller/transport/realtime/clock.hpp"
 #include "core/model/model.hpp"
 #include "core/simulation/plant.hpp"
+#include "tools/simulation/driver.hpp"
 #include "tools/simulation/messaging.hpp"
 
 namespace chasles::plant {
@@ -81,6 +81,22 @@ class PausableClock final : public Clock {
   std::atomic<int64_t> paused_ns_{0};
 };
 
+/// When a stalling simulation pauses (SimulationOptions::stalls): each time the simulated time
+/// passes another every_s, for a time drawn uniformly from [min_ms, max_ms] by a seeded generator.
+class StallSchedule {
+ public:
+  /// Throws ArgumentError unless 0 ≤ min_ms ≤ max_ms.
+  StallSchedule(const Stalls& stalls, double rate_hz);
+  /// How long to pause after the step that produced state `seq`, ns (0: none).
+  int64_t due(int64_t seq);
+
+ private:
+  Stalls stalls_;
+  int64_t every_ = 0;  // steps between pauses
+  int64_t next_seq_ = 0;
+  std::mt19937_64 rng_;
+};
+
 class Simulation {
  public:
   /// Starts at rest at q0 with viscous joint damping `damping`; subscribes to the command channel.
@@ -116,7 +132,7 @@ class Simulation {
 
   int64_t period_ns() const { return period_ns_; }
   controller::Protocol protocol() const { return options_.protocol; }
-  controller::TorqueSemantics torque_semantics() const { return semantics_; }
+  controller::TorqueSemantics torque_semantics() const { return driver_.semantics(); }
   const std::string& status_channel() const { return status_channel_; }
   const std::string& command_channel() const { return command_channel_; }
   /// The utime of the state numbered seq, µs: the plant's clock at start() plus seq periods.
@@ -154,9 +170,7 @@ class Simulation {
   void on_command(const uint8_t* data, size_t size);
   /// One step under a command (`fresh`: it arrived since the last step), the driver's gravity
   /// added under overlay; or under the brake.
-  void apply_command(const Command& command, bool fresh);
-  void apply_brake();
-  void step_and_publish(const Eigen::Ref<const Eigen::VectorXd>& tau);
+  void step_and_publish(const Eigen::VectorXd& tau);
   /// Sends the latest state produced (through the faults) and its truth (past them).
   void publish_state(int64_t now_ns);
   void count_late_cycle(int64_t now_ns);
@@ -166,11 +180,9 @@ class Simulation {
   SimulationOptions options_;
   Bus& bus_;
   const Clock& clock_;
-  const RobotModel& model_;
-  const controller::TorqueSemantics semantics_;
   const std::string status_channel_, command_channel_;
   Plant plant_;
-  Data data_;  // the nominal model's, for the driver's gravity
+  Driver driver_;
   StateTimes times_;
   CommandInbox inbox_;
   StatePublisher publisher_;
@@ -188,16 +200,7 @@ class Simulation {
     int64_t last_command_ns = -1, first_step = 0, last_step = 0, late_cycles = 0, late_stops = 0;
   } commanded_;
   bool braking_ = true;  // real time: held until the first command
-  // What the driver did at the last step, for Drake's statuses: the torque it handed the joints
-  // (before the effort limits), the command without its gravity, the command's positions.
-  Eigen::VectorXd torque_, desired_, position_commanded_, zero_;
-  bool has_position_ = false, commanding_ = false, commanded_ever_ = false;
-  // The Panda's control_command_success_rate: which of the last 100 steps since the first command
-  // had a fresh one.
-  std::bitset<100> fresh_steps_;
-  int64_t judged_steps_ = 0;
-  std::mt19937_64 stall_rng_;
-  int64_t next_stall_seq_ = 0;
+  StallSchedule stalls_;
   Bus::Subscription subscription_;  // last: ended before what it feeds
 };
 
