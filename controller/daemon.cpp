@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <optional>
 #include <thread>
 
 #include "controller/node.hpp"
@@ -71,8 +72,13 @@ struct Daemon::Impl {
 
   void realtime_loop(const std::atomic<bool>& stop) {
     minimise_timer_slack();
+    std::optional<CpuWakeLatency> wake_latency;  // held while the loop runs
     if (options.realtime) {
-      const auto warnings = make_realtime(options.priority, options.cpu);
+      auto warnings = make_realtime(options.priority, options.cpu);
+      if (options.cpu_wake_latency_us >= 0) {
+        wake_latency.emplace(options.cpu_wake_latency_us);
+        if (!wake_latency->warning().empty()) warnings.push_back(wake_latency->warning());
+      }
       warn(warnings);
       node.set_realtime_granted(warnings.empty());
     }

@@ -353,12 +353,19 @@ int main(int argc, char** argv) {
   app.add_option("--retract-mm", flags.retract_mm, "how far the retract reflex backs off, mm")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  app.add_flag("--realtime", options.realtime, "SCHED_FIFO, mlockall and --cpu for the loop (warns if refused)");
+  app.add_flag("--realtime", options.realtime,
+               "SCHED_FIFO, mlockall, --cpu and --cpu-wake-latency-us for the loop (warns if refused)");
   app.add_option("--priority", options.priority, "SCHED_FIFO priority with --realtime")
       ->check(CLI::Range(1, 99))
       ->capture_default_str();
   app.add_option("--cpu", options.cpu, "pin the loop to this CPU with --realtime (default: the last one; -1: none)")
       ->check(CLI::Range(-1, 1023));
+  app.add_option("--cpu-wake-latency-us", options.cpu_wake_latency_us,
+                 "with --realtime, hold /dev/cpu_dma_latency at this many us while the loop runs, so that idle "
+                 "cores do not halt deeply and the tick after a wait does not start cold (0: idle cores poll; "
+                 "-1: ask nothing)")
+      ->check(CLI::Range(-1, 1'000'000))
+      ->capture_default_str();
   app.add_option("--tick", options.tick,
                  "what starts a tick: 'state', as each state arrives, with the clock as the watchdog "
                  "(default); 'clock', every period, with the latest state (for a plant that does not "

@@ -36,9 +36,12 @@ struct DaemonOptions {
   std::optional<TorqueSemantics> torque_semantics;
   /// The position fields of an iiwa torque command.
   IiwaPositions iiwa_positions = IiwaPositions::kNone;
-  bool realtime = false;  ///< SCHED_FIFO, mlockall, CPU affinity for the loop (warn if refused)
+  bool realtime = false;  ///< SCHED_FIFO, mlockall, CPU affinity and wake latency for the loop (warn if refused)
   int priority = 80;
   int cpu = -1;
+  /// With --realtime: the longest wake-up from idle allowed every CPU while the loop runs, µs
+  /// (CpuWakeLatency; 0: idle cores poll); < 0: nothing asked.
+  int cpu_wake_latency_us = 0;
   double seconds = 0.0;  ///< stop after this long; 0: run until stopped
   double status_hz = 100.0;
   TickSource tick = TickSource::kState;

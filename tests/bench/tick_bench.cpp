@@ -28,10 +28,12 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "controller/controller.hpp"
+#include "controller/transport/realtime/realtime.hpp"
 #include "core/dynamics/dynamics.hpp"
 #include "core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
@@ -201,8 +203,18 @@ int main(int argc, char** argv) {
   int64_t sleep_us = 0;
   app.add_option("--sleep-us", sleep_us, "sleep this long before every tick, untimed, as the daemon waits for a state")
       ->check(CLI::Range(0, 999'999));
+  int wake_latency_us = -1;
+  app.add_option("--cpu-wake-latency-us", wake_latency_us,
+                 "hold /dev/cpu_dma_latency at this many us while timing, as chasles_controller --realtime does "
+                 "(-1: ask nothing, the default)")
+      ->check(CLI::Range(-1, 1'000'000));
   app.add_flag("--json", json, "one JSON object on stdout instead of the table");
   CLI11_PARSE(app, argc, argv);
+  std::optional<chasles::controller::CpuWakeLatency> wake_latency;
+  if (wake_latency_us >= 0) {
+    wake_latency.emplace(wake_latency_us);
+    if (!wake_latency->warning().empty()) std::fprintf(stderr, "warning: %s\n", wake_latency->warning().c_str());
+  }
   std::string path = robot;
   if (robot == "panda" || robot == "ur5") {
     path = std::string(CHASLES_BENCH_DATA) + "/" + robot + ".urdf";

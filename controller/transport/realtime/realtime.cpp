@@ -1,5 +1,6 @@
 #include "controller/transport/realtime/realtime.hpp"
 
+#include <fcntl.h>
 #include <poll.h>
 #include <pthread.h>
 #include <sched.h>
@@ -45,6 +46,25 @@ std::vector<std::string> make_realtime(int priority, int cpu) {
     }
   }
   return warnings;
+}
+
+CpuWakeLatency::CpuWakeLatency(int32_t max_wake_us) {
+  fd_ = open("/dev/cpu_dma_latency", O_WRONLY | O_CLOEXEC);
+  if (fd_ < 0) {
+    warning_ = std::string("/dev/cpu_dma_latency refused (") + std::strerror(errno) +
+               "): idle cores may halt between states and start each tick cold; run as root";
+    return;
+  }
+  // The kernel reads a binary 32-bit value (or text), once per open file.
+  if (write(fd_, &max_wake_us, sizeof(max_wake_us)) != static_cast<ssize_t>(sizeof(max_wake_us))) {
+    warning_ = std::string("/dev/cpu_dma_latency took no value (") + std::strerror(errno) + ")";
+    close(fd_);
+    fd_ = -1;
+  }
+}
+
+CpuWakeLatency::~CpuWakeLatency() {
+  if (fd_ >= 0) close(fd_);
 }
 
 bool wait_readable(int fd, int64_t until_ns) {
