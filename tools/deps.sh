@@ -8,7 +8,7 @@ set -euo pipefail
 chasles_packages_build=(
   build-essential cmake ninja-build pkg-config libtinyxml2-dev
   libeigen3-dev liburdfdom-dev libceres-dev libgtest-dev
-  libcli11-dev nlohmann-json3-dev
+  libcli11-dev nlohmann-json3-dev libassimp-dev libqhull-dev
   liblcm-dev liblcm-bin libglib2.0-dev liblcm-java default-jdk-headless
   iproute2 util-linux python3
 )
