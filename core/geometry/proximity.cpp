@@ -133,7 +133,7 @@ void Proximity::name_pair(int p, char* out, int size) const {
   const std::string& other = pair.kind == ProximityPair::kSelf     ? arm_.objects[pair.other].name
                              : pair.kind == ProximityPair::kObject ? scene_.objects[pair.other].name
                                                                    : scene_.planes[pair.other].name;
-  std::snprintf(out, static_cast<size_t>(size), "%s – %s", arm_.objects[pair.arm].name.c_str(), other.c_str());
+  std::snprintf(out, static_cast<size_t>(size), "%s and %s", arm_.objects[pair.arm].name.c_str(), other.c_str());
 }
 
 ProximityData::ProximityData(const Proximity& proximity)

@@ -80,7 +80,7 @@ class Proximity {
   const CollisionModel& arm() const { return arm_; }
   const Scene& scene() const { return scene_; }
   const std::vector<ProximityPair>& pairs() const { return pairs_; }
-  /// "<arm object> – <other>" for pair p, into `out` (at most size − 1 characters). Allocates
+  /// "<arm object> and <other>" for pair p, into `out` (at most size − 1 characters). Allocates
   /// nothing.
   void name_pair(int p, char* out, int size) const;
 
