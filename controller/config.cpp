@@ -36,6 +36,14 @@ void Config::validate(int dof) const {
   jog.validate();
   if (damping.size() != 0) check_gains(damping, "damping");
   if (coulomb.size() != 0) check_gains(coulomb, "Coulomb friction");
+  for (const auto& [value, name] : {std::pair{clearance.time_constant, "the clearance time constant"},
+                                    std::pair{clearance.deceleration, "the clearance deceleration"}}) {
+    if (!(value > 0.0) || !std::isfinite(value)) throw ArgumentError(std::string(name) + " must be positive and finite");
+  }
+  if (!(clearance.reference_margin >= 0.0) || !std::isfinite(clearance.reference_margin) ||
+      !(clearance.repulsion >= 0.0) || !std::isfinite(clearance.repulsion)) {
+    throw ArgumentError("the clearance margin and repulsion must be finite and non-negative");
+  }
 }
 
 }  // namespace chasles::controller

@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 
+#include "controller/clearance.hpp"
 #include "controller/contact.hpp"
 #include "controller/jog.hpp"
 #include "core/motion/limits.hpp"
@@ -40,6 +41,9 @@ struct Config {
   double stream_timeout = 0.1;
   /// The condition numbers where a twist jog toward a singularity slows and stops.
   JogConfig jog;
+  /// How the reference and free drive keep the arm clear of itself and the scene (clearance.hpp):
+  /// in force once a world is set (Controller::set_clearance_world).
+  ClearanceConfig clearance;
   /// FAULT when the arm applies the command ± g(q), a driver's gravity compensation added to a
   /// whole torque or missing from τ − g(q) (semantics_check.hpp): off only for a driver whose
   /// reported torque is not the torque it applies.

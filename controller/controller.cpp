@@ -16,6 +16,8 @@ namespace {
 // per joint, rad or m, and of the tip, m and rad. Beyond it the law would pull with K times a
 // distance the operator did not mean to be sudden; a duration makes it a motion instead.
 constexpr double kMaxJointStep = 0.2;
+// A brake the clearance has slowed below this joint speed (rad/s or m/s) is at rest.
+constexpr double kClearStill = 1e-4;
 constexpr double kMaxTipStep = 0.05, kMaxTipRotationStep = 0.3;
 
 void format_into(char (&buffer)[192], const char* format, va_list args) {
@@ -38,6 +40,7 @@ Controller::Controller(const RobotModel& model, const Config& config)
       guard_(model, config_.torque_ramp, config_.period),
       history_(model.dof()),
       monitor_(model, config_),
+      clearance_(model, config_.clearance),
       law_(model.dof(), config_),
       generator_(limits_, guard_.torque_rate(), config_.limits.jerk_within_torque_rate),
       goal_(model.dof(), limits_),
@@ -49,6 +52,7 @@ Controller::Controller(const RobotModel& model, const Config& config)
       stop_(model.dof(), limits_, generator_),
       source_(&goal_),
       ref_(model.dof()),
+      ref_from_(Eigen::VectorXd::Zero(model.dof())),
       q_(Eigen::VectorXd::Zero(model.dof())),
       qd_(Eigen::VectorXd::Zero(model.dof())),
       error_(Eigen::VectorXd::Zero(model.dof())),
@@ -111,6 +115,12 @@ bool Controller::set_law(const LawSettings& settings, int64_t now_ns) {
   return true;
 }
 
+bool Controller::set_clearance_world(ClearanceWorld* world) {
+  if (world != nullptr && world->row.size() != model_->dof()) return false;
+  clearance_.set_world(world);
+  return true;
+}
+
 bool Controller::set_model(const RobotModel& model) {
   if (&model == model_) return true;
   if (model.dof() != model_->dof() || !model.check(data_) || !kinematics_.fits(model)) return false;
@@ -158,10 +168,9 @@ void Controller::observe(const JointState& state) {
   }
 }
 
-void Controller::start_reflex(int64_t now_ns, const char* limit_reason) {
+void Controller::start_reflex(int64_t now_ns, const char* reason, Reflex reflex) {
   hold_at(q_);  // stop: hold here, braked by the position loop and the torque-rate limit
   const ContactMonitor& contact = monitor_.contact();
-  const Reflex reflex = limit_reason != nullptr ? Reflex::kStop : contact.config().reflex;
   switch (reflex) {
     case Reflex::kStop:
       break;
@@ -185,12 +194,8 @@ void Controller::start_reflex(int64_t now_ns, const char* limit_reason) {
   }
   mode_ = Mode::kReflex;
   path_.drop();  // a Cartesian plan in the works is dropped
-  trajectory_.end(TrajectoryProgress::kAborted, "REFLEX: %.160s", limit_reason != nullptr ? limit_reason : contact.reason());
-  if (limit_reason != nullptr) {
-    std::snprintf(reflex_reason_, sizeof(reflex_reason_), "%s; reflex stop", limit_reason);
-  } else {
-    std::snprintf(reflex_reason_, sizeof(reflex_reason_), "%s; reflex %s", contact.reason(), to_string(reflex));
-  }
+  trajectory_.end(TrajectoryProgress::kAborted, "REFLEX: %.160s", reason);
+  std::snprintf(reflex_reason_, sizeof(reflex_reason_), "%.160s; reflex %s", reason, to_string(reflex));
   ++counts_.reflexes;
 }
 
@@ -387,13 +392,17 @@ void Controller::update_reference(int64_t now_ns) {
     return;
   }
   const Tick tick{now_ns, model_, &kinematics_};
+  ref_from_ = ref_.q;
   if (mode_ == Mode::kReflex) {
     if (retracting_) goal_.advance(tick, ref_);  // holds the goal once there
     if (compliant_) ref_.hold(q_);               // the arm goes where it is pushed
+    if (retracting_) keep_clear(now_ns);
     return;
   }
   if (mode_ != Mode::kRunning) return;
-  switch (source_->advance(tick, ref_)) {
+  const ReferenceSource::Progress progress = source_->advance(tick, ref_);
+  keep_clear(now_ns);
+  switch (progress) {
     case ReferenceSource::Progress::kMoving:
       break;
     case ReferenceSource::Progress::kArrived:
@@ -407,6 +416,25 @@ void Controller::update_reference(int64_t now_ns) {
       refuse("stream ended: %.170s", source_->failure());
       hold_at(ref_.q);
       break;
+  }
+}
+
+void Controller::keep_clear(int64_t now_ns) {
+  if (!clearance_.active() || (ref_.q.array() == ref_from_.array()).all()) return;
+  if (!clearance_.shape(*model_, kinematics_.at(*model_, ref_from_), ref_from_, config_.period, ref_)) return;
+  const bool planned_ahead = source_ == &goal_ || source_ == &path_ || source_ == &trajectory_;
+  if (mode_ == Mode::kReflex) {
+    retracting_ = false;  // no retract into something else: the reflex holds where it was cut
+    ref_.qd.setZero();
+  } else if (planned_ahead) {
+    // A motion planned ahead in time cannot wait for the room it was cut by: it ends, and the
+    // reference brakes to rest from where it was cut, kept clear on the way.
+    refuse("the motion stopped short: %.150s", clearance_.status().slowing_name);
+    trajectory_.end(TrajectoryProgress::kAborted, "stopped short: %.160s", clearance_.status().slowing_name);
+    path_.drop();
+    stop_motion(now_ns);
+  } else if (source_ == &stop_ && ref_.qd.norm() < kClearStill) {
+    hold_at(ref_.q);  // a brake toward a rest it has no room to reach: at rest where it is
   }
 }
 
@@ -436,9 +464,11 @@ void Controller::guard(int64_t now_ns) {
     std::snprintf(limit_reason_, sizeof(limit_reason_), "joint %s: %s %g %s past its limit %g %s",
                   model_->joint(excess.joint).name.c_str(), to_string(excess.quantity), excess.value,
                   unit_of(excess.quantity), excess.limit, unit_of(excess.quantity));
-    start_reflex(now_ns, limit_reason_);
+    start_reflex(now_ns, limit_reason_, Reflex::kStop);
   } else if (monitor_.contact().estimate().collision) {
-    start_reflex(now_ns);
+    start_reflex(now_ns, monitor_.contact().reason(), monitor_.contact().config().reflex);
+  } else if (clearance_inside_ >= 0) {  // pushed inside a stop distance: a contact, as the policy says
+    start_reflex(now_ns, clearance_.inside_reason(clearance_inside_), monitor_.contact().config().reflex);
   }
 }
 
@@ -448,6 +478,7 @@ bool Controller::tick(int64_t now_ns, const JointState* state) {
   compute_tick_terms(*model_, data_, q_, qd_);
   observe(*state);
   if (stood_down_) return false;  // the observer found the torque semantics wrong
+  clearance_inside_ = clearance_.observe(data_);
   if (mode_ == Mode::kWaiting || mode_ == Mode::kFault) {
     // (Re-)entering HOLD where the arm is now, from g(q): what a plant applies while it brakes or
     // waits, so the first commands do not jump. A joint found outside its limits has crossed none.
@@ -462,6 +493,7 @@ bool Controller::tick(int64_t now_ns, const JointState* state) {
   if (trajectory_.active() && !trajectory_.judge(*model_, error_, driven_by(trajectory_), now_ns)) hold_at(q_);
   const double compliant_damping = compliant_ ? contact_config().compliant_damping : -1.0;
   law_.torque(*model_, data_, kinematics_, ref_, q_, qd_, compliant_damping, tau_);
+  if (law_.law() != Law::kComputedTorque) clearance_.repel(*model_, data_, tau_);  // felt where the arm yields
   if (!guard_.apply(tau_, now_ns)) {
     fault("the control law produced a non-finite torque");
     return false;

@@ -20,6 +20,7 @@
 #include <cstdint>
 
 #include "controller/cartesian.hpp"
+#include "controller/clearance.hpp"
 #include "controller/config.hpp"
 #include "controller/control_law.hpp"
 #include "controller/monitor.hpp"
@@ -55,6 +56,13 @@ class Controller {
   /// starts again with it. Allocates nothing.
   bool set_model(const RobotModel& model);
   const RobotModel& model() const { return *model_; }
+
+  /// Keeps the arm clear of itself and the scene with `world` from the next tick (nullptr: no
+  /// geometry). Refused (false) for a world built for another chain. The caller keeps it alive
+  /// while it is in force. Allocates nothing.
+  bool set_clearance_world(ClearanceWorld* world);
+  /// The closest pair at the latest state and what last slowed the reference.
+  const ClearanceStatus& clearance() const { return clearance_.status(); }
 
   /// Takes a new goal, or refuses it (returns false, counts it, says why in last_rejection()) and
   /// keeps the current one. A goal arriving before the first state is refused too. A JOINT goal
@@ -201,13 +209,15 @@ class Controller {
   /// A joint past its limits, or a collision, while RUNNING or HOLDING: the reflex.
   void guard(int64_t now_ns);
   void hold_at(const Eigen::VectorXd& q);
-  /// Starts the reflex: the configured one for a collision (the contact monitor's reason), else a
-  /// stop.
-  void start_reflex(int64_t now_ns, const char* limit_reason = nullptr);
+  /// Starts `reflex`, tripped by what `reason` says.
+  void start_reflex(int64_t now_ns, const char* reason, Reflex reflex);
   bool set_joint_target(const Target& target, int64_t now_ns);
   bool request_cartesian(const Target& target);
   /// The reference at now_ns; finishing a motion turns RUNNING into HOLDING.
   void update_reference(int64_t now_ns);
+  /// The reference the source moved from ref_from_ cut to keep clear (clearance.hpp); a motion
+  /// planned ahead in time that was cut ends in a brake.
+  void keep_clear(int64_t now_ns);
 
   const RobotModel* model_;
   Config config_;
@@ -217,6 +227,7 @@ class Controller {
   TorqueGuard guard_;
   CommandHistory history_;
   StateMonitor monitor_;
+  Clearance clearance_;
   ControlLaw law_;
   GeneratorLimits generator_;
   JogProgress jog_progress_;
@@ -230,10 +241,12 @@ class Controller {
   StopMotion stop_;
   ReferenceSource* source_;
   motion::Reference ref_;
+  Eigen::VectorXd ref_from_;  // the reference before the source moved it this tick
   Eigen::VectorXd q_, qd_, error_, tau_;
   Eigen::VectorXd q_guarded_;  // the state the limit guard last saw, for a crossing
   Eigen::VectorXd retract_goal_;
   Mode mode_ = Mode::kWaiting;
+  int clearance_inside_ = -1;  // the pair the state is inside the stop distance of, or −1
   bool stood_down_ = false;
   bool compliant_ = false, retracting_ = false;
   // Fixed buffers: the reasons are formatted on the real-time thread, which must not allocate.

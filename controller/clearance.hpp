@@ -1,0 +1,102 @@
+// Space in the tick (docs/controller.md, "Clearance"): the arm kept away from itself, from the
+// scene's obstacles and behind its safety planes.
+//
+//   at the state      the distances (the status: the closest pair); a pair inside its stop
+//                     distance — the arm was pushed there — starts the reflex
+//   the reference     as a source moved it, cut so that no pair closes faster than it may: within a
+//                     pair's influence distance d_i its distance d may shrink at most at
+//                     min((d − d_s)/τ, √(2 a (d − d_s))) — the velocity damper of Faverjon and
+//                     Tournassoud, and a stop within the deceleration a — where d_s is the stop
+//                     distance plus a margin the state needs to lag the reference by. The rate of
+//                     a pair's distance is n·(ṗ_other − ṗ_arm) at its witness points, a row of the
+//                     joint velocity; the source's step is slowed along its own path by the least
+//                     factor that keeps every pair within its rate (a jog stops, it does not
+//                     slide along the wall). Far from everything nothing is touched: the motion
+//                     is exactly the source's.
+//   free drive and    a repulsive torque, Jᵀ f with f growing linearly from 0 at the influence
+//   impedance         distance to Config's repulsion at the stop distance: the person guiding the
+//                     arm feels the wall before it.
+//
+// The world (the pairs and their workspaces) is built off the tick for each scene, and handed over
+// by pointer: a new scene takes effect at the next tick, with no allocation in it.
+#pragma once
+
+#include <Eigen/Core>
+#include <memory>
+
+#include "core/geometry/proximity.hpp"
+#include "core/model/model.hpp"
+#include "core/motion/quintic.hpp"
+
+namespace chasles::controller {
+
+struct ClearanceConfig {
+  double time_constant = 0.05;      ///< τ, s: the damper's; a pair closes at most (d − d_s)/τ
+  double deceleration = 1.0;        ///< a, m/s²: a closing pair is stopped within it
+  double reference_margin = 0.002;  ///< m: the reference keeps this much beyond each stop distance
+  double repulsion = 20.0;          ///< N: the repulsive force at the stop distance (free drive, impedance)
+};
+
+/// What the clearance computes with for one arm and one scene. Built off the tick: allocates.
+struct ClearanceWorld {
+  ClearanceWorld(const RobotModel& model, geometry::Proximity proximity);
+  geometry::Proximity proximity;
+  geometry::ProximityData at_state, at_reference;
+  Eigen::VectorXd free_step;  // the source's step, joint velocity
+  Eigen::VectorXd row;        // a pair's ∂d/∂q
+  Eigen::Matrix<double, 6, Eigen::Dynamic> twists;  // each joint's space twist at the q at hand
+};
+
+/// The clearance at the latest tick, for the status.
+struct ClearanceStatus {
+  int closest = -1;               ///< the closest pair at the state, −1 without a world
+  double closest_distance = 0.0;  ///< its signed distance, m
+  char closest_name[128] = {};    ///< "<arm object> and <other>"
+  /// The pair that cut the reference the most at the latest tick that cut it, within the last
+  /// kSlowingHold ticks (−1: none did), and the share of the source's joint-velocity step the
+  /// reference kept then (1: uncut). A reference held against a wall is cut at most ticks, not
+  /// all: the source asks a little less than the room left at some.
+  static constexpr int kSlowingHold = 100;
+  int slowing = -1;
+  double kept = 1.0;
+  char slowing_name[128] = {};
+};
+
+class Clearance {
+ public:
+  Clearance(const RobotModel& model, const ClearanceConfig& config);
+  /// The world from the next tick; nullptr: none (no geometry, nothing checked). The caller keeps
+  /// it alive while it is in force. Allocates nothing.
+  void set_world(ClearanceWorld* world);
+  bool active() const { return world_ != nullptr; }
+  const ClearanceConfig& config() const { return config_; }
+
+  /// The distances at the measured state (`at_state` holds its body poses). Returns the pair
+  /// inside its stop distance, the deepest, or −1. Allocates nothing.
+  int observe(const Data& at_state);
+  /// Cuts the reference a source moved from `q_from` (where `at_from` holds the body poses) to
+  /// `ref` over dt, so that no pair within its influence closes faster than it may. Returns
+  /// whether it cut it; then ref.q is q_from plus the step kept, ref.qd that step's velocity.
+  /// Allocates nothing.
+  bool shape(const RobotModel& model, const Data& at_from, const Eigen::VectorXd& q_from, double dt,
+             motion::Reference& ref);
+  /// Adds the repulsive torque at the state (after observe) to tau. Allocates nothing.
+  void repel(const RobotModel& model, const Data& at_state, Eigen::VectorXd& tau);
+
+  const ClearanceStatus& status() const { return status_; }
+  /// "<pair> at <d> m, inside its stop distance <s> m" for the pair observe() returned.
+  const char* inside_reason(int pair);
+
+ private:
+  /// ∂d/∂q of a pair at distance d, from the joint twists at hand (world_->twists), into `row`.
+  void distance_row(const RobotModel& model, const geometry::PairDistance& d, const geometry::ProximityPair& pair,
+                    Eigen::VectorXd& row) const;
+
+  ClearanceConfig config_;
+  ClearanceWorld* world_ = nullptr;
+  ClearanceStatus status_;
+  int uncut_ticks_ = 0;  // since the reference was last cut
+  char reason_[192] = {};
+};
+
+}  // namespace chasles::controller
