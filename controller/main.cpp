@@ -27,6 +27,7 @@
 
 #include "controller/daemon.hpp"
 #include "controller/node.hpp"
+#include "controller/world.hpp"
 #include "core/dynamics/dynamics.hpp"
 #include "core/error.hpp"
 #include "core/model/model.hpp"
@@ -105,6 +106,7 @@ std::string gains_text(const Json& value, const std::string& name) {
 // The settings the library gives its defaults for: each flag starts from them, so that a default is
 // written once, in C++, and the help prints it from there.
 const chasles::controller::Config kDefault{};
+const chasles::geometry::ProximityOptions kDefaultProximity{};
 
 struct Flags {
   std::string robot, tip, config, summary;
@@ -127,7 +129,34 @@ struct Flags {
   chasles::controller::JogConfig jog;
   double pose_time_constant_ms = 1e3 * kDefault.jog.pose_time_constant;
   bool semantics_check = kDefault.check_torque_semantics;
+  // Clearance: the collision geometry, where its meshes are, and the distances kept.
+  std::string collision = "auto", srdf;
+  std::vector<std::string> package_dirs;
+  double self_stop_mm = 1e3 * kDefaultProximity.self.stop, self_influence_mm = 1e3 * kDefaultProximity.self.influence;
+  double clearance_margin_mm = 1e3 * kDefault.clearance.reference_margin;
+  double clearance_time_constant_ms = 1e3 * kDefault.clearance.time_constant;
+  double clearance_deceleration = kDefault.clearance.deceleration, repulsion = kDefault.clearance.repulsion;
 };
+
+// The collision geometry and the scene from the flags, each step said on stderr; nullptr without.
+std::shared_ptr<chasles::controller::ClearanceWorld> clearance_world(const chasles::RobotModel& model, const Flags& flags) {
+  chasles::controller::WorldOptions world;
+  chasles::controller::parse_collision_mode(flags.collision, world.mode);  // checked by CLI11
+  world.urdf = flags.robot;
+  world.geometry.package_dirs = flags.package_dirs;
+  if (const char* path = std::getenv("ROS_PACKAGE_PATH")) {
+    std::stringstream folders(path);
+    for (std::string folder; std::getline(folders, folder, ':');) {
+      if (!folder.empty()) world.geometry.package_dirs.push_back(folder);
+    }
+  }
+  world.geometry.srdf_path = flags.srdf;
+  world.proximity.self = {flags.self_stop_mm * 1e-3, flags.self_influence_mm * 1e-3};
+  std::vector<std::string> notes;
+  const chasles::geometry::CollisionModel arm = chasles::controller::load_arm_geometry(model, world, notes);
+  for (const std::string& note : notes) std::fprintf(stderr, "chasles_controller: %s\n", chasles::one_line(note).c_str());
+  return chasles::controller::make_world(model, arm, {}, world.proximity);
+}
 
 // A contact or collision threshold: a positive number, or inf for none (as the per-joint torque
 // thresholds take it).
@@ -353,6 +382,38 @@ int main(int argc, char** argv) {
   app.add_option("--retract-mm", flags.retract_mm, "how far the retract reflex backs off, mm")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+  app.add_option("--collision", flags.collision,
+                 "keep the arm clear of itself and the scene with its URDF's collision geometry: auto (if it "
+                 "loads, else say why and run without), on (it must), off")
+      ->check(CLI::IsMember({"auto", "on", "off"}))
+      ->capture_default_str();
+  app.add_option("--srdf", flags.srdf, "SRDF whose <disable_collisions> pairs are not checked")->check(CLI::ExistingFile);
+  app.add_option("--package-dir", flags.package_dirs,
+                 "where package://NAME/... meshes are looked for, as DIR/NAME/... (repeatable; then "
+                 "$ROS_PACKAGE_PATH's folders)");
+  app.add_option("--self-stop-mm", flags.self_stop_mm, "the least distance between two parts of the arm, mm")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--self-influence-mm", flags.self_influence_mm,
+                 "two parts of the arm closer than this slow their approach, mm")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--clearance-margin-mm", flags.clearance_margin_mm,
+                 "the reference stops this much short of each stop distance, the room the arm lags it by, mm")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--clearance-time-constant-ms", flags.clearance_time_constant_ms,
+                 "a pair closes at most at its room to the stop distance over this time, ms")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--clearance-deceleration", flags.clearance_deceleration,
+                 "a closing pair is stopped within this deceleration, m/s^2")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--repulsion", flags.repulsion,
+                 "under free drive and impedance, the force pushing a pair apart at its stop distance, N")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   app.add_flag("--realtime", options.realtime,
                "SCHED_FIFO, mlockall, --cpu and --cpu-wake-latency-us for the loop (warns if refused)");
   app.add_option("--priority", options.priority, "SCHED_FIFO priority with --realtime")
@@ -494,6 +555,12 @@ int main(int argc, char** argv) {
     if (!flags.collision_torque.empty()) {
       options.control.contact.collision_torque = gains(flags.collision_torque, n, "--collision-torque", true);
     }
+
+    options.control.clearance.reference_margin = flags.clearance_margin_mm * 1e-3;
+    options.control.clearance.time_constant = flags.clearance_time_constant_ms * 1e-3;
+    options.control.clearance.deceleration = flags.clearance_deceleration;
+    options.control.clearance.repulsion = flags.repulsion;
+    options.clearance = clearance_world(model, flags);
 
     // CPU 0 usually takes most interrupts and housekeeping; the last CPU is the conventional one
     // to set aside. Users with an isolated core (isolcpus) name it.

@@ -94,6 +94,9 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
       planner_(model, options.control.limits),
       reporter_(model) {
   reporter_.status.num_joints = n_;
+  if (!loop_.controller.set_clearance_world(options_.clearance.get())) {
+    throw ArgumentError("the collision geometry was built for another arm");
+  }
 }
 
 std::string Node::refusal() const {
@@ -290,6 +293,7 @@ void Node::publish_snapshot() {
   s.jogs = loop_.controller.jogs();
   s.dropped_jogs = loop_.controller.dropped_jogs();
   s.jog = loop_.controller.jog_progress();
+  s.clearance = loop_.controller.clearance();
   s.generator = loop_.controller.generator_limits();
   snapshots_.publish();
 }
@@ -447,6 +451,10 @@ void Node::fill_status() {
   status.jog_scale = s.jog.scale;
   status.jog_limited_by = to_wire(s.jog.limited_by);
   status.jog_joint = s.jog.joint;
+  status.clearance_pair = s.clearance.closest >= 0 ? s.clearance.closest_name : "";
+  status.clearance_distance = s.clearance.closest >= 0 ? s.clearance.closest_distance : 0.0;
+  status.clearance_slowed_by = s.clearance.slowing >= 0 ? s.clearance.slowing_name : "";
+  status.clearance_kept = s.clearance.kept;
   const Transform& T = forward_kinematics(model_, reporter_.data, s.q);
   const Eigen::Quaterniond quaternion(T.linear());
   for (int i = 0; i < 3; ++i) status.tip_position[i] = T.translation()(i);

@@ -136,6 +136,7 @@ class Node {
     bool jogging = false;
     int64_t jogs = 0, dropped_jogs = 0;
     JogProgress jog;
+    ClearanceStatus clearance;
     explicit Snapshot(int n = 0);
   };
   // Timing figures of the status window and of the whole run.

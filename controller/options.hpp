@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -22,6 +23,9 @@ enum class TickSource {
 
 struct DaemonOptions {
   Config control;
+  /// The arm's collision geometry and its scene, built before the loop starts (world.hpp); nullptr:
+  /// none, nothing kept clear.
+  std::shared_ptr<ClearanceWorld> clearance;
   /// A load known at the tip from the start, on the model the daemon is given (which carries none);
   /// a payload_t received at run time replaces it.
   std::optional<Payload> payload;

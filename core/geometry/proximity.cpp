@@ -49,6 +49,38 @@ PairDistance sphere_gap(const Vector3d& c_a, double r_a, const Vector3d& c_b, do
   return d;
 }
 
+// A lower bound on the distance from a ball (centre c, radius r, in the base frame) to a scene
+// object: the distance from c to it, less r. For a box and a cylinder that distance is exact and
+// cheap, where the object's own bounding sphere would be as large as a table or a wall and cull
+// nothing; other shapes fall back to their bounding sphere.
+PairDistance ball_to_object(const Vector3d& c, double r, const Shape& b, const Transform& T_b,
+                            const Vector3d& b_centre, double b_radius) {
+  const Vector3d q = T_b.linear().transpose() * (c - T_b.translation());
+  Vector3d nearest;
+  switch (b.kind) {
+    case ShapeKind::kBox:
+      nearest = q.cwiseMax(-b.half_extents).cwiseMin(b.half_extents);
+      break;
+    case ShapeKind::kCylinder: {
+      const double radial = std::hypot(q.x(), q.y());
+      const double scale = radial > b.radius ? b.radius / radial : 1.0;
+      nearest = Vector3d(q.x() * scale, q.y() * scale, std::clamp(q.z(), -b.half_length, b.half_length));
+      break;
+    }
+    default:
+      return sphere_gap(c, r, T_b * b_centre, b_radius);
+  }
+  PairDistance d;
+  const Vector3d between = T_b.linear() * (nearest - q);
+  const double length = between.norm();
+  d.normal = length > 0.0 ? Vector3d(between / length) : Vector3d(Vector3d::UnitX());
+  d.distance = length - r;
+  d.p_arm = c + r * d.normal;
+  d.p_other = c + between;
+  d.exact = false;
+  return d;
+}
+
 }  // namespace
 
 void bounding_sphere(const Shape& shape, Vector3d& centre, double& radius) {
@@ -89,6 +121,26 @@ void add_workspace_box(Scene& scene, const std::string& name, const Transform& T
       scene.planes.push_back({name + "/" + kFaces[axis][side], -outward, -outward.dot(face), links, clearance});
     }
   }
+}
+
+std::vector<std::string> drop_pairs_closer_than(CollisionModel& arm, const std::vector<Transform>& T_body,
+                                                double distance) {
+  std::vector<std::string> dropped;
+  std::vector<std::pair<int, int>> kept;
+  for (const auto& [a, b] : arm.pairs) {
+    const CollisionObject &A = arm.objects[static_cast<size_t>(a)], &B = arm.objects[static_cast<size_t>(b)];
+    DistanceCache cache;
+    const double d = signed_distance(A.shape, T_body[static_cast<size_t>(A.body)] * A.T_body_object, B.shape,
+                                     T_body[static_cast<size_t>(B.body)] * B.T_body_object, cache)
+                         .distance;
+    if (d < distance) {
+      dropped.push_back(A.name + " and " + B.name);
+    } else {
+      kept.emplace_back(a, b);
+    }
+  }
+  arm.pairs = std::move(kept);
+  return dropped;
 }
 
 Proximity::Proximity(CollisionModel arm, Scene scene, const ProximityOptions& options)
@@ -161,7 +213,12 @@ void compute_distances(const Proximity& proximity, const std::vector<Transform>&
     const size_t o = static_cast<size_t>(pair.other);
     const Shape& b = self ? objects[o].shape : scene.objects[o].shape;
     const Transform& T_b = self ? data.T_object[o] : scene.objects[o].T_base_object;
-    if (cull) {
+    if (cull && !self) {
+      const PairDistance bound = ball_to_object(T_a * proximity.arm_centres()[static_cast<size_t>(pair.arm)],
+                                                proximity.arm_radii()[static_cast<size_t>(pair.arm)], b, T_b,
+                                                proximity.scene_centres()[o], proximity.scene_radii()[o]);
+      if (bound.distance > pair.clearance.influence) return bound;
+    } else if (cull) {
       const PairDistance bound = sphere_gap(
           T_a * proximity.arm_centres()[static_cast<size_t>(pair.arm)], proximity.arm_radii()[static_cast<size_t>(pair.arm)],
           T_b * (self ? proximity.arm_centres()[o] : proximity.scene_centres()[o]),

@@ -55,6 +55,14 @@ void add_workspace_box(Scene& scene, const std::string& name, const Transform& T
                        const Vector3d& half_extents, const std::vector<std::string>& links,
                        const Clearance& clearance);
 
+/// Removes from `arm` the self pairs closer than `distance` (m) at the body poses `T_body` — those
+/// in contact in the arm's zero configuration, as MoveIt's setup assistant disables its "default"
+/// collisions: pairs whose meshes overlap where the arm was drawn overlap by design (an iiwa's
+/// link 5 cylinder inside its link 7 hull), and a pair the arm starts inside could never be left.
+/// Returns the pairs removed, "<object> and <object>". Allocates.
+std::vector<std::string> drop_pairs_closer_than(CollisionModel& arm, const std::vector<Transform>& T_body,
+                                                double distance);
+
 /// One distance the tick watches.
 struct ProximityPair {
   enum Kind { kSelf, kObject, kPlane };
