@@ -225,11 +225,15 @@ std::string object_problem(const scene_t& m, int k, size_t& next_vertex, geometr
   if (!finite(size)) return label + ": object_size " + numbers(size) + " is not finite";
   const int used = sizes_used(kind);
   for (int s = 0; s < 3; ++s) {
-    const bool ok = s < used ? size[size_t(s)] > 0.0 : size[size_t(s)] == 0.0;
-    if (!ok) {
-      return label + ": object_size[" + std::to_string(s) + "] is " + number(size[size_t(s)]) + "; " +
-             (s < used ? std::string("a size must be > 0 (m)")
-                       : std::string("a ") + kind_name(kind) + " uses " + std::to_string(used) + " sizes, the rest must be 0");
+    const double x = size[size_t(s)];
+    const char* why = s >= used ? (x == 0.0 ? nullptr : "unused")
+                      : x <= 0.0 ? "a size must be > 0 (m)"
+                      : x < geometry::kMinSceneSize || x > geometry::kMaxSceneExtent ? "a size must be within 1e-06 and 1000 m"
+                                                                                    : nullptr;
+    if (why) {
+      return label + ": object_size[" + std::to_string(s) + "] is " + number(x) + "; " +
+             (s >= used ? std::string("a ") + kind_name(kind) + " uses " + std::to_string(used) + " sizes, the rest must be 0"
+                        : std::string(why));
     }
   }
   const int32_t vertex_count = m.object_num_vertices[i];
@@ -317,8 +321,12 @@ std::string box_problem(const scene_t& m, int k, size_t& next_link, geometry::Wo
   }
   const std::vector<double>& size = m.box_size[i];
   for (int s = 0; s < 3; ++s) {
-    if (!(std::isfinite(size[size_t(s)]) && size[size_t(s)] > 0.0)) {
-      return label + ": box_size[" + std::to_string(s) + "] is " + number(size[size_t(s)]) + "; a size must be > 0 (m)";
+    const double x = size[size_t(s)];
+    if (!(std::isfinite(x) && x > 0.0)) {
+      return label + ": box_size[" + std::to_string(s) + "] is " + number(x) + "; a size must be > 0 (m)";
+    }
+    if (x < geometry::kMinSceneSize || x > geometry::kMaxSceneExtent) {
+      return label + ": box_size[" + std::to_string(s) + "] is " + number(x) + "; a size must be within 1e-06 and 1000 m";
     }
   }
   box.half_extents = Vector3d(size[0], size[1], size[2]) / 2.0;
@@ -440,7 +448,8 @@ void check_cap(size_t count, int32_t cap, const char* what) {
 scene_t encode_scene(const Scene& scene, int64_t utime) {
   if (std::string why = geometry::scene_problem(scene); !why.empty()) refuse(why);
   size_t first_face = 0;
-  const std::vector<geometry::WorkspaceBox> boxes = geometry::trailing_workspace_boxes(scene, first_face);
+  const std::vector<geometry::WorkspaceBox> boxes =
+      geometry::trailing_workspace_boxes(scene, first_face, size_t(scene_t::MAX_BOXES));
   check_cap(scene.objects.size(), scene_t::MAX_OBJECTS, "objects");
   check_cap(first_face, scene_t::MAX_PLANES, "planes (besides workspace boxes)");
   check_cap(boxes.size(), scene_t::MAX_BOXES, "workspace boxes");

@@ -40,6 +40,9 @@ std::string name_problem(const std::string& name, size_t max_length) {
 
 std::string clearance_problem(const Clearance& c) {
   if (!std::isfinite(c.stop) || !std::isfinite(c.influence)) return "stop and influence must be finite";
+  if (c.influence > kMaxSceneExtent) {
+    return "influence " + std::to_string(c.influence) + " m is beyond " + std::to_string(int(kMaxSceneExtent)) + " m";
+  }
   if (c.stop < 0.0) return "stop " + std::to_string(c.stop) + " m is negative";
   if (!(c.stop < c.influence)) {
     return "stop " + std::to_string(c.stop) + " m is not below influence " + std::to_string(c.influence) + " m";
@@ -59,9 +62,12 @@ std::string rotation_of_quaternion(const Eigen::Vector4d& wxyz, Matrix3d& R) {
 
 namespace {
 
+bool within_extent(const Vector3d& p) { return p.allFinite() && p.cwiseAbs().maxCoeff() <= kMaxSceneExtent; }
+
 std::string pose_problem(const Transform& T) {
   const Matrix3d& R = T.linear();
   if (!R.allFinite() || !T.translation().allFinite()) return "its pose is not finite";
+  if (!within_extent(T.translation())) return "its position is beyond " + std::to_string(int(kMaxSceneExtent)) + " m";
   if ((R.transpose() * R - Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-9 || R.determinant() <= 0.0) {
     return "its pose's rotation is not a rotation (R^T R = 1, det R = +1, within 1e-9)";
   }
@@ -69,25 +75,32 @@ std::string pose_problem(const Transform& T) {
 }
 
 std::string shape_problem(const Shape& s) {
-  const auto positive = [](double x) { return std::isfinite(x) && x > 0.0; };
+  // A size (a radius, a half extent) within the scene's lengths; half of a full length counts as
+  // the full length does.
+  const auto size_ok = [](double x, double scale) {
+    return std::isfinite(x) && scale * x >= kMinSceneSize && scale * x <= kMaxSceneExtent;
+  };
+  const std::string range = " within 1e-06 and 1000 m";
   switch (s.kind) {
     case ShapeKind::kSphere:
-      return positive(s.radius) ? "" : "a sphere's radius must be finite and > 0";
+      return size_ok(s.radius, 1.0) ? "" : "a sphere's radius must be" + range;
     case ShapeKind::kBox:
-      return positive(s.half_extents.x()) && positive(s.half_extents.y()) && positive(s.half_extents.z())
+      return size_ok(s.half_extents.x(), 2.0) && size_ok(s.half_extents.y(), 2.0) && size_ok(s.half_extents.z(), 2.0)
                  ? ""
-                 : "a box's half extents must be finite and > 0";
+                 : "a box's sizes must be" + range;
     case ShapeKind::kCylinder:
     case ShapeKind::kCapsule:
-      return positive(s.radius) && positive(s.half_length) ? ""
-                                                             : "a cylinder's or capsule's radius and half length must be "
-                                                               "finite and > 0";
+      return size_ok(s.radius, 1.0) && size_ok(s.half_length, 2.0)
+                 ? ""
+                 : "a cylinder's or capsule's radius and length must be" + range;
     case ShapeKind::kConvex: {
       if (s.vertices.size() < 4) return "a convex shape needs at least 4 vertices";
       if (s.neighbours.size() != s.vertices.size()) return "a convex shape needs the neighbours of each vertex";
       const int n = static_cast<int>(s.vertices.size());
       for (size_t v = 0; v < s.vertices.size(); ++v) {
-        if (!s.vertices[v].allFinite()) return "a convex shape's vertex is not finite";
+        if (!within_extent(s.vertices[v])) {
+          return "a convex shape's vertex is not finite or beyond " + std::to_string(int(kMaxSceneExtent)) + " m";
+        }
         if (s.neighbours[v].empty()) return "a convex shape's vertex has no neighbour";
         for (int w : s.neighbours[v]) {
           if (w < 0 || w >= n || w == static_cast<int>(v)) return "a convex shape's neighbour is out of range";
@@ -122,7 +135,9 @@ std::string scene_problem(const Scene& scene) {
     if (!p.normal.allFinite() || std::abs(p.normal.norm() - 1.0) > 1e-9) {
       return what + ": its normal must be a unit vector (within 1e-9)";
     }
-    if (!std::isfinite(p.offset)) return what + ": its offset is not finite";
+    if (!std::isfinite(p.offset) || std::abs(p.offset) > kMaxSceneExtent) {
+      return what + ": its offset is not finite or beyond " + std::to_string(int(kMaxSceneExtent)) + " m";
+    }
     for (const std::string& link : p.links) {
       if (std::string why = name_problem(link, kMaxLinkNameLength); !why.empty()) return what + ": a link name " + why;
     }
@@ -209,6 +224,7 @@ double number(const Json& v, const Where& at, const std::string& field) {
 double length(const Json& v, const Where& at, const std::string& field) {
   const double x = number(v, at, field);
   if (x <= 0.0) at.fail(field + " is " + v.dump() + ": a size must be > 0 (m)");
+  if (x < kMinSceneSize || x > kMaxSceneExtent) at.fail(field + " is " + v.dump() + ": a size must be within 1e-06 and 1000 m");
   return x;
 }
 
@@ -535,14 +551,15 @@ bool as_box(const std::vector<SafetyPlane>& planes, size_t at, WorkspaceBox& box
 
 }  // namespace
 
-std::vector<WorkspaceBox> trailing_workspace_boxes(const Scene& scene, size_t& first_face) {
+std::vector<WorkspaceBox> trailing_workspace_boxes(const Scene& scene, size_t& first_face, size_t max_boxes) {
   const auto name_is_free = [&scene](const std::string& name) {
     return std::none_of(scene.objects.begin(), scene.objects.end(), [&](const auto& o) { return o.name == name; }) &&
            std::none_of(scene.planes.begin(), scene.planes.end(), [&](const auto& p) { return p.name == name; });
   };
   std::vector<WorkspaceBox> boxes;
   first_face = scene.planes.size();
-  for (WorkspaceBox box; first_face >= 6 && as_box(scene.planes, first_face - 6, box) && name_is_free(box.name);
+  for (WorkspaceBox box; boxes.size() < max_boxes && first_face >= 6 && as_box(scene.planes, first_face - 6, box) &&
+                         name_is_free(box.name);
        first_face -= 6) {
     boxes.insert(boxes.begin(), box);
   }

@@ -61,13 +61,22 @@ struct WorkspaceBox {
 /// the last plane back. `first_face` is the index of the first plane they take (planes.size()
 /// when none). What the writers (write_scene_file, encode_scene) use to give boxes back as boxes,
 /// so that reading them back (planes, then boxes) keeps the order.
-std::vector<WorkspaceBox> trailing_workspace_boxes(const Scene& scene, size_t& first_face);
+/// At most `max_boxes` are taken (the last ones).
+std::vector<WorkspaceBox> trailing_workspace_boxes(const Scene& scene, size_t& first_face,
+                                                   size_t max_boxes = size_t(-1));
 
 // ---- The rules every scene keeps to, from a file or a message ----
 
 /// Names of objects, planes and workspace boxes: 1 to this many bytes, no control character (so
 /// that a refusal or a status prints them on one line), unique across the scene.
 inline constexpr size_t kMaxSceneNameLength = 64;
+/// The lengths a scene holds, m: every size at least kMinSceneSize (a micrometre: a size below is
+/// a slip of units), and every size, coordinate (positions, hull vertices), plane offset and
+/// clearance at most kMaxSceneExtent (a kilometre) in magnitude. What keeps every distance a tick
+/// computes finite and exact enough: squares of numbers past 1e154 overflow, and a box's faces
+/// must give the box back (trailing_workspace_boxes).
+inline constexpr double kMinSceneSize = 1e-6;
+inline constexpr double kMaxSceneExtent = 1e3;
 /// The link names a plane binds: 1 to this many bytes, no control character.
 inline constexpr size_t kMaxLinkNameLength = 255;
 /// How far from 1 a plane normal's length may be. A normal is not normalised silently: with an
@@ -88,10 +97,12 @@ std::string clearance_problem(const Clearance& clearance);
 std::string rotation_of_quaternion(const Eigen::Vector4d& wxyz, Matrix3d& R);
 
 /// Why `scene` breaks a rule, in the Scene's own terms ("object 'table': ...", "plane 'floor':
-/// ..."), or "": names as above and unique across objects and planes, shapes with finite sizes > 0
-/// (a convex shape: at least four finite vertices, neighbours for each, within range), poses that
-/// are rigid transforms (finite, R orthonormal with det +1 within 1e-9), plane normals of unit
-/// length within 1e-9 (what Proximity takes) and finite offsets, link names as above, clearances.
+/// ..."), or "": names as above and unique across objects and planes, shapes with finite sizes
+/// within kMinSceneSize and kMaxSceneExtent (a convex shape: at least four finite vertices within
+/// kMaxSceneExtent, neighbours for each, within range), poses that are rigid transforms (finite,
+/// within kMaxSceneExtent, R orthonormal with det +1 within 1e-9), plane normals of unit length
+/// within 1e-9 (what Proximity takes) and offsets within kMaxSceneExtent, link names as above,
+/// clearances (influence within kMaxSceneExtent).
 /// What the readers build always passes; write_scene_file and encode_scene refuse a scene that
 /// does not.
 std::string scene_problem(const Scene& scene);

@@ -18,6 +18,7 @@
 #include "core/geometry/collision_model.hpp"
 #include "core/geometry/scene_file.hpp"
 #include "lcmtypes/checked.hpp"
+#include "support/process.hpp"
 
 namespace chasles::controller {
 namespace {
@@ -251,6 +252,11 @@ TEST(SceneMessage, EveryRefusalSaysWhichEntryAndField) {
   EXPECT_EQ(refusal(m), "object 0 'thing': object_clearance: stop and influence must be finite");
 
   EXPECT_EQ(refusal(one_object(scene_t::BOX, {1, 0, 1})), "object 0 'thing': object_size[1] is 0; a size must be > 0 (m)");
+  EXPECT_EQ(refusal(one_object(scene_t::BOX, {1, 1e300, 1})),
+            "object 0 'thing': object_size[1] is 1e+300; a size must be within 1e-06 and 1000 m");
+  m = one_object(scene_t::BOX, {1, 1, 1});
+  m.object_position[0][0] = -1e300;
+  EXPECT_EQ(refusal(m), "object 'thing': its position is beyond 1000 m");
   EXPECT_EQ(refusal(one_object(scene_t::SPHERE, {0, 0, 0})),
             "object 0 'thing': object_size[0] is 0; a size must be > 0 (m)");
   EXPECT_EQ(refusal(one_object(scene_t::SPHERE, {0.1, 0.2, 0})),
@@ -426,7 +432,7 @@ TEST(SceneMessage, EncodeRefusesWhatTheContractCannotCarry) {
     encode_scene(scene);
     ADD_FAILURE() << "no error";
   } catch (const ArgumentError& e) {
-    EXPECT_STREQ(e.what(), "cannot encode the scene: object 'lamp': a sphere's radius must be finite and > 0");
+    EXPECT_STREQ(e.what(), "cannot encode the scene: object 'lamp': a sphere's radius must be within 1e-06 and 1000 m");
   }
   scene = Scene{};
   for (int k = 0; k <= scene_t::MAX_PLANES; ++k) scene.planes.push_back({"p" + std::to_string(k), Vector3d::UnitZ(), 0.0, {}, {}});
@@ -435,6 +441,26 @@ TEST(SceneMessage, EncodeRefusesWhatTheContractCannotCarry) {
     ADD_FAILURE() << "no error";
   } catch (const ArgumentError& e) {
     EXPECT_STREQ(e.what(), "cannot encode the scene: 65 planes (besides workspace boxes); a scene_t carries 64");
+  }
+}
+
+// The fuzzer's scene seeds (tests/fuzz/corpus/README.md): byte '=' then the message; the first two
+// are taken, the third refused for its flat bin.
+TEST(SceneMessage, TheFuzzSeedsAreWhatTheReadmeSays) {
+  const std::string dir = std::string(CHASLES_TEST_DATA) + "/../fuzz/corpus/messages/";
+  const std::string expected[3] = {"", "", "object 1 'flat_bin': its vertices span no volume"};
+  const size_t objects[3] = {3, 2, 0}, planes[3] = {1 + 6, 2, 0};
+  for (int k = 0; k < 3; ++k) {
+    const std::string bytes = testing::read_file(dir + "chasles_scene_" + std::to_string(k));
+    ASSERT_GT(bytes.size(), 1u) << k;
+    EXPECT_EQ(bytes[0], '=');
+    Scene scene;
+    char error[256];
+    const bool taken = decode_scene(bytes.data() + 1, bytes.size() - 1, scene, error, sizeof error);
+    EXPECT_EQ(taken, expected[k].empty()) << k << ": " << error;
+    EXPECT_EQ(std::string(error).substr(0, expected[k].size()), expected[k]) << k;
+    EXPECT_EQ(scene.objects.size(), objects[k]) << k;
+    EXPECT_EQ(scene.planes.size(), planes[k]) << k;
   }
 }
 

@@ -288,7 +288,7 @@ TEST(SceneFile, TheWriterRefusesABadSceneAndAPathItCannotWrite) {
   Scene scene;
   scene.objects.push_back({"a", {}, Transform::Identity(), {}});  // a sphere of radius 0
   EXPECT_EQ(error_of([&] { write_scene_file("/tmp/never.json", scene); }),
-            "/tmp/never.json: cannot write the scene: object 'a': a sphere's radius must be finite and > 0");
+            "/tmp/never.json: cannot write the scene: object 'a': a sphere's radius must be within 1e-06 and 1000 m");
   scene.objects[0].shape.radius = 0.1;
   scene.planes.push_back({"a", Vector3d::UnitZ(), 0.0, {}, {}});
   EXPECT_EQ(error_of([&] { write_scene_file("/tmp/never.json", scene); }),
@@ -340,6 +340,12 @@ TEST(SceneFile, EveryRefusalNamesTheEntryAndTheField) {
       << flat_refusal;
   EXPECT_EQ(refusal(one_object(R"({"name": "few", "shape": {"convex": {"vertices": [[0,0,0], [1,0,0], [0,1,0]]}}})")),
             "objects[0] \"few\": shape.convex.vertices: 3 vertices span no volume");
+  EXPECT_EQ(refusal(one_object(R"({"name": "a", "shape": {"sphere": {"radius": 2000}}})")),
+            "objects[0] \"a\": shape.sphere.radius is 2000: a size must be within 1e-06 and 1000 m");
+  EXPECT_EQ(refusal(one_object(R"({"name": "a", "shape": {"box": {"size": [1, 1, 1e-7]}}})")),
+            "objects[0] \"a\": shape.box.size[2] is 1e-07: a size must be within 1e-06 and 1000 m");
+  EXPECT_EQ(refusal(one_object(R"({"name": "a", "shape": {"sphere": {"radius": 1}}, "pose": {"xyz": [1e300, 0, 0]}})")),
+            "object 'a': its position is beyond 1000 m");
   // Poses.
   EXPECT_EQ(refusal(one_object(R"({"name": "a", "shape": {"sphere": {"radius": 1}},
                                    "pose": {"quaternion": [1, 0, 0, 0.1]}})")),
