@@ -199,17 +199,15 @@ TEST(SceneFile, EveryShapeIsWhatTheFileSays) {
 }
 
 TEST(SceneFile, AMeshIsFoundBesideTheFileAndScaledByOneNumber) {
-  // The scene file in tests/data/packages' Panda folder names its mesh relatively.
-  const std::string dir = kPackages + "/example-robot-data/robots/panda_description/";
-  const std::string path = dir + "chasles_scene_test_" + std::to_string(::getpid()) + ".json";
-  {
-    std::ofstream out(path);
-    out << one_object(R"({"name": "m", "shape": {"mesh": {"file": "meshes/collision/link7.stl", "scale": 0.5}}})");
-  }
-  const Scene scene = read_scene_file(path);
-  std::remove(path.c_str());
+  // A copy of the Panda's link 7 in the temporary folder, named relatively by a scene file there.
+  const std::string stl_path = kPackages + "/" + kLink7;
+  const testing::TempFile stl("link7.stl", testing::read_file(stl_path));
+  const std::string stl_name = stl.path.substr(stl.path.rfind('/') + 1);
+  const testing::TempFile file(
+      "relative_mesh.json", one_object(R"({"name": "m", "shape": {"mesh": {"file": ")" + stl_name + R"(", "scale": 0.5}}})"));
+  const Scene scene = read_scene_file(file.path);
   ASSERT_EQ(scene.objects.size(), 1u);
-  const Shape expected = mesh_hull(dir + "meshes/collision/link7.stl", Vector3d::Constant(0.5), "link7");
+  const Shape expected = mesh_hull(stl_path, Vector3d::Constant(0.5), "link7");
   EXPECT_EQ(scene.objects[0].shape.vertices, expected.vertices);
   EXPECT_EQ(scene.objects[0].shape.neighbours, expected.neighbours);
 }
