@@ -21,6 +21,7 @@
 #include <chasles/joint_trajectory_t.hpp>
 #include <chasles/payload_t.hpp>
 #include <chasles/robot_state_t.hpp>
+#include <chasles/scene_t.hpp>
 #include <chasles/sim_truth_t.hpp>
 #include <chasles/tip_setpoint_t.hpp>
 #include <drake/lcmt_iiwa_command.hpp>
@@ -254,6 +255,100 @@ inline std::string prepare(const void* data, size_t size, drake::lcmt_panda_comm
   return {};
 }
 
+// scene_t (lcmtypes/chasles_scene_t.lcm) is walked field by field: each count is read from the
+// bytes and checked against the bytes left (each entry takes at least its fixed part, each string
+// 5 bytes) before anything is sized for it, each string's length read, so that the arrays sized
+// here make getEncodedSize() what the bytes must be. What the counts mean — the caps, the hull
+// vertices adding up — is the receiver's to judge (controller/transport/scene_message.hpp): a log
+// reader shows what was sent.
+class ByteWalk {
+ public:
+  ByteWalk(const void* data, size_t size, size_t at) : data_(data), size_(size), at_(at) {}
+  const std::string& why() const { return why_; }
+
+  bool skip(uint64_t bytes) {
+    if (bytes > size_ - at_) return fail(truncated(size_));
+    at_ += size_t(bytes);
+    return true;
+  }
+  // A count whose entries take at least `entry` bytes each.
+  bool count(int32_t& n, size_t entry, const char* name) {
+    if (!read_int32(data_, size_, at_, n)) return fail(truncated(size_));
+    at_ += 4;
+    if (n < 0 || uint64_t(n) * entry > size_ - at_) {
+      return fail(std::string(name) + " " + std::to_string(n) + " in a message of " + std::to_string(size_) + " bytes");
+    }
+    return true;
+  }
+  bool strings(std::vector<std::string>& out, int32_t n, const char* name) {
+    out.resize(size_t(n));
+    for (std::string& s : out) {
+      int32_t length = 0;  // with its terminating NUL
+      if (!read_int32(data_, size_, at_, length)) return fail(truncated(size_));
+      at_ += 4;
+      if (length < 1 || uint64_t(length) > size_ - at_) {
+        return fail(std::string("a string of ") + name + " of " + std::to_string(length) + " bytes in a message of " +
+                    std::to_string(size_) + " bytes");
+      }
+      s.assign(size_t(length - 1), ' ');
+      at_ += size_t(length);
+    }
+    return true;
+  }
+
+ private:
+  bool fail(std::string why) {
+    why_ = std::move(why);
+    return false;
+  }
+  const void* data_;
+  size_t size_;
+  size_t at_;
+  std::string why_;
+};
+
+inline void size_rows(std::vector<std::vector<double>>& rows, int32_t n, size_t columns) {
+  rows.resize(size_t(n));
+  for (auto& row : rows) row.assign(columns, 0.0);
+}
+
+inline std::string prepare(const void* data, size_t size, scene_t& m) {
+  // The fixed part of each entry: an object's kind, size, position, quaternion, clearance and
+  // vertex count; a plane's normal, offset, link count and clearance; a box's position,
+  // quaternion, size, link count and clearance.
+  constexpr size_t kObject = 1 + 24 + 24 + 32 + 16 + 4, kPlane = 24 + 8 + 4 + 16, kBox = 24 + 32 + 24 + 4 + 16;
+  ByteWalk walk(data, size, 8);
+  const bool ok = walk.skip(4 + 8) &&  // version, utime
+                  walk.count(m.num_objects, 5 + kObject, "num_objects") &&
+                  walk.strings(m.object_name, m.num_objects, "object_name") &&
+                  walk.skip(uint64_t(m.num_objects) * kObject) && walk.count(m.num_vertices, 24, "num_vertices") &&
+                  walk.skip(uint64_t(m.num_vertices) * 24) && walk.count(m.num_planes, 5 + kPlane, "num_planes") &&
+                  walk.strings(m.plane_name, m.num_planes, "plane_name") &&
+                  walk.skip(uint64_t(m.num_planes) * kPlane) && walk.count(m.num_plane_links, 5, "num_plane_links") &&
+                  walk.strings(m.plane_links, m.num_plane_links, "plane_links") &&
+                  walk.count(m.num_boxes, 5 + kBox, "num_boxes") && walk.strings(m.box_name, m.num_boxes, "box_name") &&
+                  walk.skip(uint64_t(m.num_boxes) * kBox) && walk.count(m.num_box_links, 5, "num_box_links") &&
+                  walk.strings(m.box_links, m.num_box_links, "box_links");
+  if (!ok) return walk.why();
+  m.object_kind.assign(size_t(m.num_objects), 0);
+  size_rows(m.object_size, m.num_objects, 3);
+  size_rows(m.object_position, m.num_objects, 3);
+  size_rows(m.object_quaternion, m.num_objects, 4);
+  size_rows(m.object_clearance, m.num_objects, 2);
+  m.object_num_vertices.assign(size_t(m.num_objects), 0);
+  size_rows(m.vertices, m.num_vertices, 3);
+  size_rows(m.plane_normal, m.num_planes, 3);
+  m.plane_offset.assign(size_t(m.num_planes), 0.0);
+  m.plane_num_links.assign(size_t(m.num_planes), 0);
+  size_rows(m.plane_clearance, m.num_planes, 2);
+  size_rows(m.box_position, m.num_boxes, 3);
+  size_rows(m.box_quaternion, m.num_boxes, 4);
+  size_rows(m.box_size, m.num_boxes, 3);
+  m.box_num_links.assign(size_t(m.num_boxes), 0);
+  size_rows(m.box_clearance, m.num_boxes, 2);
+  return {};
+}
+
 // Types with no joint count: fixed size.
 template <typename Message>
 inline constexpr bool kCountless = std::is_same_v<Message, payload_t> || std::is_same_v<Message, tip_setpoint_t>;
@@ -313,6 +408,21 @@ inline const char* non_finite(const joint_trajectory_t& m) {
          : !finite(m.goal_tolerance)                ? "goal_tolerance"
          : !std::isfinite(m.goal_time_tolerance)    ? "goal_time_tolerance"
                                                     : nullptr;
+}
+inline const char* non_finite(const scene_t& m) {
+  return !finite(m.object_size)         ? "object_size"
+         : !finite(m.object_position)   ? "object_position"
+         : !finite(m.object_quaternion) ? "object_quaternion"
+         : !finite(m.object_clearance)  ? "object_clearance"
+         : !finite(m.vertices)          ? "vertices"
+         : !finite(m.plane_normal)      ? "plane_normal"
+         : !finite(m.plane_offset)      ? "plane_offset"
+         : !finite(m.plane_clearance)   ? "plane_clearance"
+         : !finite(m.box_position)      ? "box_position"
+         : !finite(m.box_quaternion)    ? "box_quaternion"
+         : !finite(m.box_size)          ? "box_size"
+         : !finite(m.box_clearance)     ? "box_clearance"
+                                        : nullptr;
 }
 inline const char* non_finite(const joint_setpoint_t& m) {
   return !finite(m.position) ? "position" : !finite(m.velocity) ? "velocity" : nullptr;
@@ -417,9 +527,13 @@ template <typename Message>
 inline constexpr bool kAllOrNone = std::is_same_v<Message, control_mode_t> ||
                                    std::is_same_v<Message, drake::lcmt_iiwa_command> ||
                                    std::is_same_v<Message, drake::lcmt_panda_command>;
+// Types that carry no joint count at all: fixed-size ones, and the scene (its counts are of
+// objects, planes and boxes, whatever the arm).
+template <typename Message>
+inline constexpr bool kArmless = kCountless<Message> || std::is_same_v<Message, scene_t>;
 template <typename Message>
 bool fits_arm(const Message& m, int arm_joints) {
-  if constexpr (kCountless<Message>) return true;
+  if constexpr (kArmless<Message>) return true;
   else return fits_arm<Message>(m.num_joints, arm_joints);
 }
 
@@ -449,13 +563,13 @@ std::string decode_checked(const void* data, size_t size, Message& message, int 
     if constexpr (detail::kAllOrNone<Message>) {
       return "for " + detail::counts(message) + "; the arm has " + std::to_string(arm_joints) + " (give 0 or " +
              std::to_string(arm_joints) + " in each)";
-    } else if constexpr (!detail::kCountless<Message>) {
+    } else if constexpr (!detail::kArmless<Message>) {
       return "for " + std::to_string(message.num_joints) + " joints; the arm has " + std::to_string(arm_joints);
     }
   }
   const int expected = message.getEncodedSize();
   if (size_t(expected) != size) {
-    if constexpr (detail::kCountless<Message>) {
+    if constexpr (detail::kArmless<Message>) {
       return "of " + std::to_string(size) + " bytes; expected " + std::to_string(expected);
     } else {
       return "of " + std::to_string(size) + " bytes; expected " + std::to_string(expected) + " for " +

@@ -10,6 +10,7 @@
 #include <chasles/control_mode_t.hpp>
 #include <chasles/controller_status_t.hpp>
 #include <chasles/jog_command_t.hpp>
+#include <chasles/scene_t.hpp>
 #include <cstddef>
 #include <cstdint>
 #include <iterator>
@@ -17,6 +18,7 @@
 #include "controller/law_settings.hpp"
 #include "controller/signals.hpp"
 #include "controller/transport/enumerators.hpp"
+#include "core/geometry/shape.hpp"
 
 namespace chasles::controller {
 
@@ -101,6 +103,16 @@ struct WireTable<Jog::Frame> {
   };
 };
 
+/// scene_t.object_kind.
+template <>
+struct WireTable<geometry::ShapeKind> {
+  static constexpr WirePair<geometry::ShapeKind> kPairs[] = {
+      {geometry::ShapeKind::kSphere, scene_t::SPHERE},     {geometry::ShapeKind::kBox, scene_t::BOX},
+      {geometry::ShapeKind::kCylinder, scene_t::CYLINDER}, {geometry::ShapeKind::kCapsule, scene_t::CAPSULE},
+      {geometry::ShapeKind::kConvex, scene_t::CONVEX},
+  };
+};
+
 /// The value to_wire gives a value that is no enumerator; no table uses it.
 inline constexpr int8_t kNoWire = -1;
 
@@ -140,6 +152,7 @@ static_assert(wire_table_is_complete<Law>(), "WireTable<Law> must list every Law
 static_assert(wire_table_is_complete<Target::Mode>(), "WireTable<Target::Mode> must list every mode once");
 static_assert(wire_table_is_complete<Jog::Kind>(), "WireTable<Jog::Kind> must list every kind once");
 static_assert(wire_table_is_complete<Jog::Frame>(), "WireTable<Jog::Frame> must list every frame once");
+static_assert(wire_table_is_complete<geometry::ShapeKind>(), "WireTable<ShapeKind> must list every shape kind once");
 static_assert(wire_is_value<Target::Mode>() && wire_is_value<Jog::Kind>() && wire_is_value<Jog::Frame>(),
               "Target and Jog carry the wire's mode, kind and frame as they came: their enumerators must be "
               "the wire's values");

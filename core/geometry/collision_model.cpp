@@ -150,32 +150,6 @@ Placement place_link(const std::string& link, const UrdfTree& tree, const std::m
   return {0, chain.at(base_link).T_body_link * inverse(T_root_base) * T_ancestor_link};
 }
 
-std::string resolve_mesh_path(const std::string& uri, const fs::path& urdf_dir, const std::vector<std::string>& package_dirs,
-                              const std::string& source, const std::string& where) {
-  const std::string package_scheme = "package://", file_scheme = "file://";
-  if (uri.rfind(package_scheme, 0) == 0) {
-    const std::string rest = uri.substr(package_scheme.size());
-    const std::string package = rest.substr(0, rest.find('/'));
-    bool package_found = false;
-    for (const auto& dir : package_dirs) {
-      const fs::path candidate = fs::path(dir) / rest;
-      if (fs::is_regular_file(candidate)) return candidate.string();
-      package_found = package_found || fs::is_directory(fs::path(dir) / package);
-    }
-    if (!package_found) {
-      std::string dirs;
-      for (const auto& dir : package_dirs) dirs += (dirs.empty() ? "'" : ", '") + dir + "'";
-      fail(source, where + ": mesh '" + uri + "': package '" + package + "' is in none of the package dirs (" +
-                       (dirs.empty() ? "none given" : dirs) + ")");
-    }
-    fail(source, where + ": mesh '" + uri + "': no such file in package '" + package + "'");
-  }
-  fs::path path = uri.rfind(file_scheme, 0) == 0 ? fs::path(uri.substr(file_scheme.size())) : fs::path(uri);
-  if (path.is_relative()) path = urdf_dir / path;
-  if (!fs::is_regular_file(path)) fail(source, where + ": mesh '" + uri + "': no such file '" + path.string() + "'");
-  return path.string();
-}
-
 void collect_vertices(const aiScene& scene, const aiNode& node, const aiMatrix4x4& T_file_parent, const Vector3d& scale,
                       std::vector<Vector3d>& out) {
   const aiMatrix4x4 T_file_node = T_file_parent * node.mTransformation;
@@ -189,8 +163,7 @@ void collect_vertices(const aiScene& scene, const aiNode& node, const aiMatrix4x
   for (unsigned c = 0; c < node.mNumChildren; ++c) collect_vertices(scene, *node.mChildren[c], T_file_node, scale, out);
 }
 
-std::vector<Vector3d> read_mesh_vertices(const std::string& path, const Vector3d& scale, const std::string& source,
-                                         const std::string& where) {
+std::vector<Vector3d> read_mesh_vertices(const std::string& path, const Vector3d& scale, const std::string& what) {
   Assimp::Importer importer;
   // The file's own axes: a Collada file's up axis is the URDF author's business (the <origin>).
   importer.SetPropertyBool(AI_CONFIG_IMPORT_COLLADA_IGNORE_UP_DIRECTION, true);
@@ -198,11 +171,11 @@ std::vector<Vector3d> read_mesh_vertices(const std::string& path, const Vector3d
   const aiScene* scene = importer.ReadFile(
       path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_SortByPType | aiProcess_FindDegenerates);
   if (!scene || !scene->mRootNode) {
-    fail(source, where + ": cannot read mesh '" + path + "': " + importer.GetErrorString());
+    throw ModelError(what + ": cannot read mesh '" + path + "': " + importer.GetErrorString());
   }
   std::vector<Vector3d> vertices;
   collect_vertices(*scene, *scene->mRootNode, aiMatrix4x4(), scale, vertices);
-  if (vertices.empty()) fail(source, where + ": mesh '" + path + "' holds no vertex");
+  if (vertices.empty()) throw ModelError(what + ": mesh '" + path + "' holds no vertex");
   return vertices;
 }
 
@@ -297,6 +270,36 @@ Shape convex_hull(const std::vector<Vector3d>& points, const std::string& what) 
   return shape;
 }
 
+std::string resolve_mesh_uri(const std::string& uri, const std::string& base_dir,
+                             const std::vector<std::string>& package_dirs, const std::string& what) {
+  const std::string package_scheme = "package://", file_scheme = "file://";
+  if (uri.rfind(package_scheme, 0) == 0) {
+    const std::string rest = uri.substr(package_scheme.size());
+    const std::string package = rest.substr(0, rest.find('/'));
+    bool package_found = false;
+    for (const auto& dir : package_dirs) {
+      const fs::path candidate = fs::path(dir) / rest;
+      if (fs::is_regular_file(candidate)) return candidate.string();
+      package_found = package_found || fs::is_directory(fs::path(dir) / package);
+    }
+    if (!package_found) {
+      std::string dirs;
+      for (const auto& dir : package_dirs) dirs += (dirs.empty() ? "'" : ", '") + dir + "'";
+      throw ModelError(what + ": mesh '" + uri + "': package '" + package + "' is in none of the package dirs (" +
+                       (dirs.empty() ? "none given" : dirs) + ")");
+    }
+    throw ModelError(what + ": mesh '" + uri + "': no such file in package '" + package + "'");
+  }
+  fs::path path = uri.rfind(file_scheme, 0) == 0 ? fs::path(uri.substr(file_scheme.size())) : fs::path(uri);
+  if (path.is_relative()) path = fs::path(base_dir) / path;
+  if (!fs::is_regular_file(path)) throw ModelError(what + ": mesh '" + uri + "': no such file '" + path.string() + "'");
+  return path.string();
+}
+
+Shape mesh_hull(const std::string& path, const Vector3d& scale, const std::string& what) {
+  return convex_hull(read_mesh_vertices(path, scale, what), what + ": mesh '" + path + "'");
+}
+
 namespace {
 
 Shape read_shape(const tinyxml2::XMLElement& collision, const GeometryOptions& options,
@@ -322,9 +325,10 @@ Shape read_shape(const tinyxml2::XMLElement& collision, const GeometryOptions& o
     const char* filename = e->Attribute("filename");
     if (!filename) fail(source, where + ": <mesh> has no filename");
     const Vector3d scale = read_vector(*e, "scale", Vector3d::Ones(), source, where);
+    const std::string what = source + ": " + where;
     const std::string path =
-        resolve_mesh_path(filename, fs::path(source).parent_path(), options.package_dirs, source, where);
-    shape = convex_hull(read_mesh_vertices(path, scale, source, where), source + ": " + where + ": mesh '" + path + "'");
+        resolve_mesh_uri(filename, fs::path(source).parent_path().string(), options.package_dirs, what);
+    shape = mesh_hull(path, scale, what);
   } else {
     fail(source, where + ": unknown shape <" + kind + ">");
   }

@@ -54,4 +54,17 @@ CollisionModel load_collision_model(const std::string& urdf_path, const RobotMod
 /// span no volume (fewer than four, all on a plane, or not finite).
 Shape convex_hull(const std::vector<Vector3d>& points, const std::string& what);
 
+/// The file a mesh reference names, as the URDF loader resolves its <mesh filename>:
+/// `package://NAME/rest` (in the first of `package_dirs` that holds it), `file:///absolute`, an
+/// absolute path, or a path relative to `base_dir`. Throws ModelError, `what` first, when no such
+/// file exists or the package is in none of the dirs. The scene file (scene_file.hpp) reads its
+/// meshes through this and mesh_hull, so a mesh means the same thing in a URDF and in a scene.
+std::string resolve_mesh_uri(const std::string& uri, const std::string& base_dir,
+                             const std::vector<std::string>& package_dirs, const std::string& what);
+
+/// The convex hull of the mesh file at `path` (any format assimp reads; node transforms and
+/// Collada's unit applied, its up axis not), each vertex scaled per axis by `scale`. Throws
+/// ModelError, `what` first, when the file cannot be read, holds no vertex or spans no volume.
+Shape mesh_hull(const std::string& path, const Vector3d& scale, const std::string& what);
+
 }  // namespace chasles::geometry

@@ -11,8 +11,10 @@
 // and Controller::set_setpoint; 10 its jog_command_t receiver and Controller::set_jog; 11 its
 // tip_setpoint_t receiver and Controller::set_tip_setpoint; 12 the checked decoders of Drake's iiwa
 // and Panda messages, for the arm and for any arm, and the protocols' status readers, whose state the
-// controller then ticks on and whose command the driver's checked decoder must take; 13–15 as 3. (Byte 0 modulo 16, so the seeds'
-// ASCII selectors '0'…'9', ':', ';' and '<' pick 0…12.)
+// controller then ticks on and whose command the driver's checked decoder must take; 13 the scene
+// message (scene_t's checked decoder and decode_scene, what it takes re-encoded and decoded again);
+// 14–15 as 3. (Byte 0 modulo 16, so the seeds' ASCII selectors '0'…'9', ':', ';', '<' and '='
+// pick 0…13.)
 // What a reader accepts must be what the contract
 // promises (the arm's joint count, finite values; for the watch, a command of its own, once; for a
 // payload, a body the model can carry), and after every input the controller ticks (1 ms later,
@@ -35,6 +37,8 @@
 #include "controller/transport/realtime/bus.hpp"
 #include "controller/transport/realtime/clock.hpp"
 #include "controller/transport/realtime/fragments.hpp"
+#include "controller/transport/scene_message.hpp"
+#include "core/geometry/scene_file.hpp"
 #include "core/dynamics/dynamics.hpp"
 #include "core/model/urdf.hpp"
 #include "lcmtypes/checked.hpp"
@@ -344,6 +348,50 @@ void judge_a_trajectory(Readers& r, const uint8_t* message, int bytes) {
   }
 }
 
+// The scene receiver's decoder: what it takes keeps every rule of a scene (scene_problem), within
+// the message's caps; encoded again and decoded it is the same scene; what it refuses leaves the
+// scene in force as it was, with a reason. It never throws.
+void judge_a_scene(const uint8_t* message, size_t bytes) {
+  static geometry::Scene in_force;  // across inputs, as the daemon keeps its scene
+  const size_t objects = in_force.objects.size(), planes = in_force.planes.size();
+  char error[256];
+  if (!decode_scene(message, bytes, in_force, error, sizeof error)) {
+    FUZZ_CHECK(error[0] != '\0');
+    FUZZ_CHECK(in_force.objects.size() == objects && in_force.planes.size() == planes);
+    return;
+  }
+  FUZZ_CHECK(error[0] == '\0');
+  FUZZ_CHECK(geometry::scene_problem(in_force).empty());
+  FUZZ_CHECK(in_force.objects.size() <= size_t(scene_t::MAX_OBJECTS));
+  FUZZ_CHECK(in_force.planes.size() <= size_t(scene_t::MAX_PLANES + 6 * scene_t::MAX_BOXES));
+  for (const auto& object : in_force.objects) {
+    FUZZ_CHECK(object.shape.vertices.size() <= size_t(scene_t::MAX_HULL_VERTICES));
+    Vector3d centre;
+    double radius = 0.0;
+    geometry::bounding_sphere(object.shape, centre, radius);  // what Proximity computes once per scene
+    FUZZ_CHECK(centre.allFinite() && std::isfinite(radius) && radius > 0.0);
+  }
+  scene_t again;
+  try {
+    again = encode_scene(in_force);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "encode_scene threw for a scene decode_scene took: %s\n", e.what());
+    FUZZ_CHECK(false);
+  }
+  std::vector<uint8_t> encoded(size_t(again.getEncodedSize()));
+  FUZZ_CHECK(again.encode(encoded.data(), 0, int(encoded.size())) == int(encoded.size()));
+  geometry::Scene back;
+  const bool taken = decode_scene(encoded.data(), encoded.size(), back, error, sizeof error);
+  if (!taken) std::fprintf(stderr, "a scene taken, encoded again, is refused: %s\n", error);
+  FUZZ_CHECK(taken);
+  FUZZ_CHECK(back.objects.size() == in_force.objects.size() && back.planes.size() == in_force.planes.size());
+  for (size_t k = 0; k < back.objects.size(); ++k) {
+    FUZZ_CHECK(back.objects[k].name == in_force.objects[k].name);
+    FUZZ_CHECK(back.objects[k].shape.kind == in_force.objects[k].shape.kind);
+  }
+  for (size_t k = 0; k < back.planes.size(); ++k) FUZZ_CHECK(back.planes[k].name == in_force.planes[k].name);
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -426,6 +474,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       judge_drake<drake::lcmt_panda_command>(message, size - 1, r.n);
       judge_a_drake_status<drake::lcmt_iiwa_command>(r, r.iiwa_reader, r.iiwa_writer, message, size - 1);
       judge_a_drake_status<drake::lcmt_panda_command>(r, r.panda_reader, r.panda_writer, message, size - 1);
+      break;
+    case 13:
+      judge_a_scene(message, size - 1);
       break;
     default: {
       decode_as<robot_state_t>(message, size - 1);
