@@ -115,7 +115,8 @@ struct ConfigurationClearance {
 };
 
 /// The clearance at q: forward kinematics into `data`, the distances into `pdata`, and the pair
-/// with the least margin. Allocates nothing.
+/// with the least margin. What IkSolver::solve's margin callback is given to prefer collision-free
+/// answers (docs/geometry.md shows how). Allocates nothing.
 ConfigurationClearance configuration_clearance(const RobotModel& model, const Proximity& proximity, Data& data,
                                                ProximityData& pdata, const Eigen::Ref<const Eigen::VectorXd>& q);
 

@@ -1,7 +1,7 @@
 // The path check before moving (core/geometry/path_check.hpp) against an independent brute force:
 // 10^4 + 1 evenly spaced configurations, every pair's signed distance computed by the distance
 // engine itself (no bounding spheres, no culling, no Proximity), on the Panda, the iiwa and the
-// UR5 with scene boxes and a table.
+// UR5 with scene boxes and a table; and the IK's preference for collision-free answers.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -15,6 +15,7 @@
 #include "core/geometry/distance.hpp"
 #include "core/geometry/path_check.hpp"
 #include "core/geometry/proximity.hpp"
+#include "core/ik/ik.hpp"
 #include "core/kinematics/kinematics.hpp"
 #include "core/model/urdf.hpp"
 #include "core/motion/quintic.hpp"
@@ -490,5 +491,94 @@ TEST(PathCheck, DistanceRatesBoundEveryPairsChange) {
   std::printf("the largest change seen is %.2f of its bound\n", tightest);
 }
 
+// The IK preferring answers clear of collision: its margin, the configuration's clearance.
+struct ClearIk {
+  const RobotModel& model;
+  const Proximity& proximity;
+  Data data;
+  ProximityData pdata;
+  ClearIk(const RobotModel& m, const Proximity& p) : model(m), proximity(p), data(m), pdata(p) {}
+  ConfigurationClearance at(const Eigen::VectorXd& q) {
+    return configuration_clearance(model, proximity, data, pdata, q);
+  }
+  IkMargin margin() {
+    return [this](const Eigen::VectorXd& q) { return at(q).margin; };
+  }
+};
+
+// A target the Panda reaches from its ready pose with its elbow up behind the shoulder, and with
+// the elbow elsewhere by other branches of its redundancy. The search is bounded by its restart
+// cap, never its time, so that its answer is the same on every machine.
+IkOptions ik_options() {
+  IkOptions options;
+  options.max_restarts = 40;
+  options.time_budget = std::chrono::seconds(10);
+  return options;
+}
+
+const Transform& ik_target() {
+  static const Transform target = forward_kinematics_space(panda().model, vec({0.3, -0.3, 0.0, -2.0, 0.0, 1.8, 0.785}));
+  return target;
+}
+
+TEST(IkClear, PrefersAnotherBranchWhenTheFirstAnswerHitsABox) {
+  const Arm& arm = panda();
+  // A box just above where the first answer puts the elbow (link 4's top at 0.78 m), far from the
+  // hand at the target.
+  Scene scene;
+  scene.objects.push_back(box("box", Vector3d(-0.05, 0.0, 0.82), Vector3d(0.08, 0.08, 0.06)));
+  const Proximity proximity(arm.collision, scene);
+  ClearIk clear(arm.model, proximity);
+  IkSolver solver(arm.model, ik_options());
+
+  const IkResult plain = solver.solve(ik_target(), kReady);
+  ASSERT_TRUE(plain.converged);
+  const ConfigurationClearance hit = clear.at(plain.q);
+  EXPECT_LT(hit.margin, 0.0);
+  EXPECT_EQ(pair_name(proximity, hit.pair), "panda_link4/0 – box");
+
+  const IkResult preferred = solver.solve(ik_target(), kReady, clear.margin());
+  const ConfigurationClearance c = clear.at(preferred.q);
+  std::printf("first answer: %s at %.4f m; preferred: after %d restarts (%d refused), %s at %.4f m, %.2f ms\n",
+              pair_name(proximity, hit.pair).c_str(), hit.distance, preferred.restarts, preferred.refused,
+              pair_name(proximity, c.pair).c_str(), c.distance, preferred.time_us / 1e3);
+  EXPECT_TRUE(preferred.converged);
+  EXPECT_TRUE(preferred.accepted);
+  EXPECT_EQ(preferred.refused, 1);
+  EXPECT_EQ(preferred.restarts, 1);
+  EXPECT_GE(preferred.margin, 0.0);
+  EXPECT_EQ(preferred.margin, c.margin);
+  EXPECT_LE(preferred.pos_err, 1e-6);
+  EXPECT_LE(preferred.rot_err, 1e-6);
+  EXPECT_GT((preferred.q - plain.q).norm(), 1.0) << "another branch";
+
+  // A margin that accepts everything changes nothing.
+  const IkResult anything = solver.solve(ik_target(), kReady, [](const Eigen::VectorXd&) { return 1.0; });
+  EXPECT_EQ(anything.q, plain.q);
+  EXPECT_TRUE(anything.accepted);
+  EXPECT_EQ(anything.refused, 0);
+  EXPECT_THROW(solver.solve(ik_target(), kReady, IkMargin()), ArgumentError);
+}
+
+TEST(IkClear, NoClearAnswerIsFlaggedWithThePair) {
+  // The box around the hand at the target: every answer puts the hand in it.
+  const Arm& arm = panda();
+  Scene scene;
+  scene.objects.push_back(box("box", ik_target().translation(), Vector3d(0.08, 0.08, 0.06)));
+  const Proximity proximity(arm.collision, scene);
+  ClearIk clear(arm.model, proximity);
+  IkSolver solver(arm.model, ik_options());
+  const IkResult r = solver.solve(ik_target(), kReady, clear.margin());
+  const ConfigurationClearance c = clear.at(r.q);
+  std::printf("no clear answer: %d restarts, %d refused; the answer's %s at %.4f m\n", r.restarts, r.refused,
+              pair_name(proximity, c.pair).c_str(), c.distance);
+  EXPECT_TRUE(r.converged);
+  EXPECT_FALSE(r.accepted);
+  EXPECT_EQ(r.restarts, 40);
+  EXPECT_GE(r.refused, 1);
+  EXPECT_LT(r.margin, 0.0);
+  EXPECT_EQ(r.margin, c.margin);
+  EXPECT_EQ(pair_name(proximity, c.pair), "panda_hand/0 – box");
+}
 }  // namespace
 }  // namespace chasles::geometry
