@@ -190,7 +190,8 @@ struct IkSolver::Impl {
         fk_q(Eigen::VectorXd::Constant(model_in.dof(), std::numeric_limits<double>::quiet_NaN())),
         q(model_in.dof()),
         q_seed(model_in.dof()),
-        candidate(model_in.dof()) {}
+        candidate(model_in.dof()),
+        answer(model_in.dof()) {}
 
   const RobotModel& model;
   Data data;
@@ -204,6 +205,7 @@ struct IkSolver::Impl {
   Eigen::VectorXd q;       // the parameter block Ceres works on
   Eigen::VectorXd q_seed;  // the seed within the limits: the regularisation's anchor
   Eigen::VectorXd candidate;  // a restart's draw
+  Eigen::VectorXd answer;     // an attempt's end as the answer would be: clamped and wrapped
   std::unique_ptr<PoseCost> pose_cost;
   std::unique_ptr<RegularizationCost> regularization_cost;
   std::unique_ptr<ceres::Problem> problem;
@@ -397,7 +399,18 @@ IkResult IkSolver::solve(const Transform& T_sd, const JointVector& q_seed) {
   return solve(T_sd.matrix(), q_seed);
 }
 
-IkResult IkSolver::solve(const Matrix4d& T_sd, const JointVector& q_seed) {
+IkResult IkSolver::solve(const Matrix4d& T_sd, const JointVector& q_seed) { return solve_with(T_sd, q_seed, nullptr); }
+
+IkResult IkSolver::solve(const Transform& T_sd, const JointVector& q_seed, const IkMargin& margin) {
+  return solve_with(T_sd.matrix(), q_seed, &margin);
+}
+
+IkResult IkSolver::solve(const Matrix4d& T_sd, const JointVector& q_seed, const IkMargin& margin) {
+  return solve_with(T_sd, q_seed, &margin);
+}
+
+IkResult IkSolver::solve_with(const Matrix4d& T_sd, const JointVector& q_seed, const IkMargin* margin) {
+  if (margin != nullptr && !*margin) throw ArgumentError("the IK margin is an empty function");
   const Clock::time_point start = Clock::now();
   set_target(T_sd);
   check_joint_vector(model_, q_seed, "q_seed");
@@ -422,9 +435,23 @@ IkResult IkSolver::solve(const Matrix4d& T_sd, const JointVector& q_seed) {
   impl.rng.seed(state);
   impl.start_budget(options_.time_budget);
 
+  // Joints as an answer gives them: Ceres keeps bounded joints within their limits; continuous
+  // ones are wrapped.
+  auto as_answer = [&](const Eigen::VectorXd& q, Eigen::VectorXd& out) {
+    for (int i = 0; i < n; ++i) {
+      const Joint& joint = model_.joint(i);
+      out[i] = joint.type == JointType::Continuous ? wrap_angle(q[i])
+                                                   : std::min(std::max(q[i], joint.limits.lower), joint.limits.upper);
+    }
+  };
+
   IkResult result;
   result.q = impl.q_seed;
   double best_score = std::numeric_limits<double>::infinity();
+  // With a margin, a converged attempt it refuses is kept only while nothing better comes: the
+  // refused one with the greatest margin beats any attempt that did not converge.
+  bool best_converged = false;
+  double best_margin = -std::numeric_limits<double>::infinity();
   ceres::Solver::Summary summary;
   for (int attempt = 0;; ++attempt) {
     if (attempt == 0) {
@@ -450,24 +477,37 @@ IkResult IkSolver::solve(const Matrix4d& T_sd, const JointVector& q_seed) {
     const bool converged =
         impl.within(pos_err, rot_err, options_.position_tolerance, options_.rotation_tolerance);
     const double score = pos_err + (options_.position_only ? 0.0 : rot_err);
-    if (converged || score < best_score) {
+    bool acceptable = true;
+    double attempt_margin = std::numeric_limits<double>::infinity();
+    if (margin != nullptr && converged) {
+      as_answer(impl.q, impl.answer);
+      attempt_margin = (*margin)(impl.answer);
+      acceptable = attempt_margin >= 0.0;
+      if (!acceptable) ++result.refused;
+    }
+    const bool better = converged ? (acceptable || !best_converged || attempt_margin > best_margin)
+                                  : (!best_converged && score < best_score);
+    if (better) {
       best_score = score;
+      best_converged = converged;
+      best_margin = attempt_margin;
       result.q = impl.q;
       result.pos_err = pos_err;
       result.rot_err = rot_err;
       result.converged = converged;
     }
-    if (converged || attempt >= options_.max_restarts || impl.budget_spent()) {
+    if ((converged && acceptable) || attempt >= options_.max_restarts || impl.budget_spent()) {
       result.restarts = attempt;
       break;
     }
   }
-  // Ceres keeps bounded joints within their limits; wrap the continuous ones.
-  for (int i = 0; i < n; ++i) {
-    const Joint& joint = model_.joint(i);
-    result.q[i] = joint.type == JointType::Continuous
-                      ? wrap_angle(result.q[i])
-                      : std::min(std::max(result.q[i], joint.limits.lower), joint.limits.upper);
+  impl.answer = result.q;
+  as_answer(impl.answer, result.q);
+  if (margin != nullptr) {
+    // The answer's own margin (a converged one's was computed already; one that did not converge
+    // was never asked).
+    result.margin = best_converged ? best_margin : (*margin)(result.q);
+    result.accepted = result.margin >= 0.0;
   }
   result.time_us = std::chrono::duration<double, std::micro>(Clock::now() - start).count();
   return result;

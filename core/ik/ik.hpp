@@ -18,11 +18,14 @@
 // until one converges, the restart cap or the time budget runs out. An attempt
 // still far from the target (> 0.03 m or rad) after 8 iterations is abandoned for the next one.
 // When nothing converges the answer is the best pose found (smallest pos_err + rot_err), with
-// converged = false.
+// converged = false. Given a margin (a caller's test of a configuration: collision-free, say), a
+// converged attempt that fails it does not end the search: the restarts go on for one that passes.
 #pragma once
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
+#include <limits>
 #include <memory>
 
 #include "core/kinematics/kinematics.hpp"
@@ -56,9 +59,22 @@ struct IkOptions {
   std::uint64_t rng_seed = 1;
 };
 
+/// A caller's measure of how acceptable a configuration is: ≥ 0 acceptable, and the larger the
+/// better. What a solve given one (IkSolver::solve's third argument) keeps searching for — as
+/// geometry::configuration_clearance's margin over every pair's stop distance, to prefer
+/// collision-free answers — without chasles::ik knowing what it measures.
+using IkMargin = std::function<double(const Eigen::VectorXd& q)>;
+
 struct IkResult {
   Eigen::VectorXd q;        ///< the solution, or the best pose found; within the limits
   bool converged = false;   ///< pos_err and rot_err (or pos_err alone, position-only) within tolerance
+  /// With a margin: whether the answer's margin is ≥ 0 (without one, always true).
+  bool accepted = true;
+  /// With a margin: the answer's; without one, +∞.
+  double margin = std::numeric_limits<double>::infinity();
+  /// With a margin: how many converged attempts it refused (margin < 0), the answer among them
+  /// when it is not accepted.
+  int refused = 0;
   double pos_err = 0.0;     ///< |p_sb(q) − p_sd|, m
   double rot_err = 0.0;     ///< angle of R_sdᵀ R_sb(q), rad
   int iterations = 0;       ///< Levenberg-Marquardt iterations, every attempt together
@@ -93,6 +109,17 @@ class IkSolver {
   IkResult solve(const Matrix4d& T_sd, const JointVector& q_seed);
   IkResult solve(const Transform& T_sd, const JointVector& q_seed);
 
+  /// The same, preferring answers whose `margin` is ≥ 0: the attempts run in the same order (the
+  /// seed, then the restarts), and a converged one with margin(q) < 0 is refused and the search goes
+  /// on. The answer is the first converged attempt with margin ≥ 0 (accepted); when the restart cap
+  /// or the time budget ends the search first, the converged attempt with the greatest margin
+  /// (accepted = false); when none converged, the best pose found, as solve() without it. The
+  /// margin is called for each converged attempt, and for the answer when none converged, with the
+  /// joints as an answer gives them (within their limits, continuous ones wrapped). A margin that
+  /// accepts every q answers as solve() without one; an empty function is an ArgumentError.
+  IkResult solve(const Matrix4d& T_sd, const JointVector& q_seed, const IkMargin& margin);
+  IkResult solve(const Transform& T_sd, const JointVector& q_seed, const IkMargin& margin);
+
   /// Sets the target (checked as solve() does) without solving, and evaluates the weighted
   /// residual and its 6×n Jacobian at q exactly as Ceres sees them: for tests against finite
   /// differences. The position-only residual is (0, 0, 0, w_v ⊙ (p_sb − p_sd)).
@@ -102,6 +129,8 @@ class IkSolver {
   struct Impl;  ///< the Ceres problem and its storage (ik.cpp)
 
  private:
+  IkResult solve_with(const Matrix4d& T_sd, const JointVector& q_seed, const IkMargin* margin);
+
   const RobotModel& model_;
   IkOptions options_;
   std::unique_ptr<Impl> impl_;
