@@ -33,6 +33,11 @@
 // over the timed calls (malloc, and operator new through it, interposed as
 // tests/support/allocation_counter.cpp does).
 //
+// `chasles_coal_bench --breakdown` times nothing side by side: it takes compute_distances apart on
+// both sequences (each exact pair timed alone, by class and the ten costliest, the same pairs at
+// coal's tolerance, whether the slowest calls are slow again when repeated) and times one support
+// point of the largest mesh hull, cold, warm and by a scan: where the tick's time goes.
+//
 // The models, both from the same files. chasles: load_urdf_file (tip panda_hand) and
 // load_collision_model (the URDF's <collision> elements, meshes as their qhull hulls, the pairs
 // the SRDF leaves). Pinocchio: its Model built from chasles's RobotModel as chasles_pinocchio_bench
@@ -554,6 +559,16 @@ void print_results(const std::vector<Result>& results) {
                   percentile(t->total, 0.99) / percentile(r.coal.total, 0.99));
     }
   }
+  // The targets, on the moving path: compute_distances' p99 at most 20 µs, and at most 0.3 of
+  // Pinocchio + coal's time (at p50 and at p99; the ratios judged as printed, to two decimals).
+  const Result& moving = results.front();
+  const double p99 = percentile(moving.culled.total, 0.99);
+  const double r50 = percentile(moving.culled.total, 0.50) / percentile(moving.coal.total, 0.50);
+  const double r99 = p99 / percentile(moving.coal.total, 0.99);
+  std::printf("\ntargets (moving): compute_distances p99 %.1f µs <= 20: %s; ratio to Pinocchio+coal %.2f (p50), %.2f "
+              "(p99) <= 0.30: %s; allocations %ld: %s\n",
+              p99, p99 <= 20.0 ? "yes" : "NO", r50, r99, std::round(100.0 * std::max(r50, r99)) <= 30.0 ? "yes" : "NO",
+              moving.culled.allocations, moving.culled.allocations == 0 ? "none" : "NO");
   std::printf("\nagreement with coal (m):\n");
   for (const Result& r : results) {
     const Agreement& a = r.agreement;
@@ -563,9 +578,192 @@ void print_results(const std::vector<Result>& results) {
   }
 }
 
+
+// --- where compute_distances' time goes (--breakdown) ---------------------------------------------
+
+// Over a sequence, compute_distances as the tick calls it, then again pair by pair: each pair it
+// computed exactly timed alone by signed_distance with a cache of its own that follows the same
+// history (updated only when the pair is exact), its GJK (+ EPA) iterations counted; the
+// remainder of the call (object poses, bounding spheres, the search for the closest) is the call's
+// time less the pairs'. The same exact pairs also at coal's tolerance (1e-6), to show what the
+// tighter one costs. Each call is made twice in a row, from the same state, so that a slow tick
+// the configuration causes is told apart from one the machine caused.
+void breakdown(const std::string& name, const std::vector<Eigen::VectorXd>& qs, const RobotModel& model,
+               const Proximity& proximity) {
+  const auto& pairs = proximity.pairs();
+  const auto& objects = proximity.arm().objects;
+  const auto& scene = proximity.scene().objects;
+  Data data(model);
+  ProximityData culled(proximity), again(proximity);
+  std::vector<DistanceCache> cache(pairs.size()), loose_cache(pairs.size());
+  std::vector<Transform> T_object(objects.size());
+  struct PairStats {
+    long calls = 0, iterations = 0, overlaps = 0;
+    double ns = 0.0, loose_ns = 0.0;
+    long loose_iterations = 0;
+  };
+  std::vector<PairStats> stats(pairs.size());
+  std::vector<double> call_us, repeat_us, pairs_us, loose_us;
+  std::vector<long> tick_iterations;
+  // The cost of two clock readings, taken out of each pair's time.
+  double clock_ns = 0.0;
+  {
+    const int n = 100000;
+    const Clock::time_point t0 = Clock::now();
+    for (int k = 0; k < n; ++k) {
+      volatile auto t = Clock::now();
+      (void)t;
+    }
+    clock_ns = 1e3 * us(t0, Clock::now()) / n;
+  }
+  for (const auto& q : qs) {
+    forward_kinematics(model, data, q);
+    again = culled;
+    const Clock::time_point t0 = Clock::now();
+    chasles_culled(proximity, data, culled);
+    const Clock::time_point t1 = Clock::now();
+    chasles_culled(proximity, data, again);  // the same call from the same state
+    const Clock::time_point t2 = Clock::now();
+    call_us.push_back(us(t0, t1));
+    repeat_us.push_back(us(t1, t2));
+    for (size_t k = 0; k < objects.size(); ++k) {
+      T_object[k] = data.T_body[static_cast<size_t>(objects[k].body)] * objects[k].T_body_object;
+    }
+    double sum = 0.0, loose_sum = 0.0;
+    long iterations = 0;
+    for (size_t p = 0; p < pairs.size(); ++p) {
+      if (!culled.distance[p].exact) continue;
+      const ProximityPair& pair = pairs[p];
+      const size_t a = static_cast<size_t>(pair.arm), o = static_cast<size_t>(pair.other);
+      const bool self = pair.kind == ProximityPair::kSelf;
+      const Shape& b = self ? objects[o].shape : scene[o].shape;
+      const Transform& T_b = self ? T_object[o] : scene[o].T_base_object;
+      const Clock::time_point s0 = Clock::now();
+      const Distance d = signed_distance(objects[a].shape, T_object[a], b, T_b, cache[p]);
+      const Clock::time_point s1 = Clock::now();
+      const Distance loose = signed_distance(objects[a].shape, T_object[a], b, T_b, loose_cache[p], 1e-6);
+      const Clock::time_point s2 = Clock::now();
+      PairStats& st = stats[p];
+      ++st.calls;
+      st.iterations += d.iterations;
+      st.overlaps += d.distance < 0.0 ? 1 : 0;
+      st.ns += 1e3 * us(s0, s1) - clock_ns;
+      st.loose_ns += 1e3 * us(s1, s2) - clock_ns;
+      st.loose_iterations += loose.iterations;
+      sum += us(s0, s1) - 1e-3 * clock_ns;
+      loose_sum += us(s1, s2) - 1e-3 * clock_ns;
+      iterations += d.iterations;
+    }
+    pairs_us.push_back(sum);
+    loose_us.push_back(loose_sum);
+    tick_iterations.push_back(iterations);
+  }
+  const double n = static_cast<double>(qs.size());
+  std::printf("\n%s: compute_distances per call: p50 %.1f µs, p99 %.1f µs; the same call repeated from the same state: "
+              "p50 %.1f, p99 %.1f\n",
+              name.c_str(), percentile(call_us, 0.5), percentile(call_us, 0.99), percentile(repeat_us, 0.5),
+              percentile(repeat_us, 0.99));
+  // Whether the slow calls are slow again when repeated (the configuration) or not (the machine).
+  const double slow = percentile(call_us, 0.99);
+  long slow_calls = 0, slow_again = 0;
+  double slow_iterations = 0.0, all_iterations = 0.0;
+  for (size_t c = 0; c < call_us.size(); ++c) {
+    all_iterations += static_cast<double>(tick_iterations[c]);
+    if (call_us[c] < slow) continue;
+    ++slow_calls;
+    slow_again += repeat_us[c] >= percentile(repeat_us, 0.95) ? 1 : 0;
+    slow_iterations += static_cast<double>(tick_iterations[c]);
+  }
+  std::printf("  the slowest 1 %% of calls (%ld): %ld of them again among the slowest 5 %% when repeated; GJK+EPA "
+              "iterations per call %.0f there against %.0f on average\n",
+              slow_calls, slow_again, slow_iterations / static_cast<double>(std::max(slow_calls, 1L)), all_iterations / n);
+  std::printf("  the exact pairs alone, timed one by one: p50 %.1f µs, p99 %.1f µs per call; at tolerance 1e-6 instead "
+              "of 1e-9: p50 %.1f, p99 %.1f\n",
+              percentile(pairs_us, 0.5), percentile(pairs_us, 0.99), percentile(loose_us, 0.5),
+              percentile(loose_us, 0.99));
+  std::printf("  (clock readings cost %.0f ns a pair, taken out)\n", clock_ns);
+
+  // By class: the arm against itself, against each scene object.
+  std::printf("  %-22s %8s %10s %10s %10s %10s %12s %14s\n", "pairs", "count", "exact/call", "ns/exact", "iter/exact",
+              "overlap %", "µs per call", "ns, iter @1e-6");
+  for (int k = -1; k < static_cast<int>(scene.size()); ++k) {
+    PairStats total;
+    int count = 0;
+    for (size_t p = 0; p < pairs.size(); ++p) {
+      const bool self = pairs[p].kind == ProximityPair::kSelf;
+      if ((k < 0) != self || (!self && pairs[p].other != k)) continue;
+      ++count;
+      total.calls += stats[p].calls, total.iterations += stats[p].iterations, total.overlaps += stats[p].overlaps;
+      total.ns += stats[p].ns, total.loose_ns += stats[p].loose_ns, total.loose_iterations += stats[p].loose_iterations;
+    }
+    const double calls = static_cast<double>(std::max(total.calls, 1L));
+    std::printf("  %-22s %8d %10.1f %10.0f %10.1f %10.1f %12.2f %8.0f %5.1f\n",
+                k < 0 ? "self" : ("arm - " + scene[static_cast<size_t>(k)].name).c_str(), count,
+                static_cast<double>(total.calls) / n, total.ns / calls, static_cast<double>(total.iterations) / calls,
+                100.0 * static_cast<double>(total.overlaps) / calls, 1e-3 * total.ns / n, total.loose_ns / calls,
+                static_cast<double>(total.loose_iterations) / calls);
+  }
+  std::vector<size_t> order(pairs.size());
+  for (size_t p = 0; p < order.size(); ++p) order[p] = p;
+  std::sort(order.begin(), order.end(), [&](size_t x, size_t y) { return stats[x].ns > stats[y].ns; });
+  std::printf("  the 10 pairs that take most:\n");
+  char pair_name[160];
+  for (size_t r = 0; r < 10 && r < order.size(); ++r) {
+    const PairStats& st = stats[order[r]];
+    if (st.calls == 0) break;
+    proximity.name_pair(static_cast<int>(order[r]), pair_name, sizeof pair_name);
+    const double calls = static_cast<double>(st.calls);
+    std::printf("    %-44s exact %5.1f %% of calls, %5.0f ns, %4.1f iterations, %5.1f %% overlapping, %.2f µs per call\n",
+                pair_name, 100.0 * calls / n, st.ns / calls, static_cast<double>(st.iterations) / calls,
+                100.0 * static_cast<double>(st.overlaps) / calls, 1e-3 * st.ns / n);
+  }
+}
+
+// What one support point of a mesh's hull costs: climbed from a vertex far from the answer (a
+// cache left stale while the pair was culled), from the last answer when the direction turns by
+// about a degree (a pair exact at every tick), and found by scanning every vertex.
+void support_costs(const CollisionModel& arm) {
+  const CollisionObject* hull = nullptr;
+  for (const auto& o : arm.objects) {
+    if (o.shape.kind == ShapeKind::kConvex && (!hull || o.shape.vertices.size() > hull->shape.vertices.size())) hull = &o;
+  }
+  if (!hull) return;
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> normal;
+  constexpr int n = 200000;
+  std::vector<Vector3d> directions(n);
+  for (auto& d : directions) d = Vector3d(normal(rng), normal(rng), normal(rng)).normalized();
+  Shape scan = hull->shape;
+  scan.neighbours.clear();  // support_of_core then scans every vertex
+  double sink = 0.0;
+  auto time = [&](auto&& body) {
+    const Clock::time_point t0 = Clock::now();
+    for (int k = 0; k < n; ++k) sink += body(k);
+    return 1e3 * us(t0, Clock::now()) / n;
+  };
+  const double cold = time([&](int k) {
+    int vertex = 0;
+    return support_of_core(hull->shape, directions[static_cast<size_t>(k)], vertex).x();
+  });
+  int last = 0;
+  const Eigen::AngleAxisd turn(M_PI / 180, Vector3d(1, 2, 3).normalized());
+  Vector3d d = Vector3d::UnitX();
+  const double warm = time([&](int) {
+    d = turn * d;
+    return support_of_core(hull->shape, d, last).x();
+  });
+  const double all = time([&](int k) {
+    int vertex = 0;
+    return support_of_core(scan, directions[static_cast<size_t>(k)], vertex).x();
+  });
+  std::printf("\nsupport point of %s's hull (%zu vertices): climbed from vertex 0 %.0f ns, from the last answer (the "
+              "direction turned by 1°) %.0f ns, scanning every vertex %.0f ns%s\n",
+              hull->name.c_str(), hull->shape.vertices.size(), cold, warm, all, sink == 0.123 ? " " : "");
+}
+
 }  // namespace
 
-int main() {
+int main(int argc, char** argv) {
   try {
     UrdfOptions urdf_options;
     urdf_options.tip_link = "panda_hand";
@@ -620,6 +818,13 @@ int main() {
     std::printf(" self %.3f m\n", least.back());
     std::printf("random: %d uniform configurations within the joint limits\n\n", kConfigurations);
 
+    if (argc > 1 && std::string(argv[1]) == "--breakdown") {
+      breakdown("moving", path, model, proximity);
+      breakdown("random", uniform_configurations(model), model, proximity);
+      support_costs(proximity.arm());
+      return 0;
+    }
+    if (argc > 1) fail(std::string("unknown argument ") + argv[1] + " (--breakdown, or none)");
     std::vector<Result> results;
     results.push_back(run_sequence("moving", path, model, proximity, pin));
     results.push_back(run_sequence("random", uniform_configurations(model), model, proximity, pin));
