@@ -16,6 +16,13 @@
 # Pinocchio's time is the faster of crba's / aba's two conventions (LOCAL, WORLD), both timed.
 # Without PyPI (no venv) it says so on stderr and the rest runs without that table.
 #
+# Then the distances a tick watches (tests/bench/proximity_bench.cpp, with the same venv): chasles's
+# compute_distances, and every pair exact, against Pinocchio's computeDistances on coal (the wheel's
+# libcoal), on the Panda's self pairs plus a 6-object scene, the same shapes and pairs, on a clear
+# 1 kHz path and on uniform configurations: p50, p99 and max µs per call, the ratios, the issue's
+# targets, agreement with coal and allocations. Without the venv it is left out with the Pinocchio
+# table.
+#
 # Last, online trajectory generation: chasles's OnlineGenerator (core/motion) against Ruckig's C++
 # (tests/bench/otg_bench.cpp), from the sdist of the PyPI package ruckig at the version
 # tools/ruckig.sh pins, compiled into chasles_ruckig_bench with chasles's flags: on the same 10^5
@@ -74,7 +81,7 @@ cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCHASLES_BUILD
   -DCHASLES_BUILD_TESTS=OFF -DCHASLES_BUILD_TOOLS=OFF -DCHASLES_WERROR=OFF \
   -DCHASLES_PINOCCHIO_PREFIX="$pinocchio_prefix" -DCHASLES_RUCKIG_SOURCE="$ruckig_source" >&2
 targets=(chasles_bench chasles_ik_bench chasles_contact_bench)
-[ -n "$pinocchio_prefix" ] && targets+=(chasles_pinocchio_bench)
+[ -n "$pinocchio_prefix" ] && targets+=(chasles_pinocchio_bench chasles_coal_bench)
 [ -n "$ruckig_source" ] && targets+=(chasles_ruckig_bench)
 cmake --build "$build" --target "${targets[@]}" -j 2 >&2
 
@@ -255,6 +262,16 @@ if [ "$json" = 0 ]; then
   echo "bench: running chasles_contact_bench (about 10 s)" >&2
   "$build/tests/bench/chasles_contact_bench" --benchmark_min_time=0.2 --benchmark_repetitions=5 \
     --benchmark_enable_random_interleaving=true --benchmark_display_aggregates_only=true
+fi
+
+# Distances every tick, chasles against Pinocchio + coal: per-call times over 2 × 20,000
+# configurations, each library's calls interleaved. Table output only, as the IK bench's.
+if [ "$json" = 0 ] && [ -n "$pinocchio_prefix" ]; then
+  echo
+  echo "bench: running chasles_coal_bench (2 x 20,000 configurations, about 15 s)" >&2
+  echo "Distances every tick against Pinocchio + coal (Panda: self pairs + 17 objects x 6 obstacles):"
+  echo
+  "$build/tests/bench/chasles_coal_bench"
 fi
 
 # Online trajectory generation, chasles's OnlineGenerator against Ruckig's calculate() on the same
