@@ -73,6 +73,9 @@ inline constexpr size_t kTrajectoryCounts = 8 + 8 + 8;       // utime, id: then 
 // controller_status_t's trajectory_message follows its joint arrays (5 per joint) and 301 bytes of
 // fixed-size fields, counted from the end of num_joints.
 inline constexpr size_t kStatusTrajectoryStringAfterCount = 301;
+// Its clearance_pair follows the trajectory_message, 55 bytes of the stream's and the jog's fields
+// and the generator's three joint arrays; clearance_slowed_by follows it and one double.
+inline constexpr size_t kStatusClearanceAfterTrajectory = 55;
 // control_mode_t's num_posture follows its two joint arrays and 8 + 36 + 3 + 4 doubles.
 inline constexpr size_t kModePostureAfterJoints = 8 * (1 + 36 + 3 + 4);
 // Drake's messages: the first count follows the fingerprint and utime; a command's next count
@@ -132,6 +135,16 @@ inline std::string prepare(const void* data, size_t size, controller_status_t& m
            std::to_string(size) + " bytes";
   }
   m.trajectory_message.assign(size_t(trajectory_length - 1), ' ');
+  size_t at = trajectory_at + 4 + size_t(trajectory_length) + kStatusClearanceAfterTrajectory + 24 * size_t(m.num_joints);
+  for (auto [text, name] : {std::pair{&m.clearance_pair, "clearance_pair"}, std::pair{&m.clearance_slowed_by, "clearance_slowed_by"}}) {
+    int32_t length_of = 0;
+    if (!read_int32(data, size, at, length_of)) return truncated(size);
+    if (length_of < 1 || uint64_t(length_of) > size) {
+      return std::string(name) + " string of " + std::to_string(length_of) + " bytes in a message of " + std::to_string(size) + " bytes";
+    }
+    text->assign(size_t(length_of - 1), ' ');
+    at += 4 + size_t(length_of) + 8;  // the string, then the double after it
+  }
   return {};
 }
 

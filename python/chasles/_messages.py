@@ -101,6 +101,13 @@ class Status:
     generator_velocity_limit: np.ndarray
     generator_acceleration_limit: np.ndarray
     generator_jerk_limit: np.ndarray
+    #: the pair of collision objects closest at the latest state ("<link>/<k> and <other>"; "" without
+    #: geometry), its signed distance in m (< 0: overlapping), the pair that slowed the reference in
+    #: the last 0.1 s ("": none) and the share of the motion asked that was kept then
+    clearance_pair: str
+    clearance_distance: float
+    clearance_slowed_by: str
+    clearance_kept: float
 
     @property
     def state_name(self) -> str:

@@ -251,7 +251,7 @@ TEST(PathCheck, PandaSweepThroughABoxIsRefusedWhereTheBruteForceFirstSeesIt) {
   Scene scene;
   scene.objects.push_back(box("box", Vector3d(0.3, 0.0, 0.5), Vector3d(0.05, 0.05, 0.05)));
   expect_refused_as_the_brute_force_sees(arm.model, Proximity(arm.collision, scene), panda_sweep(),
-                                         "panda_hand/0 – box", "Panda through a box");
+                                         "panda_hand/0 and box", "Panda through a box");
 }
 
 TEST(PathCheck, PandaSweepTwoCentimetresOutsideTheStopIsClear) {
@@ -306,7 +306,7 @@ TEST(PathCheck, PandaFoldingIntoItselfIsRefusedAtTheSelfPair) {
   const Arm& arm = panda();
   const Eigen::VectorXd folded = vec({1.269, -1.650, -0.876, -2.978, -0.214, 1.215, 2.355});
   expect_refused_as_the_brute_force_sees(arm.model, Proximity(arm.collision, Scene{}), straight(kReady, folded, 2.0),
-                                         "panda_link1/0 – panda_hand/0", "Panda folding into itself");
+                                         "panda_link1/0 and panda_hand/0", "Panda folding into itself");
 }
 
 TEST(PathCheck, PandaFingersFlashingThroughAThinPlateAreCaught) {
@@ -323,7 +323,7 @@ TEST(PathCheck, PandaFingersFlashingThroughAThinPlateAreCaught) {
   scene.objects.push_back(plate);
   const Proximity proximity(arm.collision, scene);
   EXPECT_EQ(brute_force(arm.model, proximity, path, 8).first, -1) << "8 samples see the plate";
-  expect_refused_as_the_brute_force_sees(arm.model, proximity, path, "panda_rightfinger/2 – plate",
+  expect_refused_as_the_brute_force_sees(arm.model, proximity, path, "panda_rightfinger/2 and plate",
                                          "Panda's fingers through a thin plate");
 }
 
@@ -340,7 +340,7 @@ TEST(PathCheck, IiwaWristLoweredOntoATablePlaneIsRefused) {
   expect_refused_as_the_brute_force_sees(
       iiwa.model, Proximity(no_self, scene),
       straight(vec({0.0, 0.5, 0.0, -1.5, 0.0, -0.5, 0.0}), vec({0.3, 1.3, 0.0, -1.2, 0.0, -0.5, 0.5}), 1.5),
-      "iiwa_link_5/0 – table", "iiwa onto a table");
+      "iiwa_link_5/0 and table", "iiwa onto a table");
 }
 
 TEST(PathCheck, Ur5ElbowFoldedOntoItsUpperArmIsRefused) {
@@ -348,7 +348,7 @@ TEST(PathCheck, Ur5ElbowFoldedOntoItsUpperArmIsRefused) {
   expect_refused_as_the_brute_force_sees(
       ur5.model, Proximity(ur5.collision, Scene{}),
       straight(vec({0.0, -1.57, 1.57, -1.57, -1.57, 0.0}), vec({0.0, -1.57, 3.1, -1.57, -1.57, 0.0}), 2.0),
-      "upper_arm_link/0 – wrist_3_link/0", "UR5 folding its elbow");
+      "upper_arm_link/0 and wrist_3_link/0", "UR5 folding its elbow");
 }
 
 TEST(PathCheck, ControllersQuinticGoalIsAPath) {
@@ -376,7 +376,7 @@ TEST(PathCheck, ControllersQuinticGoalIsAPath) {
     q = reference.q;
   };
   path.speed = 15.0 / 8.0 * (q1 - q0).cwiseAbs() / T;
-  expect_refused_as_the_brute_force_sees(arm.model, proximity, path, "panda_hand/0 – box",
+  expect_refused_as_the_brute_force_sees(arm.model, proximity, path, "panda_hand/0 and box",
                                          "Panda's quintic through a box");
 
   // Bounded by the velocity limits instead: the same answer, from more samples.
@@ -418,7 +418,7 @@ TEST(PathCheck, OneConfigurationAndBadInput) {
   EXPECT_EQ(at_fold.time, 0.0);
   EXPECT_EQ(at_fold.time_seen, 0.0);
   EXPECT_EQ(at_fold.samples, 1);
-  EXPECT_EQ(pair_name(proximity, at_fold.pair), "panda_link1/0 – panda_hand/0");
+  EXPECT_EQ(pair_name(proximity, at_fold.pair), "panda_link1/0 and panda_hand/0");
   JointPath still = panda_sweep();
   still.duration = 0.0;
   const PathClearance away = check(arm.model, proximity, still).clearance;
@@ -537,7 +537,7 @@ TEST(IkClear, PrefersAnotherBranchWhenTheFirstAnswerHitsABox) {
   ASSERT_TRUE(plain.converged);
   const ConfigurationClearance hit = clear.at(plain.q);
   EXPECT_LT(hit.margin, 0.0);
-  EXPECT_EQ(pair_name(proximity, hit.pair), "panda_link4/0 – box");
+  EXPECT_EQ(pair_name(proximity, hit.pair), "panda_link4/0 and box");
 
   const IkResult preferred = solver.solve(ik_target(), kReady, clear.margin());
   const ConfigurationClearance c = clear.at(preferred.q);
@@ -580,7 +580,7 @@ TEST(IkClear, NoClearAnswerIsFlaggedWithThePair) {
   EXPECT_GE(r.refused, 1);
   EXPECT_LT(r.margin, 0.0);
   EXPECT_EQ(r.margin, c.margin);
-  EXPECT_EQ(pair_name(proximity, c.pair), "panda_hand/0 – box");
+  EXPECT_EQ(pair_name(proximity, c.pair), "panda_hand/0 and box");
 }
 }  // namespace
 }  // namespace chasles::geometry

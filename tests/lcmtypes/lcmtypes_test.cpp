@@ -112,6 +112,10 @@ controller_status_t make_status() {
   status.generator_velocity_limit = values(kJoints, 2.0);
   status.generator_acceleration_limit = values(kJoints, 10.0);
   status.generator_jerk_limit = values(kJoints, 3000.0);
+  status.clearance_pair = "panda_hand/0 and table";
+  status.clearance_distance = 0.0125;
+  status.clearance_slowed_by = "panda_link7/0 and wall";
+  status.clearance_kept = 0.25;
   for (int i = 0; i < 6; ++i) status.tip_wrench_ext[i] = 0.25 * (i - 2);
   status.contact = true;
   status.collision = false;
@@ -288,12 +292,14 @@ TEST(lcmtypes, ControllerStatusRoundTrips) {
   // and quaternion, torque, ik (int32, double, boolean), nine timing doubles, five counters,
   // tau_ext, the tip wrench, contact and collision, two counters, the law (int8), the payload's
   // mass and the state period (doubles), the trajectory's id, outcome, three doubles, waypoint
-  // and message, the stream's and the jog's fields, the generator's three limits per joint
+  // and message, the stream's and the jog's fields, the generator's three limits per joint, the
+  // clearance's two strings and two doubles
   const size_t trajectory_string = 4 + status.trajectory_message.size() + 1;
+  const size_t clearance_strings = 4 + status.clearance_pair.size() + 1 + 4 + status.clearance_slowed_by.size() + 1;
   EXPECT_EQ(buffer.size(), kHash + 8 + 1 + string_size + 4 + 3 * 8 * kJoints + 8 * 3 + 8 * 4 + 8 * kJoints +
                                (4 + 8 + 1) + 9 * 8 + 5 * 8 + 8 * kJoints + 6 * 8 + 2 + 2 * 8 + 1 + 8 + 8 +
                                (8 + 1 + 3 * 8 + 4) + trajectory_string + (1 + 8 + 8) + (1 + 8 + 8 + 8 + 8 + 1 + 4) +
-                               3 * 8 * kJoints);
+                               3 * 8 * kJoints + clearance_strings + 2 * 8);
   const auto back = decode<controller_status_t>(buffer);
   EXPECT_EQ(back.utime, status.utime);
   EXPECT_EQ(back.state, controller_status_t::FAULT);
@@ -326,6 +332,10 @@ TEST(lcmtypes, ControllerStatusRoundTrips) {
   EXPECT_EQ(back.generator_velocity_limit, status.generator_velocity_limit);
   EXPECT_EQ(back.generator_acceleration_limit, status.generator_acceleration_limit);
   EXPECT_EQ(back.generator_jerk_limit, status.generator_jerk_limit);
+  EXPECT_EQ(back.clearance_pair, status.clearance_pair);
+  EXPECT_EQ(back.clearance_distance, status.clearance_distance);
+  EXPECT_EQ(back.clearance_slowed_by, status.clearance_slowed_by);
+  EXPECT_EQ(back.clearance_kept, status.clearance_kept);
   for (int i = 0; i < 6; ++i) EXPECT_EQ(back.tip_wrench_ext[i], status.tip_wrench_ext[i]);
   EXPECT_TRUE(back.contact);
   EXPECT_FALSE(back.collision);
@@ -676,10 +686,10 @@ TEST(lcmtypes, FingerprintsArePinned) {
   EXPECT_EQ(static_cast<uint64_t>(joint_torque_command_t::getHash()), 0xd037d1c904e0e80fu);
   EXPECT_EQ(static_cast<uint64_t>(arm_target_t::getHash()), 0x309277be8aae6666u);
   // controller_status_t gained the contact fields at its end ([K]), then the law and the payload's
-  // mass, then the state period ([M]), then the trajectory's progress, the stream's and the jog's ([N]) at its end; no field
-  // changed meaning, and a reader built on an older contract refuses the new one by its
-  // fingerprint.
-  EXPECT_EQ(static_cast<uint64_t>(controller_status_t::getHash()), 0x5e461f6ed56a89d1u);
+  // mass, then the state period ([M]), then the trajectory's progress, the stream's and the jog's ([N]), then the
+  // clearance ([T]) at its end; no field changed meaning, and a reader built on an older contract
+  // refuses the new one by its fingerprint.
+  EXPECT_EQ(static_cast<uint64_t>(controller_status_t::getHash()), 0x100d88251178b6c2u);
   EXPECT_EQ(static_cast<uint64_t>(control_mode_t::getHash()), 0xe4a15f556715af84u);
   EXPECT_EQ(static_cast<uint64_t>(payload_t::getHash()), 0x38b055cd3dfdfa1fu);
   EXPECT_EQ(static_cast<uint64_t>(joint_trajectory_t::getHash()), 0xd964c2fb834f2258u);
