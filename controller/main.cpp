@@ -28,6 +28,7 @@
 #include "controller/daemon.hpp"
 #include "controller/node.hpp"
 #include "controller/world.hpp"
+#include "core/geometry/scene_file.hpp"
 #include "core/dynamics/dynamics.hpp"
 #include "core/error.hpp"
 #include "core/model/model.hpp"
@@ -130,7 +131,7 @@ struct Flags {
   double pose_time_constant_ms = 1e3 * kDefault.jog.pose_time_constant;
   bool semantics_check = kDefault.check_torque_semantics;
   // Clearance: the collision geometry, where its meshes are, and the distances kept.
-  std::string collision = "auto", srdf;
+  std::string collision = "auto", srdf, scene;
   std::vector<std::string> package_dirs;
   double self_stop_mm = 1e3 * kDefaultProximity.self.stop, self_influence_mm = 1e3 * kDefaultProximity.self.influence;
   double clearance_margin_mm = 1e3 * kDefault.clearance.reference_margin;
@@ -138,8 +139,8 @@ struct Flags {
   double clearance_deceleration = kDefault.clearance.deceleration, repulsion = kDefault.clearance.repulsion;
 };
 
-// The collision geometry and the scene from the flags, each step said on stderr; nullptr without.
-std::shared_ptr<chasles::controller::ClearanceWorld> clearance_world(const chasles::RobotModel& model, const Flags& flags) {
+// The collision geometry and the scene from the flags into `options`, each step said on stderr.
+void load_clearance(const chasles::RobotModel& model, const Flags& flags, DaemonOptions& options) {
   chasles::controller::WorldOptions world;
   chasles::controller::parse_collision_mode(flags.collision, world.mode);  // checked by CLI11
   world.urdf = flags.robot;
@@ -153,9 +154,17 @@ std::shared_ptr<chasles::controller::ClearanceWorld> clearance_world(const chasl
   world.geometry.srdf_path = flags.srdf;
   world.proximity.self = {flags.self_stop_mm * 1e-3, flags.self_influence_mm * 1e-3};
   std::vector<std::string> notes;
-  const chasles::geometry::CollisionModel arm = chasles::controller::load_arm_geometry(model, world, notes);
+  options.arm = chasles::controller::load_arm_geometry(model, world, notes);
+  options.proximity = world.proximity;
   for (const std::string& note : notes) std::fprintf(stderr, "chasles_controller: %s\n", chasles::one_line(note).c_str());
-  return chasles::controller::make_world(model, arm, {}, world.proximity);
+  chasles::geometry::Scene scene;
+  if (!flags.scene.empty()) {
+    if (options.arm.objects.empty()) throw chasles::ArgumentError("--scene " + flags.scene + ": the arm has no collision geometry");
+    scene = chasles::geometry::read_scene_file(flags.scene, {world.geometry.package_dirs});
+    std::fprintf(stderr, "chasles_controller: scene %s: %zu objects, %zu planes\n", flags.scene.c_str(),
+                 scene.objects.size(), scene.planes.size());
+  }
+  options.clearance = chasles::controller::make_world(model, options.arm, scene, world.proximity);
 }
 
 // A contact or collision threshold: a positive number, or inf for none (as the per-joint torque
@@ -387,6 +396,10 @@ int main(int argc, char** argv) {
                  "loads, else say why and run without), on (it must), off")
       ->check(CLI::IsMember({"auto", "on", "off"}))
       ->capture_default_str();
+  app.add_option("--scene", flags.scene,
+                 "the scene kept clear of from the start: obstacles, safety planes and workspace boxes "
+                 "(docs/scene.md); a scene_t on <prefix>SCENE replaces it")
+      ->check(CLI::ExistingFile);
   app.add_option("--srdf", flags.srdf, "SRDF whose <disable_collisions> pairs are not checked")->check(CLI::ExistingFile);
   app.add_option("--package-dir", flags.package_dirs,
                  "where package://NAME/... meshes are looked for, as DIR/NAME/... (repeatable; then "
@@ -560,7 +573,7 @@ int main(int argc, char** argv) {
     options.control.clearance.time_constant = flags.clearance_time_constant_ms * 1e-3;
     options.control.clearance.deceleration = flags.clearance_deceleration;
     options.control.clearance.repulsion = flags.repulsion;
-    options.clearance = clearance_world(model, flags);
+    load_clearance(model, flags, options);
 
     // CPU 0 usually takes most interrupts and housekeeping; the last CPU is the conventional one
     // to set aside. Users with an isolated core (isolcpus) name it.

@@ -6,7 +6,9 @@
 #include <cstdio>
 #include <cstring>
 
+#include "controller/transport/scene_message.hpp"
 #include "controller/transport/wire.hpp"
+#include "controller/world.hpp"
 #include "core/dynamics/dynamics.hpp"
 
 namespace chasles::controller {
@@ -89,6 +91,7 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
       models_(loaded(model, options.payload)),
       snapshots_(Snapshot(n_)),
       requests_(CartesianRequest(n_)),
+      worlds_(options.clearance),
       paths_(2, JointPath(n_)),
       loop_(models_.front().model, options, models_.front().payload),
       planner_(model, options.control.limits),
@@ -133,6 +136,7 @@ int64_t Node::tick(int64_t scheduled) {
     state = &loop_.plant_state;
   }
   if (foreign_commands() > 0 && !loop_.controller.stood_down()) stand_down();
+  if (worlds_.take()) loop_.controller.set_clearance_world(worlds_.front().get());  // a new scene
   if (models_.take()) {  // a payload built by the worker, between two ticks
     loop_.controller.set_model(models_.front().model);
     loop_.payload = models_.front().payload;
@@ -300,7 +304,31 @@ void Node::publish_snapshot() {
 
 // Ceres allocates and takes milliseconds: never on the loop, which only hands over requests and
 // paths without waiting.
+bool Node::build_scene() {
+  const SceneBytes& received = inbox_.scenes.front();
+  char why[192];
+  if (!decode_scene(received.bytes.data(), received.size, planner_.scene, why, sizeof(why))) {
+    std::fprintf(stderr, "chasles_controller: scene refused: %s\n", why);
+    return false;
+  }
+  if (options_.arm.objects.empty()) {
+    std::fprintf(stderr, "chasles_controller: scene refused: the arm has no collision geometry (--collision)\n");
+    return false;
+  }
+  try {
+    worlds_.back() = make_world(model_, options_.arm, planner_.scene, options_.proximity);
+  } catch (const Error& e) {  // a plane binding a link without a collision object
+    std::fprintf(stderr, "chasles_controller: scene refused: %s\n", e.what());
+    return false;
+  }
+  worlds_.publish();
+  std::fprintf(stderr, "chasles_controller: scene: %zu objects, %zu planes\n", planner_.scene.objects.size(),
+               planner_.scene.planes.size());
+  return true;
+}
+
 bool Node::plan() {
+  if (inbox_.scenes.take()) return build_scene();
   if (inbox_.payloads.read(planner_.payload)) {
     // The receiver checked it (payload_problem), so with_payload has nothing left to refuse; if it
     // does, the model in force stays, and the operator hears why.

@@ -155,6 +155,9 @@ class Node {
   static LoadedModel loaded(const RobotModel& model, const std::optional<Payload>& payload);
 
   void stand_down();
+  /// The worker's: the newest scene received decoded and built into a world for the loop; false
+  /// (said on stderr) when it is refused.
+  bool build_scene();
   /// Messages heard on the command channel that this process did not send.
   int64_t foreign_commands() const { return inbox_.own_commands().foreign(); }
   void publish_snapshot();
@@ -177,6 +180,9 @@ class Node {
   Mailbox<Snapshot> snapshots_;
   SpscRing<TickRecord> records_{8192};
   Mailbox<CartesianRequest> requests_;  // loop → IK: only the newest request matters
+  // Built by the worker for each scene received, swapped in by the loop between ticks; the
+  // controller computes with the front, which the worker never writes.
+  Mailbox<std::shared_ptr<ClearanceWorld>> worlds_;
   SpscRing<JointPath> paths_;           // IK → loop
   bool realtime_granted_ = false;
 
@@ -224,6 +230,7 @@ class Node {
     CartesianRequest request;
     JointPath path;
     bool path_waiting = false;  // planned, not yet taken by the loop
+    geometry::Scene scene;
   } planner_;
 
   // The status step's: report() and summary().

@@ -24,8 +24,11 @@ enum class TickSource {
 struct DaemonOptions {
   Config control;
   /// The arm's collision geometry and its scene, built before the loop starts (world.hpp); nullptr:
-  /// none, nothing kept clear.
+  /// none, nothing kept clear. A scene_t received replaces the scene: the worker builds its world
+  /// from `arm` and `proximity` (an arm without objects: the scene is refused).
   std::shared_ptr<ClearanceWorld> clearance;
+  geometry::CollisionModel arm;
+  geometry::ProximityOptions proximity;
   /// A load known at the tip from the start, on the model the daemon is given (which carries none);
   /// a payload_t received at run time replaces it.
   std::optional<Payload> payload;

@@ -38,6 +38,7 @@ Inbox::Inbox(const RobotModel& model, Protocol protocol, const Channels& channel
              int64_t period_ns, Bus& bus, Doorbell& payload_bell)
     : states(JointState(model.dof())),
       payloads(Payload{}),
+      scenes(SceneBytes{}),
       modes(8, LawSettings(model.dof())),
       targets(16, Target(model.dof())),
       trajectories(2, motion::Waypoints(model.dof())),
@@ -54,7 +55,8 @@ Inbox::Inbox(const RobotModel& model, Protocol protocol, const Channels& channel
       jog_receiver_(model.dof(), jogs),
       tip_setpoint_receiver_(tip_setpoints),
       mode_receiver_(model.dof(), modes),
-      payload_receiver_(payloads, payload_bell) {
+      payload_receiver_(payloads, payload_bell),
+      scene_receiver_(scenes, payload_bell) {
   subscriptions_.push_back(bus.subscribe(channels.state, [this, &bus](const uint8_t* data, size_t size) {
     if (const std::string why = state_receiver_.receive(data, size, arrival_ns(bus)); !why.empty()) {
       rejections_.add("robot state " + why);
@@ -67,6 +69,7 @@ Inbox::Inbox(const RobotModel& model, Protocol protocol, const Channels& channel
   subscribe(bus, channels.jog, "jog", jog_receiver_);
   subscribe(bus, channels.mode, "control mode", mode_receiver_);
   subscribe(bus, channels.payload, "payload", payload_receiver_);
+  subscribe(bus, channels.scene, "scene", scene_receiver_);
   subscriptions_.push_back(bus.subscribe(
       channels.command, [this](const uint8_t* data, size_t size) { own_commands_.receive(data, size); }));
 }

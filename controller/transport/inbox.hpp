@@ -66,6 +66,8 @@ class Inbox {
   // and tip setpoint in the order they came.
   Mailbox<JointState> states;
   Mailbox<Payload> payloads;
+  /// The newest scene's bytes, for the worker that decodes it (payload_bell rung).
+  Mailbox<SceneBytes> scenes;
   SpscRing<LawSettings> modes;
   SpscRing<Target> targets;
   SpscRing<motion::Waypoints> trajectories;
@@ -91,6 +93,7 @@ class Inbox {
   TipSetpointReceiver tip_setpoint_receiver_;
   ModeReceiver mode_receiver_;
   PayloadReceiver payload_receiver_;
+  SceneReceiver scene_receiver_;
   std::vector<Bus::Subscription> subscriptions_;  // after what they feed: ended first
 };
 

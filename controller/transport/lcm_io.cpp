@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "core/lie/so3.hpp"
 #include "lcmtypes/checked.hpp"
@@ -220,6 +221,18 @@ std::string ModeReceiver::receive(const void* data, size_t size) {
 }
 
 PayloadReceiver::PayloadReceiver(Mailbox<Payload>& mailbox, Doorbell& bell) : mailbox_(mailbox), bell_(bell) {}
+
+std::string SceneReceiver::receive(const void* data, size_t size) {
+  if (size > SceneBytes::kMax) {
+    return "of " + std::to_string(size) + " bytes, more than a scene may take (" + std::to_string(SceneBytes::kMax) + ")";
+  }
+  SceneBytes& slot = mailbox_.back();
+  std::memcpy(slot.bytes.data(), data, size);
+  slot.size = size;
+  mailbox_.publish();
+  bell_.ring();
+  return {};
+}
 
 std::string PayloadReceiver::receive(const void* data, size_t size) {
   if (std::string why = messages::decode_checked(data, size, message_, messages::kAnyArm, messages::Finite::Required);

@@ -36,7 +36,7 @@ namespace chasles::controller {
 
 /// Channel names: a configurable prefix, so several arms can share one network.
 struct Channels {
-  std::string state, command, target, status, mode, payload, trajectory, setpoint, tip_setpoint, jog;
+  std::string state, command, target, status, mode, payload, trajectory, setpoint, tip_setpoint, jog, scene;
   explicit Channels(const std::string& prefix = "CHASLES_")
       : state(prefix + "STATE"),
         command(prefix + "COMMAND"),
@@ -47,7 +47,8 @@ struct Channels {
         trajectory(prefix + "TRAJECTORY"),
         setpoint(prefix + "SETPOINT"),
         tip_setpoint(prefix + "TIP_SETPOINT"),
-        jog(prefix + "JOG") {}
+        jog(prefix + "JOG"),
+        scene(prefix + "SCENE") {}
 };
 
 /// Counts rejected messages and keeps the latest reason, for the status report. Lock-free: with
@@ -202,6 +203,29 @@ class ModeReceiver {
 
 /// payload_t → a checked Payload in `mailbox` (the newest wins: each replaces the one before);
 /// `bell` is rung for whoever builds the model that carries it.
+/// A scene_t's bytes as heard, for the worker to decode: a scene builds hulls, which the bus's
+/// handler (the real-time loop's thread) must not. The buffer is sized once for the largest scene
+/// taken.
+struct SceneBytes {
+  static constexpr size_t kMax = size_t(1) << 20;  ///< bytes; every cap of scene_t fits
+  std::vector<uint8_t> bytes = std::vector<uint8_t>(kMax);
+  size_t size = 0;
+};
+
+/// Hands a scene_t's bytes to the worker (bell rung): no decoding on the bus's thread. Refuses one
+/// larger than SceneBytes::kMax. Allocates nothing.
+class SceneReceiver {
+ public:
+  SceneReceiver(Mailbox<SceneBytes>& mailbox, Doorbell& bell) : mailbox_(mailbox), bell_(bell) {}
+  SceneReceiver(const SceneReceiver&) = delete;
+  SceneReceiver& operator=(const SceneReceiver&) = delete;
+  std::string receive(const void* data, size_t size);
+
+ private:
+  Mailbox<SceneBytes>& mailbox_;
+  Doorbell& bell_;
+};
+
 class PayloadReceiver {
  public:
   PayloadReceiver(Mailbox<Payload>& mailbox, Doorbell& bell);
