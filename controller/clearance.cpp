@@ -24,6 +24,8 @@ ClearanceWorld::ClearanceWorld(const RobotModel& model, geometry::Proximity prox
     : proximity(std::move(proximity_)),
       at_state(proximity),
       at_reference(proximity),
+      along_path(proximity),
+      path_checker(model, proximity),
       free_step(Eigen::VectorXd::Zero(model.dof())),
       row(Eigen::VectorXd::Zero(model.dof())),
       twists(6, model.dof()) {}
@@ -60,6 +62,24 @@ const char* Clearance::inside_reason(int pair) {
                 world_->at_state.distance[static_cast<size_t>(pair)].distance,
                 world_->proximity.pairs()[static_cast<size_t>(pair)].clearance.stop);
   return reason_;
+}
+
+bool Clearance::path_clear(const RobotModel& model, Data& data, const geometry::JointPath& path, char* why,
+                           size_t size) {
+  if (world_ == nullptr) return true;
+  const geometry::PathClearance c =
+      world_->path_checker.check(model, world_->proximity, data, world_->along_path, path);
+  if (c.clear) return true;
+  if (c.pair < 0) {  // never seen with the default options: a path needs at most 1/min_step samples
+    std::snprintf(why, size, "its path could not be checked to its end (%d samples, to t = %.3f s of %.3f s)",
+                  c.samples, c.checked_until, path.duration);
+    return false;
+  }
+  char name[128];
+  world_->proximity.name_pair(c.pair, name, sizeof(name));
+  std::snprintf(why, size, "%s would come within its stop distance %.3f m at t = %.3f s of %.3f s", name,
+                world_->proximity.pairs()[static_cast<size_t>(c.pair)].clearance.stop, c.time, path.duration);
+  return false;
 }
 
 void Clearance::distance_row(const RobotModel& model, const geometry::PairDistance& d,

@@ -24,6 +24,7 @@
 #include <Eigen/Core>
 #include <memory>
 
+#include "core/geometry/path_check.hpp"
 #include "core/geometry/proximity.hpp"
 #include "core/model/model.hpp"
 #include "core/motion/quintic.hpp"
@@ -41,7 +42,8 @@ struct ClearanceConfig {
 struct ClearanceWorld {
   ClearanceWorld(const RobotModel& model, geometry::Proximity proximity);
   geometry::Proximity proximity;
-  geometry::ProximityData at_state, at_reference;
+  geometry::ProximityData at_state, at_reference, along_path;
+  geometry::PathChecker path_checker;  // a goal's or a trajectory's path, before it moves
   Eigen::VectorXd free_step;  // the source's step, joint velocity
   Eigen::VectorXd row;        // a pair's ∂d/∂q
   Eigen::Matrix<double, 6, Eigen::Dynamic> twists;  // each joint's space twist at the q at hand
@@ -86,6 +88,10 @@ class Clearance {
   const ClearanceStatus& status() const { return status_; }
   /// "<pair> at <d> m, inside its stop distance <s> m" for the pair observe() returned.
   const char* inside_reason(int pair);
+  /// Whether `path` keeps every pair at or beyond its stop distance (geometry::check_path, with
+  /// `data` a workspace); if not, why into `why`: "<pair> would come within its stop distance <s> m
+  /// at t = <t> s of <T> s". True without a world. Allocates nothing.
+  bool path_clear(const RobotModel& model, Data& data, const geometry::JointPath& path, char* why, size_t size);
 
  private:
   /// ∂d/∂q of a pair at distance d, from the joint twists at hand (world_->twists), into `row`.

@@ -53,12 +53,38 @@ Controller::Controller(const RobotModel& model, const Config& config)
       source_(&goal_),
       ref_(model.dof()),
       ref_from_(Eigen::VectorXd::Zero(model.dof())),
+      checked_data_(model),
+      checked_ref_(model.dof()),
       q_(Eigen::VectorXd::Zero(model.dof())),
       qd_(Eigen::VectorXd::Zero(model.dof())),
       error_(Eigen::VectorXd::Zero(model.dof())),
       tau_(Eigen::VectorXd::Zero(model.dof())),
       q_guarded_(Eigen::VectorXd::Zero(model.dof())),
-      retract_goal_(Eigen::VectorXd::Zero(model.dof())) {}
+      retract_goal_(Eigen::VectorXd::Zero(model.dof())) {
+  checked_path_.position = [this](double t, Eigen::VectorXd& q) {
+    if (checked_trajectory_) {
+      trajectory_.planned().sample(t, checked_ref_);
+    } else {
+      goal_.planned().sample(t, checked_ref_);
+    }
+    q = checked_ref_.q;
+  };
+  // The planned motions keep within the velocity limits: the path's speed bound, where they are
+  // finite; else the check has none to prove with, and bounds by the model's (an error it says).
+  checked_path_.speed = limits_.velocity;
+  if (!checked_path_.speed.allFinite()) checked_path_.speed.resize(0);
+}
+
+bool Controller::path_clear(bool trajectory, char (&why)[192]) {
+  checked_trajectory_ = trajectory;
+  checked_path_.duration = trajectory ? trajectory_.planned().duration() : goal_.planned().duration();
+  try {
+    return clearance_.path_clear(*model_, checked_data_, checked_path_, why, sizeof(why));
+  } catch (const Error& e) {  // a joint without a velocity limit: nothing bounds the path's speed
+    std::snprintf(why, sizeof(why), "%.180s", e.what());
+    return false;
+  }
+}
 
 bool Controller::refuse(const char* format, ...) {
   va_list args;
@@ -211,6 +237,7 @@ bool Controller::set_trajectory(const motion::Waypoints& w, int64_t now_ns) {
   if (!trajectory_.check(*model_, w, why)) return reject(why);
   if (mode_ == Mode::kReflex) hold_at(q_);  // a new trajectory ends the reflex, from where the arm is
   if (!trajectory_.fit(*model_, ref_, w, why)) return reject(why);
+  if (char clash[192]; !path_clear(true, clash)) return reject(clash);
   path_.drop();  // a Cartesian plan still in the works is superseded
   trajectory_.start(w, now_ns);
   start_drive(trajectory_);
@@ -275,6 +302,8 @@ bool Controller::set_joint_target(const Target& target, int64_t now_ns) {
       return refuse("joint %s: reaching the goal in %g s needs a %s of %g %s, over its limit %g %s; %.4g s would do",
                     name, target.duration, quantity, excess.value, unit, excess.limit, unit, shortest);
     }
+    // Before anything moves: the quintic kept clear of the arm itself and the scene.
+    if (char clash[192]; !path_clear(false, clash)) return refuse("the JOINT target's path: %s", clash);
   }
   path_.drop();  // a Cartesian plan still in the works is superseded
   trajectory_.end(TrajectoryProgress::kPreempted, "a JOINT target");

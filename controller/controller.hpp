@@ -213,6 +213,8 @@ class Controller {
   void start_reflex(int64_t now_ns, const char* reason, Reflex reflex);
   bool set_joint_target(const Target& target, int64_t now_ns);
   bool request_cartesian(const Target& target);
+  /// Whether the path planned for a goal (or a trajectory) keeps clear; if not, why into `why`.
+  bool path_clear(bool trajectory, char (&why)[192]);
   /// The reference at now_ns; finishing a motion turns RUNNING into HOLDING.
   void update_reference(int64_t now_ns);
   /// The reference the source moved from ref_from_ cut to keep clear (clearance.hpp); a motion
@@ -242,6 +244,11 @@ class Controller {
   ReferenceSource* source_;
   motion::Reference ref_;
   Eigen::VectorXd ref_from_;  // the reference before the source moved it this tick
+  // A goal's or a trajectory's path, checked for clearance before it moves (path_clear).
+  Data checked_data_;
+  motion::Reference checked_ref_;
+  geometry::JointPath checked_path_;
+  bool checked_trajectory_ = false;
   Eigen::VectorXd q_, qd_, error_, tau_;
   Eigen::VectorXd q_guarded_;  // the state the limit guard last saw, for a crossing
   Eigen::VectorXd retract_goal_;

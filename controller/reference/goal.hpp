@@ -18,6 +18,8 @@ class GoalMotion final : public ReferenceSource {
               motion::LimitExcess& excess);
   /// Follows the quintic the last plan() found, from now_ns.
   void start(int64_t now_ns);
+  /// The quintic the last plan() found, before start() takes it.
+  const motion::QuinticTrajectory& planned() const { return candidate_; }
   Progress advance(const Tick& tick, motion::Reference& ref) override;
 
  private:

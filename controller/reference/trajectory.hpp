@@ -29,6 +29,8 @@ class TrajectoryMotion final : public ReferenceSource {
   void reject(int64_t id, const char* why);
   /// Follows the trajectory fit() passed last, from now_ns: ACTIVE (one active before is PREEMPTED).
   void start(const motion::Waypoints& w, int64_t now_ns);
+  /// The path fit() passed last, before start() takes it.
+  const motion::WaypointSpline& planned() const { return candidate_; }
   Progress advance(const Tick& tick, motion::Reference& ref) override;
   /// Judges the tracking error e = q_d − q after the reference moved: the path tolerance while
   /// `running`, else the goal tolerance within goal_time. Returns false when the path tolerance

@@ -54,10 +54,10 @@ void check_options(const PathCheckOptions& options) {
   }
 }
 
-Eigen::VectorXd speed_bound(const RobotModel& model, const JointPath& path) {
+// The path's speed bound into `speed` (sized to the joints: no allocation).
+void speed_bound(const RobotModel& model, const JointPath& path, Eigen::VectorXd& speed) {
   const int n = model.dof();
   if (path.speed.size() == 0) {
-    Eigen::VectorXd speed(n);
     for (int i = 0; i < n; ++i) {
       speed[i] = model.joint(i).limits.velocity;
       if (!std::isfinite(speed[i])) {
@@ -65,7 +65,7 @@ Eigen::VectorXd speed_bound(const RobotModel& model, const JointPath& path) {
                             " has no finite velocity limit to bound the path's speed; give JointPath::speed");
       }
     }
-    return speed;
+    return;
   }
   if (path.speed.size() != n) {
     throw ArgumentError("path check: the speed bound has " + std::to_string(path.speed.size()) + " entries, the arm " +
@@ -76,7 +76,7 @@ Eigen::VectorXd speed_bound(const RobotModel& model, const JointPath& path) {
       throw ArgumentError("path check: the speed bound of joint " + model.joint(i).name + " must be finite and ≥ 0");
     }
   }
-  return path.speed;
+  speed = path.speed;
 }
 
 }  // namespace
@@ -126,8 +126,26 @@ ConfigurationClearance configuration_clearance(const RobotModel& model, const Pr
   return c;
 }
 
+PathChecker::PathChecker(const RobotModel& model, const Proximity& proximity)
+    : rates_(distance_rates(model, proximity)),
+      rate_(rates_.rows()),
+      stop_(rates_.rows()),
+      margin_(rates_.rows()),
+      next_(rates_.rows()),
+      speed_(model.dof()),
+      q_(model.dof()) {
+  for (Eigen::Index p = 0; p < stop_.size(); ++p) stop_[p] = proximity.pairs()[static_cast<size_t>(p)].clearance.stop;
+}
+
 PathClearance check_path(const RobotModel& model, const Proximity& proximity, Data& data, ProximityData& pdata,
                          const JointPath& path, const PathCheckOptions& options) {
+  check_options(options);
+  PathChecker checker(model, proximity);
+  return checker.check(model, proximity, data, pdata, path, options);
+}
+
+PathClearance PathChecker::check(const RobotModel& model, const Proximity& proximity, Data& data,
+                                 ProximityData& pdata, const JointPath& path, const PathCheckOptions& options) {
   check_options(options);
   if (!path.position) throw ArgumentError("path check: the path has no position function");
   if (!(std::isfinite(path.duration) && path.duration >= 0.0)) {
@@ -135,18 +153,20 @@ PathClearance check_path(const RobotModel& model, const Proximity& proximity, Da
   }
   const double T = path.duration;
   const int n = model.dof();
-  const auto& pairs = proximity.pairs();
-  const Eigen::Index P = static_cast<Eigen::Index>(pairs.size());
+  const Eigen::Index P = stop_.size();
+  if (static_cast<size_t>(P) != proximity.pairs().size() || pdata.distance.size() != proximity.pairs().size()) {
+    throw ArgumentError("path check: the checker or its workspace was built for another Proximity");
+  }
   // w_p: how fast pair p's distance can shrink along this path, m/s.
-  const Eigen::VectorXd rate = distance_rates(model, proximity) * speed_bound(model, path);
-  Eigen::VectorXd stop(P);
-  for (Eigen::Index p = 0; p < P; ++p) stop[p] = pairs[static_cast<size_t>(p)].clearance.stop;
+  speed_bound(model, path, speed_);
+  rate_.noalias() = rates_ * speed_;
+  const Eigen::VectorXd& rate = rate_;
+  const Eigen::VectorXd& stop = stop_;
+  Eigen::VectorXd &q = q_, &margin = margin_, &next = next_;
 
   PathClearance result;
-  Eigen::VectorXd q(n), margin(P), next(P);
   double least_margin = kInfinity;
   auto sample = [&](double t, Eigen::VectorXd& m) {
-    q.resize(n);
     path.position(t, q);
     if (q.size() != n || !q.allFinite()) {
       throw ArgumentError("path check: q(" + std::to_string(t) + ") is " +

@@ -91,6 +91,22 @@ struct PathClearance {
 PathClearance check_path(const RobotModel& model, const Proximity& proximity, Data& data, ProximityData& pdata,
                          const JointPath& path, const PathCheckOptions& options = {});
 
+/// check_path with its workspaces kept: built once for a model and a Proximity (it allocates the
+/// pairs' rates), then each check allocates nothing but what the path's position function does —
+/// for a controller that checks every goal it is given.
+class PathChecker {
+ public:
+  PathChecker(const RobotModel& model, const Proximity& proximity);
+  /// check_path for the model and Proximity it was built for (ArgumentError for another's).
+  PathClearance check(const RobotModel& model, const Proximity& proximity, Data& data, ProximityData& pdata,
+                      const JointPath& path, const PathCheckOptions& options = {});
+
+ private:
+  Eigen::MatrixXd rates_;  // distance_rates
+  Eigen::VectorXd rate_, stop_, margin_, next_;  // per pair
+  Eigen::VectorXd speed_, q_;                    // per joint
+};
+
 /// How fast each pair's distance can change with each joint's motion: entry (p, k) bounds
 /// |∂d_p / ∂q_k| in every configuration, m/rad (m/m for a prismatic joint), so that over any
 /// motion |Δd_p| ≤ Σ_k R_pk ∫|q̇_k| dt.

@@ -214,16 +214,60 @@ TEST_F(Clearing, AStreamThatFoldsTheArmIntoItselfStopsShort) {
   EXPECT_GE(controller.clearance().slowing, 0);
 }
 
-TEST_F(Clearing, AGoalIntoAWallEndsInABrakeNamingThePair) {
-  Data data(model_);
+TEST_F(Clearing, AGoalWhosePathMeetsAWallIsRefusedBeforeAnythingMoves) {
   const auto w = world(wall_at(front() + 0.08));
   Judge judge(model_, w->proximity);
   Controller controller(model_, config_);
   ASSERT_TRUE(controller.set_clearance_world(w.get()));
   start(controller);
+  const VectorXd start_q = state_.q;
   VectorXd goal = state_.q;
   goal(0) += 0.6;  // the arm swung about the base toward +y: into the wall
+  Target target(7);
+  target.mode = Target::kJoint;
+  target.num_joints = 7;
+  target.q = goal;
+  target.duration = 2.0;
+  const chasles::testing::AllocationCounter counter;
+  EXPECT_FALSE(controller.set_target(target, now_));
+  EXPECT_EQ(counter.count(), 0);
+  const std::string why = controller.last_rejection();
+  EXPECT_EQ(why.rfind("the JOINT target's path: ", 0), 0u) << why;
+  EXPECT_NE(why.find(" and wall would come within its stop distance 0.010 m at t = "), std::string::npos) << why;
+  EXPECT_NE(why.find(" s of 2.000 s"), std::string::npos) << why;
+  // When: the quintic at that time is within a few millimetres of the stop distance, and earlier
+  // it is clear.
+  const double t = std::stod(why.substr(why.find("at t = ") + 7));
+  const auto at = [&](double s) {
+    motion::QuinticTrajectory quintic(7);
+    motion::Reference from(7), out(7);
+    from.q = start_q;
+    quintic.start(from, goal, 2.0);
+    quintic.sample(s, out);
+    return judge.room(out.q);
+  };
+  EXPECT_GT(at(0.9 * t), 0.0);
+  EXPECT_LT(at(t + 0.01), 0.005);
+  for (int k = 0; k < 100; ++k) ASSERT_TRUE(tick(controller));
+  EXPECT_EQ(controller.mode(), Mode::kHolding);
+  EXPECT_EQ(controller.reference().q, start_q);
+  // The same goal, the wall 40 cm further: it goes.
+  const auto far = world(wall_at(front() + 0.48));
+  ASSERT_TRUE(controller.set_clearance_world(far.get()));
+  EXPECT_TRUE(send(controller, goal, 2.0)) << controller.last_rejection();
+}
+
+TEST_F(Clearing, AGoalMetByAWallAfterItStartedEndsInABrakeNamingThePair) {
+  Data data(model_);
+  const auto w = world(wall_at(front() + 0.08));
+  Judge judge(model_, w->proximity);
+  Controller controller(model_, config_);
+  start(controller);
+  VectorXd goal = state_.q;
+  goal(0) += 0.6;  // the arm swung about the base toward +y: into the wall, which is not there yet
   ASSERT_TRUE(send(controller, goal, 2.0)) << controller.last_rejection();
+  ASSERT_TRUE(tick(controller));
+  ASSERT_TRUE(controller.set_clearance_world(w.get()));  // a scene arrives mid-motion
   double least = std::numeric_limits<double>::infinity();
   for (int k = 0; k < 3000; ++k) {
     ASSERT_TRUE(tick(controller)) << controller.fault_reason();
