@@ -60,7 +60,51 @@ Node::Loop::Loop(const RobotModel& model, const DaemonOptions& options, const Pa
       plant_state(model.dof()) {}
 
 Node::Planner::Planner(const RobotModel& model, const motion::LimitConfig& config)
-    : solver(model), limits(model, config), request(model.dof()), path(model.dof()) {}
+    : solver(model),
+      limits(model, config),
+      request(model.dof()),
+      path(model.dof()),
+      data(model),
+      sampler(model.dof()),
+      sampled(model.dof()) {
+  checked.position = [this](double t, Eigen::VectorXd& q) {
+    sampler.sample(t, sampled);
+    q = sampled.q;
+  };
+  checked.speed = limits.velocity;  // what the path keeps to (plan_cartesian_path checks it)
+  if (!checked.speed.allFinite()) checked.speed.resize(0);
+}
+
+void Node::Planner::use(const RobotModel& model, std::shared_ptr<const ClearanceWorld> next) {
+  world = std::move(next);
+  checker.reset(world ? new geometry::PathChecker(model, world->proximity) : nullptr);
+  along_path.reset(world ? new geometry::ProximityData(world->proximity) : nullptr);
+}
+
+void Node::Planner::check(const RobotModel& model, JointPath& planned) {
+  if (!world || !planned.ok) return;
+  sampler.start(planned);
+  checked.duration = sampler.duration();
+  geometry::PathClearance c;
+  try {
+    c = checker->check(model, world->proximity, data, *along_path, checked);
+  } catch (const Error& e) {  // a joint without a velocity limit: nothing bounds the path's speed
+    planned.ok = false;
+    std::snprintf(planned.reason, sizeof(planned.reason), "%.180s", e.what());
+    return;
+  }
+  if (c.clear) return;
+  planned.ok = false;
+  if (c.pair < 0) {
+    std::snprintf(planned.reason, sizeof(planned.reason), "the tip's path could not be checked to its end");
+    return;
+  }
+  char name[128];
+  world->proximity.name_pair(c.pair, name, sizeof(name));
+  std::snprintf(planned.reason, sizeof(planned.reason),
+                "the tip's path: %.96s would come within its stop distance %.3f m at t = %.3f s of %.3f s", name,
+                world->proximity.pairs()[static_cast<size_t>(c.pair)].clearance.stop, c.time, checked.duration);
+}
 
 Node::Reporter::Reporter(const RobotModel& model) : data(model), last(model.dof()) {}
 
@@ -97,6 +141,7 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
       planner_(model, options.control.limits),
       reporter_(model) {
   reporter_.status.num_joints = n_;
+  planner_.use(model_, options_.clearance);
   if (!loop_.controller.set_clearance_world(options_.clearance.get())) {
     throw ArgumentError("the collision geometry was built for another arm");
   }
@@ -321,6 +366,7 @@ bool Node::build_scene() {
     std::fprintf(stderr, "chasles_controller: scene refused: %s\n", e.what());
     return false;
   }
+  planner_.use(model_, worlds_.back());
   worlds_.publish();
   std::fprintf(stderr, "chasles_controller: scene: %zu objects, %zu planes\n", planner_.scene.objects.size(),
                planner_.scene.planes.size());
@@ -346,6 +392,7 @@ bool Node::plan() {
   if (!planner_.path_waiting) {
     if (!requests_.read(planner_.request)) return false;
     plan_cartesian_path(planner_.solver, planner_.limits, planner_.request, planner_.path);
+    planner_.check(model_, planner_.path);
     planner_.path_waiting = true;
   }
   planner_.path_waiting = !paths_.push(planner_.path);

@@ -231,6 +231,19 @@ class Node {
     JointPath path;
     bool path_waiting = false;  // planned, not yet taken by the loop
     geometry::Scene scene;
+    // The world a Cartesian path is checked in before it goes to the loop, with the worker's own
+    // workspaces (the loop computes in the world's): rebuilt with each scene.
+    std::shared_ptr<const ClearanceWorld> world;
+    std::unique_ptr<geometry::PathChecker> checker;
+    std::unique_ptr<geometry::ProximityData> along_path;
+    Data data;
+    JointPathSampler sampler;
+    motion::Reference sampled;
+    geometry::JointPath checked;
+    /// Checks with `next` from now on (nullptr: nothing to check).
+    void use(const RobotModel& model, std::shared_ptr<const ClearanceWorld> next);
+    /// Whether `path` (planned, ok) keeps clear; if not, it is failed saying why.
+    void check(const RobotModel& model, JointPath& path);
   } planner_;
 
   // The status step's: report() and summary().

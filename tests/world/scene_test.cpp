@@ -96,5 +96,43 @@ TEST(SceneOverTheBus, AReceivedSceneTakesEffectAndAJogStopsShortOfItsWall) {
   EXPECT_NE(world.recorder().status()->clearance_pair.find(" and side wall"), std::string::npos);
 }
 
+TEST(SceneOverTheBus, GoalsWhosePathsMeetTheWallAreRefusedBeforeAnythingMoves) {
+  World world;
+  const controller::DaemonOptions options = with_geometry(world.model());
+  world.start_plant(bent_pose());
+  world.add_controller(options);
+  world.run_for(0.3);
+  const std::vector<double> q0 = world.recorder().status()->q;
+  Data data(world.model());
+  const Transform T0 = forward_kinematics(world.model(), data, Eigen::Map<const Eigen::VectorXd>(q0.data(), 7));
+  const geometry::Proximity probe(options.arm, wall_at(0.0));
+  geometry::ProximityData distances(probe);
+  geometry::compute_distances(probe, data.T_body, distances);
+  double front = -1e9;
+  for (const auto& d : distances.distance) front = std::max(front, -d.distance);
+  world.recorder().publish("SCENE", controller::encode_scene(wall_at(front + 0.10)));
+  world.run_for(0.1);
+
+  // CARTESIAN: the tip 20 cm along +y, through the wall; the worker's check refuses it.
+  Transform T = T0;
+  T.translation().y() += 0.2;
+  world.recorder().publish("TARGET", cartesian_target(T, 2.0));
+  world.run_for(0.5);
+  const std::string message = world.recorder().status()->message;
+  EXPECT_NE(message.find("the tip's path: "), std::string::npos) << message;
+  EXPECT_NE(message.find(" and side wall would come within its stop distance 0.010 m at t = "), std::string::npos)
+      << message;
+  // JOINT: the base swung toward +y; refused by the loop at once.
+  arm_target_t joint = joint_target(Eigen::Map<const Eigen::VectorXd>(q0.data(), 7) +
+                                        (Eigen::VectorXd(7) << 0.6, 0, 0, 0, 0, 0, 0).finished(),
+                                    2.0);
+  world.recorder().publish("TARGET", joint);
+  world.run_for(0.1);
+  const std::string refused = world.recorder().status()->message;
+  EXPECT_NE(refused.find("the JOINT target's path: "), std::string::npos) << refused;
+  EXPECT_EQ(world.recorder().status()->state, controller_status_t::HOLDING);
+  for (int i = 0; i < 7; ++i) EXPECT_NEAR(world.recorder().status()->q[i], q0[i], 1e-3);
+}
+
 }  // namespace
 }  // namespace chasles::faults
