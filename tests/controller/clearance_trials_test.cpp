@@ -149,12 +149,12 @@ double standing_floor(const RobotModel& model, const geometry::CollisionModel& g
 }
 
 // The scene, `away` m further from the arm than where the trials meet it: a table (a slab whose top
-// is 3 cm under what stands on it), a wall at y = 0.4 m, a post on the table in front of the arm,
+// is 5 cm under what stands on it), a wall at y = 0.4 m, a post on the table in front of the arm,
 // and a keep-in box for the tool.
 geometry::Scene trial_scene(const ArmSpec& spec, double floor, double away) {
   geometry::Scene scene;
   const geometry::Clearance clearance{0.01, 0.10};
-  scene.objects.push_back({"table", box({1.5, 1.5, 0.05}), at(0.0, 0.0, floor - 0.03 - 0.05 - away), clearance});
+  scene.objects.push_back({"table", box({1.5, 1.5, 0.05}), at(0.0, 0.0, floor - 0.05 - 0.05 - away), clearance});
   scene.objects.push_back({"post", box({0.06, 0.06, 0.25}), at(0.45 + away, -0.30, floor + 0.25), clearance});
   scene.planes.push_back({"wall", -Vector3d::UnitY(), -(0.40 + away), {}, clearance});
   geometry::add_workspace_box(scene, "workspace", at(0.0, 0.0, 0.50), Vector3d(0.85, 0.85, 0.75) + Vector3d::Constant(away),
@@ -254,6 +254,16 @@ class ArmTrials {
       upper_(i) = std::min(limits_.upper(i) - 0.1, M_PI);
     }
     for (size_t p = 0; p < world_->proximity.pairs().size(); ++p) pair_names_.insert(judge_.name(static_cast<int>(p)));
+    if (std::getenv("DBG")) {
+      std::printf("floor %g\n", floor_);
+      std::mt19937 r(1);
+      for (int k = 0; k < 5; ++k) {
+        VectorXd q = draw(r);
+        int pair = -1;
+        const double room = judge_.room_at(q, Judge::kAll, &pair);
+        std::printf("q %s room %g %s\n", chasles::testing::list(q).c_str(), room, judge_.name(pair).c_str());
+      }
+    }
   }
 
   int dof() const { return model_.dof(); }
