@@ -17,7 +17,12 @@
 // --sleep-us N sleeps N µs before every tick, outside the timed region, as the daemon's loop waits
 // for the next state: the tick then starts as it does there, from an idle core and cold caches.
 //
-//   chasles_tick_bench [--robot panda|ur5|FILE.urdf] [--tip LINK] [--seconds S] [--sleep-us N] [--json]
+// --clearance (the Panda): the controller keeps the arm clear of itself (its 44 SRDF pairs) and of a
+// 6-object scene around the motion (controller/clearance.hpp): the distances at the state every
+// tick and at the reference when it moves; the table's last column counts the ticks the
+// reference was slowed.
+//
+//   chasles_tick_bench [--robot panda|ur5|FILE.urdf] [--tip LINK] [--seconds S] [--sleep-us N] [--clearance] [--json]
 //
 // Prints a table (law, ticks, p50, p99, max, mean µs, allocations) or, with --json, one object
 // {"<law>": {"ticks", "p50_us", "p99_us", "max_us", "mean_us", "allocations"}}.
@@ -33,8 +38,10 @@
 #include <vector>
 
 #include "controller/controller.hpp"
+#include "controller/world.hpp"
 #include "controller/transport/realtime/realtime.hpp"
 #include "core/dynamics/dynamics.hpp"
+#include "core/error.hpp"
 #include "core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
 
@@ -81,6 +88,7 @@ struct Figures {
   int64_t ticks = 0;
   double p50 = 0, p99 = 0, max = 0, mean = 0;
   long allocations = 0;
+  int64_t slowed = 0;  // ticks whose reference the clearance slowed
 };
 
 double percentile(std::vector<int64_t> sorted, double p) {
@@ -92,8 +100,35 @@ double percentile(std::vector<int64_t> sorted, double p) {
 // smooth motion about the start, with its velocity) that the online generator follows every tick.
 enum class Source { kTargets, kStream };
 
+// The Panda's geometry and a scene about the bench's motion: a floor under the outer links, a wall,
+// a box, a ball, a post and a bar overhead, each 1 cm stop and 10 cm influence.
+std::shared_ptr<chasles::controller::ClearanceWorld> panda_world(const chasles::RobotModel& model) {
+  using namespace chasles::geometry;
+  const std::string data = CHASLES_BENCH_DATA;
+  chasles::controller::WorldOptions options;
+  options.mode = chasles::controller::CollisionMode::kOn;
+  options.urdf = data + "/panda.urdf";
+  options.geometry = {{data + "/packages"}, data + "/packages/example-robot-data/robots/panda_description/srdf/panda.srdf"};
+  std::vector<std::string> notes;
+  const CollisionModel arm = chasles::controller::load_arm_geometry(model, options, notes);
+  const auto at = [](double x, double y, double z) { return chasles::Transform(chasles::Matrix3d::Identity(), {x, y, z}); };
+  const auto shape = [](ShapeKind kind, double radius, double half_length, const chasles::Vector3d& half) {
+    Shape s;
+    s.kind = kind, s.radius = radius, s.half_length = half_length, s.half_extents = half;
+    return s;
+  };
+  Scene scene;
+  scene.planes.push_back({"floor", chasles::Vector3d::UnitZ(), -0.05, {"panda_link5", "panda_link6", "panda_link7", "panda_hand"}, {}});
+  scene.planes.push_back({"wall", -chasles::Vector3d::UnitY(), -0.75, {}, {}});
+  scene.objects.push_back({"box", shape(ShapeKind::kBox, 0, 0, chasles::Vector3d(0.1, 0.1, 0.1)), at(0.65, -0.45, 0.2), {}});
+  scene.objects.push_back({"ball", shape(ShapeKind::kSphere, 0.1, 0, chasles::Vector3d::Zero()), at(-0.45, 0.45, 0.6), {}});
+  scene.objects.push_back({"post", shape(ShapeKind::kCylinder, 0.05, 0.5, chasles::Vector3d::Zero()), at(-0.3, -0.6, 0.5), {}});
+  scene.objects.push_back({"bar", shape(ShapeKind::kCapsule, 0.04, 0.6, chasles::Vector3d::Zero()), at(0.2, 0.0, 1.4), {}});
+  return chasles::controller::make_world(model, arm, scene, {});
+}
+
 Figures run(const chasles::RobotModel& model, Law law, double seconds, int64_t sleep_ns,
-            Source source = Source::kTargets) {
+            Source source = Source::kTargets, chasles::controller::ClearanceWorld* world = nullptr) {
   const int n = model.dof();
   // The monitor runs and classifies as always, with no threshold to cross: free drive's push is
   // an external force by design, and a reflex would end the programme.
@@ -103,6 +138,7 @@ Figures run(const chasles::RobotModel& model, Law law, double seconds, int64_t s
   config.contact.contact_force = config.contact.collision_force = inf;
   config.contact.contact_moment = config.contact.collision_moment = inf;
   Controller controller(model, config);
+  controller.set_clearance_world(world);
   chasles::Data plant(model);
   JointState state(n);
   state.q = pose(model, 0.1);
@@ -121,6 +157,7 @@ Figures run(const chasles::RobotModel& model, Law law, double seconds, int64_t s
   const auto leg_ticks = static_cast<int64_t>(kLegSeconds * 1e9 / kPeriodNs);
   chasles::controller::Setpoint setpoint(n);
   long allocations = 0;
+  int64_t slowed = 0;
   for (int64_t k = 0; k < total_ticks; ++k) {
     const int64_t t = k * kPeriodNs;
     state.seq = k;
@@ -156,6 +193,7 @@ Figures run(const chasles::RobotModel& model, Law law, double seconds, int64_t s
     if (counted) {
       times.push_back(end - start);
       allocations += counter.count();
+      slowed += controller.clearance().kept < 1.0 ? 1 : 0;
     }
     if (controller.mode() == Mode::kFault || controller.mode() == Mode::kReflex) {
       std::fprintf(stderr, "chasles_tick_bench: %s: the arm went to %s (%s%s)\n", to_string(law),
@@ -186,6 +224,7 @@ Figures run(const chasles::RobotModel& model, Law law, double seconds, int64_t s
   for (int64_t x : times) sum += static_cast<double>(x);
   f.mean = 1e-3 * sum / static_cast<double>(times.size());
   f.allocations = allocations;
+  f.slowed = slowed;
   return f;
 }
 
@@ -208,6 +247,8 @@ int main(int argc, char** argv) {
                  "hold /dev/cpu_dma_latency at this many us while timing, as chasles_controller --realtime does "
                  "(-1: ask nothing, the default)")
       ->check(CLI::Range(-1, 1'000'000));
+  bool clearance = false;
+  app.add_flag("--clearance", clearance, "the Panda kept clear of itself and a 6-object scene");
   app.add_flag("--json", json, "one JSON object on stdout instead of the table");
   CLI11_PARSE(app, argc, argv);
   std::optional<chasles::controller::CpuWakeLatency> wake_latency;
@@ -224,12 +265,17 @@ int main(int argc, char** argv) {
     chasles::UrdfOptions options;
     options.tip_link = tip;
     const chasles::RobotModel model = chasles::load_urdf_file(path, options);
+    std::shared_ptr<chasles::controller::ClearanceWorld> world;
+    if (clearance) {
+      if (robot != "panda") throw chasles::ArgumentError("--clearance is the Panda's");
+      world = panda_world(model);
+    }
     const Law laws[] = {Law::kComputedTorque, Law::kJointImpedance, Law::kCartesianImpedance, Law::kFreeDrive};
     if (!json) {
       std::printf("%s: %d joints to %s; %.0f s per law at 1 kHz after %.0f s of warm-up\n\n", model.name().c_str(),
                   model.dof(), model.tip_link().c_str(), seconds, kWarmUpSeconds);
-      std::printf("%-26s %8s %8s %8s %8s %8s %12s\n", "law", "ticks", "p50 us", "p99 us", "max us", "mean us",
-                  "allocations");
+      std::printf("%-26s %8s %8s %8s %8s %8s %12s%s\n", "law", "ticks", "p50 us", "p99 us", "max us", "mean us",
+                  "allocations", clearance ? "       slowed" : "");
     } else {
       std::printf("{");
     }
@@ -237,18 +283,21 @@ int main(int argc, char** argv) {
     const auto print = [&](const std::string& name, const Figures& f) {
       if (json) {
         std::printf("%s\"%s\": {\"ticks\": %lld, \"p50_us\": %.3f, \"p99_us\": %.3f, \"max_us\": %.3f, "
-                    "\"mean_us\": %.3f, \"allocations\": %ld}",
+                    "\"mean_us\": %.3f, \"allocations\": %ld, \"slowed\": %lld}",
                     separator, name.c_str(), static_cast<long long>(f.ticks), f.p50, f.p99, f.max, f.mean,
-                    f.allocations);
+                    f.allocations, static_cast<long long>(f.slowed));
         separator = ", ";
       } else {
-        std::printf("%-26s %8lld %8.2f %8.2f %8.2f %8.2f %12ld\n", name.c_str(), static_cast<long long>(f.ticks),
+        std::printf("%-26s %8lld %8.2f %8.2f %8.2f %8.2f %12ld", name.c_str(), static_cast<long long>(f.ticks),
                     f.p50, f.p99, f.max, f.mean, f.allocations);
+        if (clearance) std::printf(" %12lld", static_cast<long long>(f.slowed));
+        std::printf("\n");
       }
     };
-    for (Law law : laws) print(to_string(law), run(model, law, seconds, 1000 * sleep_us));
+    for (Law law : laws) print(to_string(law), run(model, law, seconds, 1000 * sleep_us, Source::kTargets, world.get()));
     // The same computed-torque law with its reference from a stream through the online generator.
-    print("computed-torque-stream", run(model, Law::kComputedTorque, seconds, 1000 * sleep_us, Source::kStream));
+    print("computed-torque-stream",
+          run(model, Law::kComputedTorque, seconds, 1000 * sleep_us, Source::kStream, world.get()));
     std::printf(json ? "}\n" : "\n");
   } catch (const std::exception& e) {
     std::fprintf(stderr, "chasles_tick_bench: %s\n", e.what());
