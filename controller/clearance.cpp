@@ -38,6 +38,7 @@ void Clearance::set_world(ClearanceWorld* world) {
 }
 
 int Clearance::observe(const Data& at_state) {
+  inside_ = -1;
   if (world_ == nullptr) return -1;
   const geometry::Proximity& proximity = world_->proximity;
   geometry::ProximityData& distances = world_->at_state;
@@ -52,7 +53,7 @@ int Clearance::observe(const Data& at_state) {
     const double below = proximity.pairs()[p].clearance.stop - distances.distance[p].distance;
     if (below > deepest) deepest = below, inside = static_cast<int>(p);
   }
-  return inside;
+  return inside_ = inside;
 }
 
 const char* Clearance::inside_reason(int pair) {

@@ -49,6 +49,16 @@ struct ClearanceWorld {
   Eigen::Matrix<double, 6, Eigen::Dynamic> twists;  // each joint's space twist at the q at hand
 };
 
+/// A planned motion's path (a goal's quintic, a trajectory's spline), checked before it moves, and
+/// the workspaces the check needs: allocated with the controller.
+struct PlannedPath {
+  explicit PlannedPath(const RobotModel& model) : data(model), sampled(model.dof()) {}
+  Data data;
+  motion::Reference sampled;
+  geometry::JointPath path;  // its position function samples the planned motion into `sampled`
+  bool trajectory = false;   // which planned motion: a trajectory's spline, else a goal's quintic
+};
+
 /// The clearance at the latest tick, for the status.
 struct ClearanceStatus {
   int closest = -1;               ///< the closest pair at the state, −1 without a world
@@ -74,8 +84,9 @@ class Clearance {
   const ClearanceConfig& config() const { return config_; }
 
   /// The distances at the measured state (`at_state` holds its body poses). Returns the pair
-  /// inside its stop distance, the deepest, or −1. Allocates nothing.
+  /// inside its stop distance, the deepest, or −1 (inside() until the next). Allocates nothing.
   int observe(const Data& at_state);
+  int inside() const { return inside_; }
   /// Cuts the reference a source moved from `q_from` (where `at_from` holds the body poses) to
   /// `ref` over dt, so that no pair within its influence closes faster than it may. Returns
   /// whether it cut it; then ref.q is q_from plus the step kept, ref.qd that step's velocity.
@@ -102,6 +113,7 @@ class Clearance {
   ClearanceWorld* world_ = nullptr;
   ClearanceStatus status_;
   int uncut_ticks_ = 0;  // since the reference was last cut
+  int inside_ = -1;      // the pair the state is inside the stop distance of
   char reason_[192] = {};
 };
 

@@ -53,33 +53,32 @@ Controller::Controller(const RobotModel& model, const Config& config)
       source_(&goal_),
       ref_(model.dof()),
       ref_from_(Eigen::VectorXd::Zero(model.dof())),
-      checked_data_(model),
-      checked_ref_(model.dof()),
+      planned_(model),
       q_(Eigen::VectorXd::Zero(model.dof())),
       qd_(Eigen::VectorXd::Zero(model.dof())),
       error_(Eigen::VectorXd::Zero(model.dof())),
       tau_(Eigen::VectorXd::Zero(model.dof())),
       q_guarded_(Eigen::VectorXd::Zero(model.dof())),
       retract_goal_(Eigen::VectorXd::Zero(model.dof())) {
-  checked_path_.position = [this](double t, Eigen::VectorXd& q) {
-    if (checked_trajectory_) {
-      trajectory_.planned().sample(t, checked_ref_);
+  planned_.path.position = [this](double t, Eigen::VectorXd& q) {
+    if (planned_.trajectory) {
+      trajectory_.planned().sample(t, planned_.sampled);
     } else {
-      goal_.planned().sample(t, checked_ref_);
+      goal_.planned().sample(t, planned_.sampled);
     }
-    q = checked_ref_.q;
+    q = planned_.sampled.q;
   };
   // The planned motions keep within the velocity limits: the path's speed bound, where they are
   // finite; else the check has none to prove with, and bounds by the model's (an error it says).
-  checked_path_.speed = limits_.velocity;
-  if (!checked_path_.speed.allFinite()) checked_path_.speed.resize(0);
+  planned_.path.speed = limits_.velocity;
+  if (!planned_.path.speed.allFinite()) planned_.path.speed.resize(0);
 }
 
 bool Controller::path_clear(bool trajectory, char (&why)[192]) {
-  checked_trajectory_ = trajectory;
-  checked_path_.duration = trajectory ? trajectory_.planned().duration() : goal_.planned().duration();
+  planned_.trajectory = trajectory;
+  planned_.path.duration = trajectory ? trajectory_.planned().duration() : goal_.planned().duration();
   try {
-    return clearance_.path_clear(*model_, checked_data_, checked_path_, why, sizeof(why));
+    return clearance_.path_clear(*model_, planned_.data, planned_.path, why, sizeof(why));
   } catch (const Error& e) {  // a joint without a velocity limit: nothing bounds the path's speed
     std::snprintf(why, sizeof(why), "%.180s", e.what());
     return false;
@@ -496,8 +495,8 @@ void Controller::guard(int64_t now_ns) {
     start_reflex(now_ns, limit_reason_, Reflex::kStop);
   } else if (monitor_.contact().estimate().collision) {
     start_reflex(now_ns, monitor_.contact().reason(), monitor_.contact().config().reflex);
-  } else if (clearance_inside_ >= 0) {  // pushed inside a stop distance: a contact, as the policy says
-    start_reflex(now_ns, clearance_.inside_reason(clearance_inside_), monitor_.contact().config().reflex);
+  } else if (clearance_.inside() >= 0) {  // pushed inside a stop distance: a contact, as the policy says
+    start_reflex(now_ns, clearance_.inside_reason(clearance_.inside()), monitor_.contact().config().reflex);
   }
 }
 
@@ -507,7 +506,7 @@ bool Controller::tick(int64_t now_ns, const JointState* state) {
   compute_tick_terms(*model_, data_, q_, qd_);
   observe(*state);
   if (stood_down_) return false;  // the observer found the torque semantics wrong
-  clearance_inside_ = clearance_.observe(data_);
+  clearance_.observe(data_);
   if (mode_ == Mode::kWaiting || mode_ == Mode::kFault) {
     // (Re-)entering HOLD where the arm is now, from g(q): what a plant applies while it brakes or
     // waits, so the first commands do not jump. A joint found outside its limits has crossed none.

@@ -244,16 +244,11 @@ class Controller {
   ReferenceSource* source_;
   motion::Reference ref_;
   Eigen::VectorXd ref_from_;  // the reference before the source moved it this tick
-  // A goal's or a trajectory's path, checked for clearance before it moves (path_clear).
-  Data checked_data_;
-  motion::Reference checked_ref_;
-  geometry::JointPath checked_path_;
-  bool checked_trajectory_ = false;
+  PlannedPath planned_;  // a goal's or a trajectory's path, checked before it moves (path_clear)
   Eigen::VectorXd q_, qd_, error_, tau_;
   Eigen::VectorXd q_guarded_;  // the state the limit guard last saw, for a crossing
   Eigen::VectorXd retract_goal_;
   Mode mode_ = Mode::kWaiting;
-  int clearance_inside_ = -1;  // the pair the state is inside the stop distance of, or −1
   bool stood_down_ = false;
   bool compliant_ = false, retracting_ = false;
   // Fixed buffers: the reasons are formatted on the real-time thread, which must not allocate.

@@ -77,7 +77,7 @@ const ArmSpec kPanda{"Panda", "panda.urdf", "panda_hand_tcp",
                      {"panda_hand", "panda_leftfinger", "panda_rightfinger"}, 0};
 const ArmSpec kUr5{"UR5", "ur5.urdf", "tool0", "example-robot-data/robots/ur_description/srdf/ur5.srdf",
                    {"wrist_3_link", "ee_link"}, 1};
-const ArmSpec kIiwa{"iiwa", "iiwa14.urdf", "iiwa_link_ee", "", {"iiwa_link_7", "iiwa_link_ee"}, 2};
+const ArmSpec kIiwa{"iiwa", "iiwa14.urdf", "iiwa_link_ee", "", {"iiwa_link_6", "iiwa_link_7"}, 2};
 
 RobotModel load_model(const ArmSpec& spec) {
   UrdfOptions options;
@@ -254,15 +254,25 @@ class ArmTrials {
       upper_(i) = std::min(limits_.upper(i) - 0.1, M_PI);
     }
     for (size_t p = 0; p < world_->proximity.pairs().size(); ++p) pair_names_.insert(judge_.name(static_cast<int>(p)));
+    judge_.at(VectorXd::Zero(dof()));
+    for (size_t p = 0; p < proximity().pairs().size(); ++p) {
+      const double room = judge_.distances.distance[p].distance - proximity().pairs()[p].clearance.stop;
+      start_room_.push_back(std::min(0.03, room - 0.005));
+      if (start_room_.back() < 0.03) narrow_.push_back(judge_.name(static_cast<int>(p)));
+    }
     if (std::getenv("DBG")) {
       std::printf("floor %g\n", floor_);
       std::mt19937 r(1);
-      for (int k = 0; k < 5; ++k) {
+      std::vector<double> most(proximity().pairs().size(), -kInf);
+      int clear3 = 0, clear0 = 0;
+      for (int k = 0; k < 3000; ++k) {
         VectorXd q = draw(r);
-        int pair = -1;
-        const double room = judge_.room_at(q, Judge::kAll, &pair);
-        std::printf("q %s room %g %s\n", chasles::testing::list(q).c_str(), room, judge_.name(pair).c_str());
+        const double room = judge_.room_at(q);
+        clear3 += room >= 0.03; clear0 += room >= 0.0;
+        for (size_t p = 0; p < most.size(); ++p) most[p] = std::max(most[p], judge_.distances.distance[p].distance - proximity().pairs()[p].clearance.stop);
       }
+      std::printf("clear3 %d clear0 %d of 3000\n", clear3, clear0);
+      for (size_t p = 0; p < most.size(); ++p) if (most[p] < 0.05) std::printf("  %s most %g\n", judge_.name(p).c_str(), most[p]);
     }
   }
 
@@ -275,11 +285,17 @@ class ArmTrials {
     for (int i = 0; i < dof(); ++i) q(i) = std::uniform_real_distribution<double>(lower_(i), upper_(i))(random);
     return q;
   }
-  /// A random configuration with at least `room` on every pair.
-  VectorXd draw_clear(std::mt19937& random, double room, Judge& judge) {
+  /// A random configuration with at least 3 cm of room on every pair (on a pair that never has
+  /// that much, its room at q = 0 less 5 mm: the UR5's ee_link beside its wrist_2_link).
+  VectorXd draw_clear(std::mt19937& random) {
     for (;;) {
       VectorXd q = draw(random);
-      if (judge.room_at(q) >= room) return q;
+      judge_.at(q);
+      bool clear = true;
+      for (size_t p = 0; p < start_room_.size() && clear; ++p) {
+        clear = judge_.distances.distance[p].distance - proximity().pairs()[p].clearance.stop >= start_room_[p];
+      }
+      if (clear) return q;
     }
   }
   /// A random configuration `depth` inside the stop distance of a pair of `which` (the arm's own,
@@ -300,7 +316,7 @@ class ArmTrials {
     std::mt19937 random(seed);
     const Kind kind = static_cast<Kind>(index % 3);
     const Judge::Which aim = std::bernoulli_distribution(0.5)(random) ? Judge::kSelf : Judge::kScene;
-    const VectorXd start = draw_clear(random, 0.03, judge_);
+    const VectorXd start = draw_clear(random);
 
     Controller controller(model_, config_);
     ASSERT_TRUE(controller.set_clearance_world(world_.get()));
@@ -590,6 +606,10 @@ class ArmTrials {
   motion::MotionLimits limits_;
   VectorXd lower_, upper_;
   std::set<std::string> pair_names_;
+  std::vector<double> start_room_;  // the least room a trial starts with, per pair
+ public:
+  std::vector<std::string> narrow_;  // the pairs that start with less than 3 cm
+ private:
   JointState state_;
   Data data_;
   int64_t now_ = 0, begun_ = 0, utime_ = 0;
