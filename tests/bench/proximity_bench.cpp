@@ -82,55 +82,8 @@
 #include "core/geometry/proximity.hpp"
 #include "core/kinematics/kinematics.hpp"
 #include "core/model/urdf.hpp"
+#include "support/allocation_counter.hpp"
 
-// --- allocations: the technique of tests/support/allocation_counter.cpp ----------------------------
-// glibc's allocator interposed: every C++ (operator new) and Eigen allocation, in chasles or in
-// the wheel's libcoal, ends in one of these. Counted only while `g_counting` is set.
-
-namespace {
-thread_local long g_allocations = 0;
-thread_local bool g_counting = false;
-inline void note_allocation() {
-  if (g_counting) ++g_allocations;
-}
-}  // namespace
-
-extern "C" {
-void* __libc_malloc(size_t);
-void* __libc_calloc(size_t, size_t);
-void* __libc_realloc(void*, size_t);
-void* __libc_memalign(size_t, size_t);
-void __libc_free(void*);
-
-void* malloc(size_t size) {
-  note_allocation();
-  return __libc_malloc(size);
-}
-void* calloc(size_t n, size_t size) {
-  note_allocation();
-  return __libc_calloc(n, size);
-}
-void* realloc(void* p, size_t size) {
-  note_allocation();
-  return __libc_realloc(p, size);
-}
-void* memalign(size_t alignment, size_t size) {
-  note_allocation();
-  return __libc_memalign(alignment, size);
-}
-void* aligned_alloc(size_t alignment, size_t size) {
-  note_allocation();
-  return __libc_memalign(alignment, size);
-}
-int posix_memalign(void** out, size_t alignment, size_t size) {
-  note_allocation();
-  void* p = __libc_memalign(alignment, size);
-  if (!p) return 12;  // ENOMEM
-  *out = p;
-  return 0;
-}
-void free(void* p) { __libc_free(p); }
-}
 
 namespace {
 
@@ -478,8 +431,9 @@ Result run_sequence(const std::string& name, const std::vector<Eigen::VectorXd>&
 
   auto call = [&](int which, const Eigen::VectorXd& q, bool timed) {
     Timing& t = which == 0 ? r.culled : which == 1 ? r.exact : r.coal;
-    const long before = g_allocations;
-    g_counting = true;
+    // tests/support/allocation_counter.cpp interposes glibc's allocator: every operator new and
+    // Eigen allocation, in chasles or in the wheel's libcoal, is counted.
+    const chasles::testing::AllocationCounter counter;
     const Clock::time_point t0 = Clock::now();
     if (which == 0) chasles_poses(model, data_culled, q);
     if (which == 1) chasles_poses(model, data_exact, q);
@@ -489,9 +443,9 @@ Result run_sequence(const std::string& name, const std::vector<Eigen::VectorXd>&
     if (which == 1) chasles_exact(proximity, data_exact, exact);
     if (which == 2) pin_distances(pin);
     const Clock::time_point t2 = Clock::now();
-    g_counting = false;
+    const long allocations = counter.count();
     if (!timed) return;
-    t.allocations += g_allocations - before;
+    t.allocations += allocations;
     t.total.push_back(us(t0, t2));
     t.distances.push_back(us(t1, t2));
     if (which == 0) t.exact_pairs += culled.exact;
