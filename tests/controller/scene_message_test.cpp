@@ -72,35 +72,6 @@ Scene every_kind() {
   return s;
 }
 
-void expect_same(const Scene& a, const Scene& b, double rotation_tolerance) {
-  ASSERT_EQ(a.objects.size(), b.objects.size());
-  for (size_t k = 0; k < a.objects.size(); ++k) {
-    const auto &x = a.objects[k], &y = b.objects[k];
-    SCOPED_TRACE(x.name);
-    EXPECT_EQ(x.name, y.name);
-    EXPECT_EQ(x.shape.kind, y.shape.kind);
-    EXPECT_EQ(x.shape.radius, y.shape.radius);
-    EXPECT_EQ(x.shape.half_length, y.shape.half_length);
-    EXPECT_EQ(x.shape.half_extents, y.shape.half_extents);
-    EXPECT_EQ(x.shape.vertices, y.shape.vertices);
-    EXPECT_EQ(x.shape.neighbours, y.shape.neighbours);
-    EXPECT_EQ(x.T_base_object.translation(), y.T_base_object.translation());
-    EXPECT_LE((x.T_base_object.linear() - y.T_base_object.linear()).cwiseAbs().maxCoeff(), rotation_tolerance);
-    EXPECT_EQ(x.clearance.stop, y.clearance.stop);
-    EXPECT_EQ(x.clearance.influence, y.clearance.influence);
-  }
-  ASSERT_EQ(a.planes.size(), b.planes.size());
-  for (size_t k = 0; k < a.planes.size(); ++k) {
-    const auto &x = a.planes[k], &y = b.planes[k];
-    SCOPED_TRACE(x.name);
-    EXPECT_EQ(x.name, y.name);
-    EXPECT_LE((x.normal - y.normal).cwiseAbs().maxCoeff(), rotation_tolerance);
-    EXPECT_NEAR(x.offset, y.offset, rotation_tolerance);
-    EXPECT_EQ(x.links, y.links);
-    EXPECT_EQ(x.clearance.stop, y.clearance.stop);
-    EXPECT_EQ(x.clearance.influence, y.clearance.influence);
-  }
-}
 
 TEST(SceneMessage, AScenePassesThroughLcmBytesUnchanged) {
   const Scene scene = every_kind();
@@ -119,7 +90,7 @@ TEST(SceneMessage, AScenePassesThroughLcmBytesUnchanged) {
   EXPECT_STREQ(error, "");
   // Sizes, positions, hulls and the plain planes to the bit; what went through a quaternion (every
   // rotation, the box's faces) to rounding.
-  expect_same(scene, back, 1e-15);
+  chasles::testing::expect_same(scene, back, 1e-15);
   EXPECT_EQ(back.planes[1].normal, Vector3d(0, -0.6, 0.8));
   EXPECT_EQ(back.planes[1].offset, -0.5);
   // And the scene decoded goes round again to itself (its rotations settle: a quaternion of a
@@ -128,7 +99,7 @@ TEST(SceneMessage, AScenePassesThroughLcmBytesUnchanged) {
   EXPECT_EQ(again.size(), bytes.size());
   Scene twice;
   ASSERT_TRUE(decode_scene(again.data(), again.size(), twice, error, sizeof error)) << error;
-  expect_same(back, twice, 1e-15);
+  chasles::testing::expect_same(back, twice, 1e-15);
   // An empty scene is a scene: it clears the one in force.
   const std::vector<uint8_t> empty = bytes_of(encode_scene(Scene{}));
   ASSERT_TRUE(decode_scene(empty.data(), empty.size(), back, error, sizeof error)) << error;

@@ -20,6 +20,7 @@
 #include "core/error.hpp"
 #include "core/geometry/collision_model.hpp"
 #include "core/geometry/scene_file.hpp"
+#include "support/scenes.hpp"
 #include "support/process.hpp"
 #include "support/reference.hpp"
 
@@ -212,36 +213,6 @@ TEST(SceneFile, AMeshIsFoundBesideTheFileAndScaledByOneNumber) {
   EXPECT_EQ(scene.objects[0].shape.neighbours, expected.neighbours);
 }
 
-void expect_same(const Scene& a, const Scene& b, double rotation_tolerance) {
-  ASSERT_EQ(a.objects.size(), b.objects.size());
-  for (size_t k = 0; k < a.objects.size(); ++k) {
-    const SceneObject &x = a.objects[k], &y = b.objects[k];
-    SCOPED_TRACE(x.name);
-    EXPECT_EQ(x.name, y.name);
-    EXPECT_EQ(x.shape.kind, y.shape.kind);
-    EXPECT_EQ(x.shape.radius, y.shape.radius);
-    EXPECT_EQ(x.shape.half_length, y.shape.half_length);
-    EXPECT_EQ(x.shape.half_extents, y.shape.half_extents);
-    EXPECT_EQ(x.shape.vertices, y.shape.vertices);
-    EXPECT_EQ(x.shape.neighbours, y.shape.neighbours);
-    EXPECT_EQ(x.T_base_object.translation(), y.T_base_object.translation());
-    EXPECT_LE((x.T_base_object.linear() - y.T_base_object.linear()).cwiseAbs().maxCoeff(), rotation_tolerance);
-    EXPECT_EQ(x.clearance.stop, y.clearance.stop);
-    EXPECT_EQ(x.clearance.influence, y.clearance.influence);
-  }
-  ASSERT_EQ(a.planes.size(), b.planes.size());
-  for (size_t k = 0; k < a.planes.size(); ++k) {
-    const SafetyPlane &x = a.planes[k], &y = b.planes[k];
-    SCOPED_TRACE(x.name);
-    EXPECT_EQ(x.name, y.name);
-    EXPECT_LE((x.normal - y.normal).cwiseAbs().maxCoeff(), rotation_tolerance);
-    EXPECT_NEAR(x.offset, y.offset, rotation_tolerance);
-    EXPECT_EQ(x.links, y.links);
-    EXPECT_EQ(x.clearance.stop, y.clearance.stop);
-    EXPECT_EQ(x.clearance.influence, y.clearance.influence);
-  }
-}
-
 std::vector<std::string> files_in(const std::string& dir) {
   std::vector<std::string> names;
   if (DIR* d = ::opendir(dir.c_str())) {
@@ -261,7 +232,7 @@ TEST(SceneFile, TheWriterReadsBackToTheSameScene) {
   const Scene back = read_scene_file(path);
   // Sizes, positions, hulls, planes exactly; rotations through a quaternion, and the box's faces
   // through the box recovered from them, to rounding.
-  expect_same(scene, back, 1e-15);
+  testing::expect_same(scene, back, 1e-15);
   EXPECT_EQ(back.planes[1].normal, Vector3d(0, -1, 0));
   EXPECT_EQ(back.planes[1].offset, -0.5);
 
@@ -276,7 +247,7 @@ TEST(SceneFile, TheWriterReadsBackToTheSameScene) {
   // Written again from what was read back: the same scene once more, and nothing left beside it
   // (the temporary file was renamed over the destination).
   write_scene_file(path, back);
-  expect_same(scene, read_scene_file(path), 1e-15);
+  testing::expect_same(scene, read_scene_file(path), 1e-15);
   EXPECT_EQ(files_in(dir).size(), 3u) << "., .. and written.json";
   std::remove(path.c_str());
   ::rmdir(dir.c_str());
