@@ -14,6 +14,7 @@
 
 #include "controller/transport/scene_message.hpp"
 #include "controller/transport/wire.hpp"
+#include "support/scenes.hpp"
 #include "core/error.hpp"
 #include "core/geometry/collision_model.hpp"
 #include "core/geometry/scene_file.hpp"
