@@ -11,8 +11,8 @@
 //                     a pair's distance is n·(ṗ_other − ṗ_arm) at its witness points, a row of the
 //                     joint velocity; the source's step is slowed along its own path by the least
 //                     factor that keeps every pair within its rate (a jog stops, it does not
-//                     slide along the wall). Far from everything nothing is touched: the motion
-//                     is exactly the source's.
+//                     slide along the wall; a goal's quintic waits along its path). Far from
+//                     everything nothing is touched: the motion is exactly the source's.
 //   free drive and    a repulsive torque, Jᵀ f with f growing linearly from 0 at the influence
 //   impedance         distance to Config's repulsion at the stop distance: the person guiding the
 //                     arm feels the wall before it.

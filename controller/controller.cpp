@@ -424,12 +424,12 @@ void Controller::update_reference(int64_t now_ns) {
   if (mode_ == Mode::kReflex) {
     if (retracting_) goal_.advance(tick, ref_);  // holds the goal once there
     if (compliant_) ref_.hold(q_);               // the arm goes where it is pushed
-    if (retracting_) keep_clear(now_ns);
+    if (retracting_) keep_clear();
     return;
   }
   if (mode_ != Mode::kRunning) return;
   const ReferenceSource::Progress progress = source_->advance(tick, ref_);
-  keep_clear(now_ns);
+  keep_clear();
   switch (progress) {
     case ReferenceSource::Progress::kMoving:
       break;
@@ -447,22 +447,24 @@ void Controller::update_reference(int64_t now_ns) {
   }
 }
 
-void Controller::keep_clear(int64_t now_ns) {
+void Controller::keep_clear() {
   if (!clearance_.active() || (ref_.q.array() == ref_from_.array()).all()) return;
   if (!clearance_.shape(*model_, kinematics_.at(*model_, ref_from_), ref_from_, config_.period, ref_)) return;
-  const bool planned_ahead = source_ == &goal_ || source_ == &path_ || source_ == &trajectory_;
   if (mode_ == Mode::kReflex) {
     retracting_ = false;  // no retract into something else: the reflex holds where it was cut
     ref_.qd.setZero();
-  } else if (planned_ahead) {
-    // A motion planned ahead in time cannot wait for the room it was cut by: it ends, and the
-    // reference brakes to rest from where it was cut, kept clear on the way.
+    return;
+  }
+  // A motion laid out in time (a goal's quintic, a Cartesian path, a trajectory) waits along its
+  // path: its clock is set back by the share of the tick it did not take. A stream, a jog and a
+  // brake plan from the reference every tick and need nothing more.
+  source_->delay(std::llround((1.0 - clearance_.status().kept) * config_.period * 1e9));
+  if (ref_.qd.norm() < kClearStill && source_ != &stream_ && source_ != &tip_stream_ && source_ != &jog_) {
+    // Stalled against what cut it, with no room to come: the motion is over, at rest where it is.
     refuse("the motion stopped short: %.150s", clearance_.status().slowing_name);
     trajectory_.end(TrajectoryProgress::kAborted, "stopped short: %.160s", clearance_.status().slowing_name);
     path_.drop();
-    stop_motion(now_ns);
-  } else if (source_ == &stop_ && ref_.qd.norm() < kClearStill) {
-    hold_at(ref_.q);  // a brake toward a rest it has no room to reach: at rest where it is
+    hold_at(ref_.q);
   }
 }
 

@@ -217,9 +217,9 @@ class Controller {
   bool path_clear(bool trajectory, char (&why)[192]);
   /// The reference at now_ns; finishing a motion turns RUNNING into HOLDING.
   void update_reference(int64_t now_ns);
-  /// The reference the source moved from ref_from_ cut to keep clear (clearance.hpp); a motion
-  /// planned ahead in time that was cut ends in a brake.
-  void keep_clear(int64_t now_ns);
+  /// The reference the source moved from ref_from_ cut to keep clear (clearance.hpp): a motion laid
+  /// out in time waits along its path; one stalled against what cut it is over.
+  void keep_clear();
 
   const RobotModel* model_;
   Config config_;

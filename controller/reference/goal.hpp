@@ -21,6 +21,7 @@ class GoalMotion final : public ReferenceSource {
   /// The quintic the last plan() found, before start() takes it.
   const motion::QuinticTrajectory& planned() const { return candidate_; }
   Progress advance(const Tick& tick, motion::Reference& ref) override;
+  void delay(int64_t ns) override { start_ns_ += ns; }
 
  private:
   const motion::MotionLimits& limits_;

@@ -25,6 +25,7 @@ class PathMotion final : public ReferenceSource {
   /// Follows `path` from now_ns (copied: the caller's buffer may be reused at once).
   void start(const JointPath& path, int64_t now_ns);
   Progress advance(const Tick& tick, motion::Reference& ref) override;
+  void delay(int64_t ns) override { start_ns_ += ns; }
 
   /// The IK figures of the last plan: summed iterations, worst position error (m), whether every
   /// waypoint converged.

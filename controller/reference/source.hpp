@@ -102,6 +102,9 @@ class ReferenceSource {
   virtual ~ReferenceSource() = default;
   /// Moves `ref` on to tick.now_ns. Allocates nothing.
   virtual Progress advance(const Tick& tick, motion::Reference& ref) = 0;
+  /// A motion laid out in time waits `ns` along its path: its clock is set back (the clearance
+  /// slowed it). Nothing for a source that plans from the reference every tick.
+  virtual void delay(int64_t ns) { (void)ns; }
   virtual const char* failure() const { return ""; }
 };
 

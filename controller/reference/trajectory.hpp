@@ -32,6 +32,7 @@ class TrajectoryMotion final : public ReferenceSource {
   /// The path fit() passed last, before start() takes it.
   const motion::WaypointSpline& planned() const { return candidate_; }
   Progress advance(const Tick& tick, motion::Reference& ref) override;
+  void delay(int64_t ns) override { start_ns_ += ns; }
   /// Judges the tracking error e = q_d − q after the reference moved: the path tolerance while
   /// `running`, else the goal tolerance within goal_time. Returns false when the path tolerance
   /// aborted it (the arm is to hold where it is).

@@ -257,7 +257,7 @@ TEST_F(Clearing, AGoalWhosePathMeetsAWallIsRefusedBeforeAnythingMoves) {
   EXPECT_TRUE(send(controller, goal, 2.0)) << controller.last_rejection();
 }
 
-TEST_F(Clearing, AGoalMetByAWallAfterItStartedEndsInABrakeNamingThePair) {
+TEST_F(Clearing, AGoalMetByAWallAfterItStartedWaitsAlongItsPathThenStopsShortNamingThePair) {
   Data data(model_);
   const auto w = world(wall_at(front() + 0.08));
   Judge judge(model_, w->proximity);
@@ -278,6 +278,39 @@ TEST_F(Clearing, AGoalMetByAWallAfterItStartedEndsInABrakeNamingThePair) {
   EXPECT_EQ(controller.mode(), Mode::kHolding);
   EXPECT_EQ(std::strncmp(controller.last_rejection(), "the motion stopped short: ", 26), 0) << controller.last_rejection();
   EXPECT_NE(std::strstr(controller.last_rejection(), " and wall"), nullptr) << controller.last_rejection();
+}
+
+TEST_F(Clearing, AGoalPassingNearAWallIsSlowedAlongItsPathAndStillArrives) {
+  Data data(model_);
+  const auto w = world(wall_at(front() + 0.08));
+  Judge judge(model_, w->proximity);
+  Controller controller(model_, config_);
+  ASSERT_TRUE(controller.set_clearance_world(w.get()));
+  start(controller);
+  // The farthest swing toward the wall whose path the check lets through, in 0.4 s: it comes
+  // nearest, and fast enough for the damper to slow it where it ends.
+  VectorXd goal = state_.q;
+  double swing = 0.6;
+  for (; swing > 0.0; swing -= 0.02) {
+    goal(0) = state_.q(0) + swing;
+    if (send(controller, goal, 0.4)) break;
+  }
+  ASSERT_GT(swing, 0.0);
+  double least = std::numeric_limits<double>::infinity(), kept = 1.0;
+  int ticks = 0;
+  for (; ticks < 5000 && controller.mode() == Mode::kRunning; ++ticks) {
+    ASSERT_TRUE(tick(controller)) << controller.fault_reason();
+    integrate(controller, data);
+    least = std::min(least, judge.room(state_.q));
+    kept = std::min(kept, controller.clearance().kept);
+  }
+  std::printf("a swing of %.2f rad: %d ticks for a 0.4 s goal, least room %.4f m, least share kept %.3f\n", swing,
+              ticks, least, kept);
+  EXPECT_GE(least, 0.0);
+  EXPECT_LT(kept, 1.0) << "never slowed: the test's wall is too far";
+  EXPECT_GT(ticks, 400);  // later than planned: it waited along its path
+  EXPECT_EQ(controller.mode(), Mode::kHolding);
+  EXPECT_LE((controller.reference().q - goal).cwiseAbs().maxCoeff(), 1e-12);  // and arrived
 }
 
 TEST_F(Clearing, AStatePushedInsideAStopDistanceStartsTheReflex) {
