@@ -7,7 +7,8 @@
 #                 [--tick state|clock] [--protocol chasles|drake-iiwa|drake-panda]
 #
 #   --seconds N      length of the programme of targets (default 16, at least 10); the waypoint
-#                    trajectory, a stream of setpoints and a jog follow it (about 9 s)
+#                    trajectory, a stream of setpoints and the jogs follow it (about 12 s; on the
+#                    Panda the clearance segments, about 7 s more)
 #   --robot R        ur5, panda or iiwa (tests/data/R.urdf, iiwa14.urdf), or a URDF file (default
 #                    panda; iiwa with --protocol drake-iiwa)
 #   --tip LINK       the chain's tip, for a URDF with several leaves (ur5: tool0, panda: panda_hand,
@@ -29,15 +30,26 @@
 # second pose and the first one back home, timed by trapezoidal profiles at a fraction of the
 # limits; once the controller says it SUCCEEDED, a stream of joint setpoints (`chasles stream`, 30 Hz
 # for 4 s) swings every joint and back, and two jogs (`chasles jog`) bend every joint and send the
-# tip down; then the demo
-# stops every process, then runs
+# tip down. On the Panda the controller has the arm's collision geometry (tests/data/packages, the
+# SRDF) and a scene, tools/demo/panda_scene.json (a virtual wall at y = 0.52 m; the plant's table is
+# not in it: every link but the wrist goes under its plane, and the press would take the wrist within
+# 5 mm of it, a refusal), and two more segments (about 7 s) must stop short: a twist jog that would take the arm
+# through the wall, and a stream that would swing the fingers into the forearm; the report checks
+# from the log that the wall and a pair of the arm slowed them and that no pair came within its stop
+# distance, and fails the demo otherwise. Then the demo stops every process, then runs
 # chasles_loop_bench (a bare 1 kHz loop and an LCM ping-pong, 3 s each) for reference and prints
-# the controller's figures beside it, the trajectory's outcome, time scale and tracking error. Everything of the run (the LCM log,
+# the controller's figures beside it, the trajectory's outcome, time scale and tracking error, and the
+# clearance (the plots add clearance.png, the closest pair's distance). Everything of the run (the LCM log,
 # each process's output, the summaries) is kept in build/demo/<time>/. CHASLES_BUILD_DIR chooses
 # another build tree.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 readonly lcm_url='udpm://239.255.76.67:7667?ttl=0'  # inside the namespace: multicast stays on lo
+# The Panda's collision geometry (its meshes under tests/data/packages, the pairs its SRDF never
+# checks) and the demo's scene, a virtual wall (tools/demo/panda_scene.json).
+readonly scene=$root/tools/demo/panda_scene.json
+readonly panda_srdf=$root/tests/data/packages/example-robot-data/robots/panda_description/srdf/panda.srdf
+readonly self_stop_mm=5  # the controller's default
 
 # ---------------------------------------------------------------------------------------------
 # Inside the network namespace: the run itself. Settings come in the DEMO_* environment.
@@ -205,6 +217,56 @@ mode() {
     stop_all
     exit 1
   fi
+}
+
+# The clearance segments (the Panda, with its collision geometry and the scene): a twist jog that
+# would take the arm through the wall, and a stream that would swing the fingers into the forearm;
+# each must stop short. Their windows, as utimes, go to clearance.json for the report, which checks
+# them against the log.
+clearance_segments() {
+  local wall_from fold_from holds
+  # The fold: the wrist bent back to its stop (joint 6 at 0: the hand folded back toward the forearm,
+  # link 5), joint 7 turns the hand from 0.785 to -0.785 rad in a straight line, swinging the right
+  # finger past the forearm: from 23 mm it would pass 6.8 mm from it, within the 5 mm the arm's parts
+  # keep apart plus the 2 mm margin the reference keeps besides, so it must stop short. The Panda cannot fold further into itself here: every other
+  # pair its SRDF checks is against the base (links 0-2), which the hand reaches only under the
+  # plant's table, and its joint limits keep the forearm off the shoulder.
+  local fold_start=0,-0.3,0,-1.8,0,0.0,0.785 fold_end=0,-0.3,0,-1.8,0,0.0,-0.785
+  python3 - "$fold_start" "$fold_end" "$dir/fold_plan.json" <<'PY'
+import json, sys
+a, b = ([float(x) for x in text.split(",")] for text in sys.argv[1:3])
+rate, seconds = 30.0, 2.0
+points = []
+for k in range(int(rate * seconds) + 1):
+    s = k / (rate * seconds)
+    last = k == int(rate * seconds)
+    points.append({"t": round(k / rate, 6), "position": [x + s * (y - x) for x, y in zip(a, b)],
+                   "velocity": [0.0 if last else (y - x) / seconds for x, y in zip(a, b)]})
+json.dump({"kind": "joint", "points": points}, open(sys.argv[3], "w"))
+PY
+  holds=$(grep -c '^chasles_controller: HOLDING' "$dir/chasles_controller.err" || true)
+  wall_from=$(now)
+  play "a twist jog toward the wall (y = 0.52 m, every link kept 2 cm behind it): the tip along +y at 15 cm/s for 2.5 s, 37 cm, through where the wall is" \
+    jog --twist 0,0,0,0,0.15,0 --seconds 2.5 --rate 50
+  wait_holding "$holds" 5
+  holds=$(grep -c '^chasles_controller: HOLDING' "$dir/chasles_controller.err" || true)
+  send "JOINT move to where the fold starts, [$fold_start]" "${model[@]}" --joint "$fold_start" --duration "$move"
+  wait_holding "$holds" "$(awk -v m="$move" 'BEGIN { print m + 5 }')"
+  fold_from=$(now)
+  play "a stream of joint setpoints that swings the fingers into the forearm, 30 Hz for 2 s: joint 7 from 0.785 to -0.785 rad, the wrist bent back, [$fold_end]" \
+    stream "$dir/fold_plan.json"
+  sleep 0.5  # the stream's end: the arm at rest where it stopped
+  python3 - "$dir/clearance.json" "$scene" "$wall_from" "$fold_from" "$(now)" "$fold_end" "$self_stop_mm" <<'PY'
+import json, sys
+path, scene, wall_from, fold_from, fold_to, fold_end = sys.argv[1:7]
+wall = next(p for p in json.load(open(scene))["planes"] if p["name"] == "wall")
+us = lambda x: round(float(x) * 1e6)
+json.dump({"scene": scene,
+           "wall": {"name": "wall", "stop": wall["clearance"]["stop"], "from_utime": us(wall_from), "to_utime": us(fold_from)},
+           # the controller's --self-stop-mm
+           "fold": {"stop": float(sys.argv[7]) / 1e3, "from_utime": us(fold_from), "to_utime": us(fold_to), "end": fold_end}},
+          open(path, "w"), indent=1)
+PY
 }
 
 inside() {
@@ -438,13 +500,22 @@ PY
     --push "$push" --wall "$table,$table_k,100" --lcm-url "$lcm_url"
   # The controller knows the plant's joint damping and feeds it forward (--damping). On the Panda
   # it takes the arm's own acceleration and jerk limits, libfranka's; elsewhere the defaults.
-  local limits=()
+  local limits=() clearance=()
   if [ "$(basename "$DEMO_URDF")" = panda.urdf ]; then
     limits=(--acceleration-limit 15,7.5,10,12.5,15,20,20 --jerk-limit 7500,3750,5000,6250,7500,10000,10000)
+    # Home folds the wrist back to its stop (joint 6 at 0.0025 rad): the right finger is 9 mm from the
+    # forearm there, 2 mm from the 5 mm the arm's parts keep apart plus the 2 mm margin, where the
+    # default 50 ms time constant lets the pair close at only 4 cm/s: the trajectory's last steps home
+    # were cut (ABORTED "stopped short: panda_link5/0 and panda_rightfinger/0") in one run of three.
+    # 20 ms lets them close at 6 cm/s (the 1 m/s^2 deceleration bound is then the tighter). The
+    # reference keeps 3 mm beyond each stop distance, not 2: the jog meets the wall at 15 cm/s, and
+    # the arm lagged its reference there by up to 1.9 mm in real time.
+    clearance=(--collision on --package-dir "$root/tests/data/packages" --srdf "$panda_srdf" --scene "$scene"
+               --self-stop-mm "$self_stop_mm" --clearance-time-constant-ms 20 --clearance-margin-mm 3)
   fi
   start chasles_controller "$DEMO_BUILD/controller/chasles_controller" "${model[@]}" --realtime --damping 0.5 \
     --protocol "$DEMO_PROTOCOL" \
-    "${limits[@]}" --lcm-url "$lcm_url" \
+    "${limits[@]}" "${clearance[@]}" --lcm-url "$lcm_url" \
     --tick "$DEMO_TICK" --summary "$dir/summary.json"
   run_start=$(now)
   # Where the report reads the press: the window in which the arm rests on the table, as utimes.
@@ -505,6 +576,9 @@ PY
   play "a twist jog: the tip down at 3 cm/s for 1.5 s (in the base frame, 50 commands a second)" \
     jog --twist 0,0,0,0,0,-0.03 --seconds 1.5 --rate 50
   sleep 0.3  # the jog's stop: a brake of a few tens of milliseconds, well inside this
+  if [ ${#clearance[@]} -gt 0 ]; then
+    clearance_segments
+  fi
 
   # The controller first: its summary covers a run in which the plant never stopped answering.
   for i in 2 1 0; do
@@ -693,8 +767,16 @@ else:
         milli = "mrad" if unit == "rad" else "mrad or mm"
         print(f"  tracking error      rms {1e3 * rms:.4f}  max {1e3 * max(errors):.4f} {milli} ({worst['elapsed']:.3f} s into "
               f"it) over {len(active)} statuses while it ran; {1e3 * max(abs(x) for x in active[0]['e']):.4f} at its start")
-# The stream and the jog.
-streaming = [r for r in statuses if r["streaming"] == "1"]
+# The stream and the jogs: the statuses of each by the controller's running counts of setpoints and jog
+# commands taken, against what each `chasles stream` and `chasles jog` sent (streams.jsonl, in order).
+sent = [json.loads(line) for line in open(os.path.join(d, "streams.jsonl"))]
+stream_counts = [x["sent"] for x in sent if x["channel"].endswith("SETPOINT")]
+jog_counts = [x["sent"] for x in sent if x["channel"].endswith("JOG")]
+def nth(rows, counts, field, k):
+    """The rows taken while the k-th stream or jog (from 0) ran: its count range of `field`."""
+    lo, hi = sum(counts[:k]), sum(counts[:k + 1])
+    return [r for r in rows if lo < int(r[field]) <= hi]
+streaming = nth([r for r in statuses if r["streaming"] == "1"], stream_counts, "setpoints", 0)
 jogging = [r for r in statuses if r["jogging"] == "1"]
 print()
 print("Stream of joint setpoints (30 Hz, 4 s, every joint swinging toward the middle of its range and back):")
@@ -707,14 +789,11 @@ if streaming:
           f"max {1e3 * max(errors):.4f} {milli} over {len(streaming)} statuses while it ran")
 else:
     print("  no status showed it streaming")
-sent = [json.loads(line) for line in open(os.path.join(d, "streams.jsonl"))]
-jog_counts = [x["sent"] for x in sent if x["channel"].endswith("JOG")]
 limits = ["nothing", "a joint's velocity limit", "a joint's position limit", "a singularity ahead"]
-first = jog_counts[0] if jog_counts else 0
 for title, rows in (("Joint jog (every joint toward the middle of its range at 0.25 rad/s for 1 s):",
-                     [r for r in jogging if int(r["jogs"]) <= first]),
+                     nth(jogging, jog_counts, "jogs", 0)),
                     ("Twist jog (the tip down at 3 cm/s for 1.5 s, in the base frame):",
-                     [r for r in jogging if int(r["jogs"]) > first])):
+                     nth(jogging, jog_counts, "jogs", 1))):
     print(title)
     if not rows:
         print("  no status showed it jogging")
@@ -729,11 +808,58 @@ for title, rows in (("Joint jog (every joint toward the middle of its range at 0
     p1 = [float(rows[-1][f"tip_position[{a}]"]) for a in "xyz"]
     print(f"  tip moved           ({1e3 * (p1[0] - p0[0]):+.1f}, {1e3 * (p1[1] - p0[1]):+.1f}, {1e3 * (p1[2] - p0[2]):+.1f}) mm "
           "over the statuses while it ran")
+# Clearance: the controller kept the arm clear of itself and the scene (the Panda; clearance.json says
+# when the two segments aimed at a collision ran); `chasles log plot` read clearance_distance and
+# clearance_slowed_by off the log (plots.json).
+failures = []
+plots = json.load(open(os.path.join(d, "plots.json"))) if os.path.exists(os.path.join(d, "plots.json")) else {}
+if os.path.exists(os.path.join(d, "clearance.json")):
+    seg = json.load(open(os.path.join(d, "clearance.json")))
+    cl = plots.get("clearance")
+    geometry = [line.strip().split(": ", 1)[1] for line in open(os.path.join(d, "chasles_controller.err"))
+                if line.startswith("chasles_controller: collision geometry:")]
+    print()
+    print(f"Clearance ({geometry[0] if geometry else 'collision geometry'}; the scene {os.path.relpath(seg['scene'], os.path.dirname(os.path.dirname(os.path.dirname(seg['scene']))))}: "
+          f"a wall at y = 0.52 m, every link kept {100 * seg['wall']['stop']:g} cm behind it):")
+    if cl is None:
+        failures.append("the controller's statuses named no closest pair: it ran without collision geometry")
+    else:
+        print(f"  closest of the run  {1e3 * cl['least_distance']:.1f} mm ({cl['least_pair']}) at {cl['least_t']:.2f} s of the log")
+        is_arm = lambda name: "/" in name  # an arm object is <link>/<k>; a scene object or plane has its own name
+        for key, title, wanted in (
+                ("wall", "Twist jog toward the wall (15 cm/s along +y for 2.5 s, 37 cm):",
+                 lambda pair: seg["wall"]["name"] in pair.split(" and ")),
+                ("fold", "Stream swinging the fingers into the forearm (joint 7 from 0.785 to -0.785 rad in 2 s, the wrist bent back):",
+                 lambda pair: all(is_arm(x) for x in pair.split(" and ")))):
+            w = seg[key]
+            runs = [r for r in cl["slowed"] if r["to_utime"] >= w["from_utime"] and r["from_utime"] <= w["to_utime"]]
+            hits = [r for r in runs if wanted(r["pair"])]
+            print(title)
+            if not hits:
+                print(f"  not stopped short: no status in it named a {'wall' if key == 'wall' else 'self'} pair as "
+                      "slowing the reference" + (f" (slowed by {', '.join(sorted({r['pair'] for r in runs}))})" if runs else ""))
+                failures.append(f"the {'jog toward the wall' if key == 'wall' else 'folding stream'} was not stopped short by "
+                                f"{'the wall' if key == 'wall' else 'a pair of the arm'}")
+                continue
+            least = min(hits, key=lambda r: r["least_distance"] if r["least_distance"] is not None else math.inf)
+            pair, dist = least["pair"], least["least_distance"]
+            ok = dist is not None and dist >= w["stop"]
+            print(f"  stopped short       slowed by {pair} for {sum(r['to'] - r['from'] for r in hits):.2f} s "
+                  f"({sum(r['statuses'] for r in hits)} statuses)")
+            print(f"  least distance      {'-' if dist is None else f'{1e3 * dist:.1f}'} mm ({least['least_pair']}); "
+                  f"its stop distance {1e3 * w['stop']:g} mm" + ("" if ok else "  <- INSIDE IT"))
+            if not ok:
+                failures.append(f"{pair} came within its stop distance {1e3 * w['stop']:g} mm "
+                                f"({'-' if dist is None else f'{1e3 * dist:.1f}'} mm)")
 print()
 print(f"Log: {log} ({os.path.getsize(log) / 1e6:.1f} MB; " +
       ", ".join(f"{c} {n}" for c, n in sorted(counts.items())) + ")")
 print(f"Run directory: {d} (each process's output, summary.json, loop_bench.json, targets.jsonl, trajectory_plan.json, "
-      "stream_plan.json, streams.jsonl, status.csv)")
+      "stream_plan.json, streams.jsonl, status.csv" + (", fold_plan.json, clearance.json" if failures or plots.get("clearance") else "") + ")")
+if failures:
+    for failure in failures:
+        print(f"demo.sh: clearance: {failure}", file=sys.stderr)
+    sys.exit(1)
 PY
 }
 
@@ -745,7 +871,7 @@ fi
 # ---------------------------------------------------------------------------------------------
 # Outside: arguments, packages, build, then the run in a fresh network namespace.
 # ---------------------------------------------------------------------------------------------
-usage() { sed -n '6,20s/^# \{0,1\}//p' "$0"; }
+usage() { sed -n '6,21s/^# \{0,1\}//p' "$0"; }
 seconds=16
 robot=
 tip=
@@ -816,16 +942,16 @@ mkdir -p "$dir"
 export DEMO_INSIDE=1 DEMO_DIR="$dir" DEMO_BUILD="$build" DEMO_SECONDS="$seconds" DEMO_URDF="$urdf" \
   DEMO_TIP="$tip" DEMO_TICK="$tick" DEMO_PROTOCOL="$protocol"
 "$root/tools/netns.sh" bash "$root/tools/demo.sh"
-report
 
-# The figures of the run, from its LCM log.
+# The figures of the run, from its LCM log (before the report, which reads the clearance from them).
 if ! "$build/tools/chasles" log plot "$dir/chasles.lcmlog" --out "$dir/plots" --urdf "$urdf" ${tip:+--tip "$tip"} \
   --command-channel "$command_channel" \
   >"$dir/plots.json" 2>"$dir/plots.err"; then
   echo "demo.sh: chasles log plot failed: $(cat "$dir/plots.err")" >&2
   exit 1
 fi
-echo "Plots: $dir/plots/ (joint_positions, tracking_error, torques, compute_time, jitter_histogram .png)"
+report
+echo "Plots: $dir/plots/ ($(python3 -c 'import json, os, sys; print(", ".join(os.path.basename(p) for p in json.load(open(sys.argv[1]))["plots"]))' "$dir/plots.json"))"
 echo "  CSV of a channel: $build/tools/chasles log export $dir/chasles.lcmlog --channel CHASLES_STATUS --out status.csv"
 if [ -n "$summary" ]; then
   cp "$dir/summary.json" "$summary"

@@ -38,6 +38,16 @@ struct TargetMark {
   std::string label;
 };
 
+// A run of consecutive statuses whose clearance_slowed_by names the same pair.
+struct SlowedRun {
+  std::string pair;
+  double from = 0.0, to = 0.0;          ///< s since the log's first event
+  int64_t from_utime = 0, to_utime = 0;  ///< the statuses' log event utimes
+  int64_t statuses = 0;
+  double least = INFINITY;  ///< the least clearance_distance while the slowing pair was the closest (else any)
+  std::string least_pair;   ///< the closest pair at that least distance
+};
+
 // What the figures are drawn from, collected in one pass over the log.
 struct PlotData {
   int joints = 0;
@@ -47,6 +57,13 @@ struct PlotData {
   Series truth;     ///< the plant's contact wrench (TRUTH): (m, f) base-aligned at the tip
   std::vector<int64_t> command_utimes;
   std::vector<TargetMark> targets;
+  /// Clearance: whether any status named a closest pair (the controller had collision geometry),
+  /// the least distance of the run and the runs of statuses slowed by a pair.
+  bool clearance = false;
+  double clearance_least = INFINITY;
+  std::string clearance_least_pair;
+  double clearance_least_t = NAN;
+  std::vector<SlowedRun> slowed;
   std::vector<std::string> problems;
   int64_t rejected = 0;  ///< messages on our channels that did not decode
 };
@@ -92,6 +109,7 @@ PlotData collect(const LogOptions& options) {
   LogReader reader(options.log);
   LogEvent event;
   std::optional<int64_t> first_utime;
+  int64_t last_status_utime = -1;  // the previous status with joint values: slowed runs are consecutive statuses
   std::map<std::string, int64_t> counts;
   const auto skip = [&](const std::string& why) {
     data.problems.push_back("byte " + std::to_string(event.offset) + ": event #" + std::to_string(event.number) +
@@ -124,6 +142,34 @@ PlotData collect(const LogOptions& options) {
       row.insert(row.end(), {m.jitter_p50_us, m.jitter_p99_us, m.jitter_max_us, m.compute_p50_us, m.compute_p99_us,
                              m.compute_max_us});
       row.insert(row.end(), m.tip_wrench_ext, m.tip_wrench_ext + 6);
+      // Clearance: the closest pair's distance, and the same again where a pair slowed the reference
+      // (NaN elsewhere, and both NaN without collision geometry).
+      const bool named = !m.clearance_pair.empty(), slowed = !m.clearance_slowed_by.empty();
+      row.push_back(named ? m.clearance_distance : NAN);
+      row.push_back(named && slowed ? m.clearance_distance : NAN);
+      if (named) {
+        data.clearance = true;
+        if (m.clearance_distance < data.clearance_least) {
+          data.clearance_least = m.clearance_distance;
+          data.clearance_least_pair = m.clearance_pair;
+          data.clearance_least_t = t;
+        }
+      }
+      if (slowed) {
+        if (data.slowed.empty() || data.slowed.back().pair != m.clearance_slowed_by ||
+            data.slowed.back().to_utime != last_status_utime) {
+          data.slowed.push_back({m.clearance_slowed_by, t, t, event.utime, event.utime, 0, INFINITY, ""});
+        }
+        SlowedRun& run = data.slowed.back();
+        run.to = t, run.to_utime = event.utime, ++run.statuses;
+        // The slowing pair's own distance once it is the closest; before that, the closest pair's.
+        const bool own = m.clearance_pair == run.pair, had_own = run.least_pair == run.pair;
+        if (named && ((own && (!had_own || m.clearance_distance < run.least)) ||
+                      (!own && !had_own && m.clearance_distance < run.least))) {
+          run.least = m.clearance_distance, run.least_pair = m.clearance_pair;
+        }
+      }
+      last_status_utime = event.utime;
       data.status.t.push_back(t);
       data.status.rows.push_back(std::move(row));
     } else if (event.channel == command_channel) {
@@ -509,6 +555,22 @@ Json run_log_plot(const LogOptions& options) {
     gp << "\n";
   }
 
+  if (data.clearance) {
+    // Columns of status.dat after the tip wrench: the closest pair's distance, then the same where a
+    // pair slowed the reference (2 + 3n + 12 and + 13).
+    const int clearance0 = 2 + 3 * n + 12;
+    output("clearance.png");
+    gp << unmark << "set title "
+       << quoted("Clearance: the closest pair's distance (clearance_distance on " + options.prefix +
+                 "STATUS)\nred: a pair slowed the reference (clearance_slowed_by); the least " +
+                 fixed(1e3 * data.clearance_least, 1) + " mm, " + data.clearance_least_pair + ", at " +
+                 fixed(data.clearance_least_t, 2) + " s")
+       << "\n" << time_axis << "set ylabel \"distance of the closest pair (mm)\"\n" << marks << "plot "
+       << quoted(status_file) << " using 1:($" << clearance0 << "*1000) with lines lt 1 lw 2 title \"closest pair\", "
+       << quoted(status_file) << " using 1:($" << clearance0 + 1
+       << "*1000) with points pt 7 ps 0.4 lc rgb \"#d62728\" title \"slowed by a pair\"\n";
+  }
+
   gp << "unset output\n";
   const std::string script = scratch.file("plots.gp");
   {
@@ -539,6 +601,19 @@ Json run_log_plot(const LogOptions& options) {
   answer["marks"] = nlohmann::json::array();
   for (const TargetMark& mark : data.targets) answer["marks"].push_back({{"t", mark.t}, {"label", mark.label}});
   answer["truth_messages"] = data.truth.t.size();
+  if (data.clearance) {
+    // What clearance.png shows, for a script: the least distance of the run and each run of
+    // statuses in which a pair slowed the reference (its pair, its time, its least distance).
+    Json slowed = Json::array();
+    for (const SlowedRun& run : data.slowed) {
+      slowed.push_back({{"pair", run.pair}, {"from", run.from}, {"to", run.to}, {"from_utime", run.from_utime},
+                        {"to_utime", run.to_utime}, {"statuses", run.statuses},
+                        {"least_distance", std::isfinite(run.least) ? Json(run.least) : Json()},
+                        {"least_pair", run.least_pair}});
+    }
+    answer["clearance"] = {{"least_distance", data.clearance_least}, {"least_pair", data.clearance_least_pair},
+                           {"least_t", data.clearance_least_t}, {"slowed", std::move(slowed)}};
+  }
   return answer;
 }
 
