@@ -26,7 +26,9 @@ ClearanceWorld::ClearanceWorld(const RobotModel& model, geometry::Proximity prox
       at_reference(proximity),
       along_path(proximity),
       path_checker(model, proximity),
+      rates(geometry::distance_rates(model, proximity)),
       free_step(Eigen::VectorXd::Zero(model.dof())),
+      speed(Eigen::VectorXd::Zero(model.dof())),
       row(Eigen::VectorXd::Zero(model.dof())),
       twists(6, model.dof()) {}
 
@@ -112,6 +114,7 @@ bool Clearance::shape(const RobotModel& model, const Data& at_from, const Eigen:
   const auto& pairs = w.proximity.pairs();
   geometry::compute_distances(w.proximity, at_from.T_body, w.at_reference);
   w.free_step = (ref.q - q_from) / dt;
+  w.speed = w.free_step.cwiseAbs();
   // Each pair within its influence may close at most at a rate its room sets: the source's step is
   // slowed along its own path by the least factor that keeps every pair within its rate — never a
   // motion the source did not ask for (a slide along the wall) — and since no rate asks a pair to
@@ -122,7 +125,15 @@ bool Clearance::shape(const RobotModel& model, const Data& at_from, const Eigen:
   for (size_t p = 0; p < pairs.size(); ++p) {
     const geometry::PairDistance& d = w.at_reference.distance[p];
     const geometry::Clearance& c = pairs[p].clearance;
-    if (!d.exact || d.distance >= c.influence) continue;
+    // Watched from its influence distance, or from farther when the step could close it faster
+    // than the deceleration stops it from there: its stop distance plus v²/2a, v bounded by the
+    // joints' speeds and the pair's rates. Otherwise a fast stream met its first pair too close
+    // to slow for, and the reference's velocity dropped in one tick by more than the arm follows.
+    const double v = w.rates.row(static_cast<Eigen::Index>(p)).dot(w.speed);
+    const double watch = std::max(c.influence, c.stop + config_.reference_margin + v * v / (2.0 * config_.deceleration));
+    if (d.distance >= watch) continue;
+    if (!d.exact) geometry::compute_exactly(w.proximity, w.at_reference, static_cast<int>(p));
+    if (d.distance >= watch) continue;
     if (!twists) joint_twists(model, at_from, w.twists), twists = true;
     distance_row(model, d, pairs[p], w.row);
     const double rate = w.row.dot(w.free_step);

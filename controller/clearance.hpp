@@ -34,7 +34,7 @@ namespace chasles::controller {
 struct ClearanceConfig {
   double time_constant = 0.05;      ///< τ, s: the damper's; a pair closes at most (d − d_s)/τ
   double deceleration = 1.0;        ///< a, m/s²: a closing pair is stopped within it
-  double reference_margin = 0.002;  ///< m: the reference keeps this much beyond each stop distance
+  double reference_margin = 0.003;  ///< m: the reference keeps this much beyond each stop distance
   double repulsion = 20.0;          ///< N: the repulsive force at the stop distance (free drive, impedance)
 };
 
@@ -44,7 +44,9 @@ struct ClearanceWorld {
   geometry::Proximity proximity;
   geometry::ProximityData at_state, at_reference, along_path;
   geometry::PathChecker path_checker;  // a goal's or a trajectory's path, before it moves
+  Eigen::MatrixXd rates;      // per pair and joint, how fast its distance can change (distance_rates)
   Eigen::VectorXd free_step;  // the source's step, joint velocity
+  Eigen::VectorXd speed;      // |free_step|
   Eigen::VectorXd row;        // a pair's ∂d/∂q
   Eigen::Matrix<double, 6, Eigen::Dynamic> twists;  // each joint's space twist at the q at hand
 };

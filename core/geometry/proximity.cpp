@@ -193,44 +193,47 @@ ProximityData::ProximityData(const Proximity& proximity)
       cache(proximity.pairs().size()),
       distance(proximity.pairs().size()) {}
 
+// Pair p's distance at the object poses in `data`: exact, or the bound alone when `cull` and the
+// bound puts it beyond its influence.
+static PairDistance pair_distance(const Proximity& proximity, ProximityData& data, size_t p, bool cull) {
+  const auto& objects = proximity.arm().objects;
+  const auto& pairs = proximity.pairs();
+  const auto& scene = proximity.scene();
+    const ProximityPair& pair = pairs[p];
+  const CollisionObject& a = objects[static_cast<size_t>(pair.arm)];
+  const Transform& T_a = data.T_object[static_cast<size_t>(pair.arm)];
+  if (pair.kind == ProximityPair::kPlane) {
+    return plane_distance(a.shape, T_a, scene.planes[static_cast<size_t>(pair.other)], data.cache[p]);
+  }
+  const bool self = pair.kind == ProximityPair::kSelf;
+  const size_t o = static_cast<size_t>(pair.other);
+  const Shape& b = self ? objects[o].shape : scene.objects[o].shape;
+  const Transform& T_b = self ? data.T_object[o] : scene.objects[o].T_base_object;
+  if (cull && !self) {
+    const PairDistance bound = ball_to_object(T_a * proximity.arm_centres()[static_cast<size_t>(pair.arm)],
+                                              proximity.arm_radii()[static_cast<size_t>(pair.arm)], b, T_b,
+                                              proximity.scene_centres()[o], proximity.scene_radii()[o]);
+    if (bound.distance > pair.clearance.influence) return bound;
+  } else if (cull) {
+    const PairDistance bound = sphere_gap(
+        T_a * proximity.arm_centres()[static_cast<size_t>(pair.arm)], proximity.arm_radii()[static_cast<size_t>(pair.arm)],
+        T_b * (self ? proximity.arm_centres()[o] : proximity.scene_centres()[o]),
+        self ? proximity.arm_radii()[o] : proximity.scene_radii()[o]);
+    if (bound.distance > pair.clearance.influence) return bound;
+  }
+  return exact_distance(a.shape, T_a, b, T_b, data.cache[p]);
+}
+
 void compute_distances(const Proximity& proximity, const std::vector<Transform>& T_body, ProximityData& data) {
   const auto& objects = proximity.arm().objects;
   for (size_t k = 0; k < objects.size(); ++k) {
     data.T_object[k] = T_body[static_cast<size_t>(objects[k].body)] * objects[k].T_body_object;
   }
   const auto& pairs = proximity.pairs();
-  const auto& scene = proximity.scene();
-  // An exact distance, or the bounding spheres' gap when that alone puts the pair beyond its
-  // influence.
-  auto compute = [&](size_t p, bool cull) {
-    const ProximityPair& pair = pairs[p];
-    const CollisionObject& a = objects[static_cast<size_t>(pair.arm)];
-    const Transform& T_a = data.T_object[static_cast<size_t>(pair.arm)];
-    if (pair.kind == ProximityPair::kPlane) {
-      return plane_distance(a.shape, T_a, scene.planes[static_cast<size_t>(pair.other)], data.cache[p]);
-    }
-    const bool self = pair.kind == ProximityPair::kSelf;
-    const size_t o = static_cast<size_t>(pair.other);
-    const Shape& b = self ? objects[o].shape : scene.objects[o].shape;
-    const Transform& T_b = self ? data.T_object[o] : scene.objects[o].T_base_object;
-    if (cull && !self) {
-      const PairDistance bound = ball_to_object(T_a * proximity.arm_centres()[static_cast<size_t>(pair.arm)],
-                                                proximity.arm_radii()[static_cast<size_t>(pair.arm)], b, T_b,
-                                                proximity.scene_centres()[o], proximity.scene_radii()[o]);
-      if (bound.distance > pair.clearance.influence) return bound;
-    } else if (cull) {
-      const PairDistance bound = sphere_gap(
-          T_a * proximity.arm_centres()[static_cast<size_t>(pair.arm)], proximity.arm_radii()[static_cast<size_t>(pair.arm)],
-          T_b * (self ? proximity.arm_centres()[o] : proximity.scene_centres()[o]),
-          self ? proximity.arm_radii()[o] : proximity.scene_radii()[o]);
-      if (bound.distance > pair.clearance.influence) return bound;
-    }
-    return exact_distance(a.shape, T_a, b, T_b, data.cache[p]);
-  };
   data.exact = 0;
   data.closest = -1;
   for (size_t p = 0; p < pairs.size(); ++p) {
-    data.distance[p] = compute(p, true);
+    data.distance[p] = pair_distance(proximity, data, p, true);
     data.exact += data.distance[p].exact ? 1 : 0;
   }
   // The closest pair exact: a bound that is least may hide a pair further than another's exact.
@@ -240,9 +243,16 @@ void compute_distances(const Proximity& proximity, const std::vector<Transform>&
       if (data.distance[p].distance < least) least = data.distance[p].distance, data.closest = static_cast<int>(p);
     }
     if (data.closest < 0 || data.distance[static_cast<size_t>(data.closest)].exact) return;
-    data.distance[static_cast<size_t>(data.closest)] = compute(static_cast<size_t>(data.closest), false);
+    data.distance[static_cast<size_t>(data.closest)] = pair_distance(proximity, data, static_cast<size_t>(data.closest), false);
     ++data.exact;
   }
+}
+
+void compute_exactly(const Proximity& proximity, ProximityData& data, int p) {
+  PairDistance& d = data.distance[static_cast<size_t>(p)];
+  if (d.exact) return;
+  d = pair_distance(proximity, data, static_cast<size_t>(p), false);
+  ++data.exact;
 }
 
 }  // namespace chasles::geometry

@@ -131,6 +131,10 @@ struct ProximityData {
 /// base frame). Allocates nothing.
 void compute_distances(const Proximity& proximity, const std::vector<Transform>& T_body, ProximityData& data);
 
+/// Pair p's distance computed exactly if compute_distances left it a bound, at the poses it used.
+/// Allocates nothing.
+void compute_exactly(const Proximity& proximity, ProximityData& data, int p);
+
 /// The bounding sphere of a shape in its frame (not the least one: the centre of its box of
 /// extents, and the farthest point from it).
 void bounding_sphere(const Shape& shape, Vector3d& centre, double& radius);
