@@ -102,17 +102,17 @@ geometry::CollisionModel load_geometry(const ArmSpec& spec, const RobotModel& mo
   return load_arm_geometry(model, options, notes);
 }
 
-// As the controller's tests configure it (following.hpp): the Panda on libfranka's rates, the
-// others on the defaults; the contact monitor and the torque-semantics check off (the integrated
-// model is exact, there is no driver), so that a reflex can only come from a limit or a stop
-// distance.
+// The Panda on libfranka's rates, the others on the defaults, the generator's jerk within the
+// torque rate as the daemon runs it (without, the torque-rate guard held back the law's torque on
+// the Panda's first ticks, and the arm ran away from the reference); the contact monitor and the
+// torque-semantics check off (the integrated model is exact, there is no driver), so that a
+// reflex can only come from a limit or a stop distance.
 Config trial_config(const ArmSpec& spec, const RobotModel& model) {
   Config config = Config::critically_damped(model.dof(), 20.0);
   if (spec.index == 0) {
     config.limits.acceleration = testing::franka_acceleration();
     config.limits.jerk = testing::franka_jerk();
   }
-  config.limits.jerk_within_torque_rate = false;
   config.contact.collision_torque = config.contact.contact_torque = VectorXd::Constant(model.dof(), kInf);
   config.contact.collision_force = config.contact.contact_force = kInf;
   config.contact.collision_moment = config.contact.contact_moment = kInf;
