@@ -5,18 +5,13 @@
 #include <cstdio>
 
 #include "core/lie/so3.hpp"
+#include "core/number_text.hpp"
 
 namespace chasles {
 namespace {
 
-std::string number(double value) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.6g", value);
-  return text;
-}
-
 std::string moments(const Vector3d& lambda) {
-  return "(" + number(lambda(0)) + ", " + number(lambda(1)) + ", " + number(lambda(2)) + ") kg·m²";
+  return "(" + number_text(lambda(0)) + ", " + number_text(lambda(1)) + ", " + number_text(lambda(2)) + ") kg·m²";
 }
 
 }  // namespace
@@ -28,7 +23,7 @@ InertiaCheck check_inertia(double mass, const Matrix3d& I_c) {
     return check;
   }
   if (mass < 0.0) {
-    check.problem = "mass " + number(mass) + " kg is negative";
+    check.problem = "mass " + number_text(mass) + " kg is negative";
     return check;
   }
   const Matrix3d I_sym = 0.5 * (I_c + I_c.transpose());
@@ -37,8 +32,8 @@ InertiaCheck check_inertia(double mass, const Matrix3d& I_c) {
   const double largest = lambda.cwiseAbs().maxCoeff();
   const double floor = mass * InertiaTolerance::gyration_radius * InertiaTolerance::gyration_radius;
   check.tolerance = InertiaTolerance::relative * largest + floor;
-  const std::string within = " (beyond the tolerance of " + number(check.tolerance) + " kg·m² = " +
-                             number(InertiaTolerance::relative) + " × the largest moment + m·(1 µm)²)";
+  const std::string within = " (beyond the tolerance of " + number_text(check.tolerance) + " kg·m² = " +
+                             number_text(InertiaTolerance::relative) + " × the largest moment + m·(1 µm)²)";
   if (mass == 0.0) {
     // No mass, no second moment: a massless frame carries no rotational inertia either.
     if (largest > 0.0) check.problem = "mass 0 but principal moments " + moments(lambda) + within;
@@ -49,8 +44,8 @@ InertiaCheck check_inertia(double mass, const Matrix3d& I_c) {
   if (lambda(0) < -check.tolerance) {
     check.problem = "principal moments " + moments(lambda) + " include a negative one" + within;
   } else if (lambda(0) + lambda(1) - lambda(2) < -2.0 * check.tolerance) {
-    check.problem = "principal moments " + moments(lambda) + " break the triangle inequality: " + number(lambda(0)) +
-                    " + " + number(lambda(1)) + " < " + number(lambda(2)) + within;
+    check.problem = "principal moments " + moments(lambda) + " break the triangle inequality: " + number_text(lambda(0)) +
+                    " + " + number_text(lambda(1)) + " < " + number_text(lambda(2)) + within;
   }
   return check;
 }

@@ -7,6 +7,7 @@
 
 #include "core/lie/se3.hpp"
 #include "core/lie/so3.hpp"
+#include "core/number_text.hpp"
 
 namespace chasles {
 
@@ -39,12 +40,6 @@ bool is_rotation(const Matrix3d& R) {
          std::abs(R.determinant() - 1.0) < tolerance;
 }
 
-std::string number(double x) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%g", x);
-  return text;
-}
-
 void check(bool ok, const ChainDescription& d, const std::string& what) {
   if (!ok) throw ModelError(d.source + ": " + what);
 }
@@ -71,7 +66,7 @@ void validate(const ChainDescription& d) {
     if (!d.armature.empty()) {
       const double a = d.armature[i];
       check(std::isfinite(a) && a >= 0.0, d,
-            where + "armature " + number(a) + " is not a finite value >= 0 (" +
+            where + "armature " + number_text(a) + " is not a finite value >= 0 (" +
                 (j.type == JointType::Prismatic ? "kg" : "kg*m^2") + ", the rotor's reflected inertia)");
     }
     const Matrix6d& G = d.inertia[i];

@@ -6,15 +6,10 @@
 
 #include "core/error.hpp"
 #include "core/lie/so3.hpp"
+#include "core/number_text.hpp"
 
 namespace chasles::plant {
 namespace {
-
-std::string number(double x) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%g", x);
-  return text;
-}
 
 [[noreturn]] void refuse(const std::string& what, const std::string& why) {
   throw ArgumentError(what + ": " + why);
@@ -33,11 +28,11 @@ void check_push(const Push& push, const std::string& what) {
       !finite(push.wrench)) {
     refuse(what, "a number is not finite");
   }
-  if (push.start < 0.0) refuse(what, "START " + number(push.start) + " s is before the plant's first step (0)");
-  if (!(push.duration > 0.0)) refuse(what, "DURATION " + number(push.duration) + " s is not positive");
-  if (push.ramp < 0.0) refuse(what, "RAMP " + number(push.ramp) + " s is negative");
+  if (push.start < 0.0) refuse(what, "START " + number_text(push.start) + " s is before the plant's first step (0)");
+  if (!(push.duration > 0.0)) refuse(what, "DURATION " + number_text(push.duration) + " s is not positive");
+  if (push.ramp < 0.0) refuse(what, "RAMP " + number_text(push.ramp) + " s is negative");
   if (push.ramp > 0.5 * push.duration) {
-    refuse(what, "RAMP " + number(push.ramp) + " s is longer than half of DURATION " + number(push.duration) +
+    refuse(what, "RAMP " + number_text(push.ramp) + " s is longer than half of DURATION " + number_text(push.duration) +
                      " s: the ramps in and out must both fit in the window (RAMP <= DURATION/2)");
   }
 }
@@ -48,12 +43,12 @@ void check_wall(Wall& wall, const std::string& what) {
   }
   const double length = wall.normal.stableNorm();
   if (!(length > 0.0) || !std::isfinite(length)) {
-    refuse(what, "the normal (" + number(wall.normal.x()) + ", " + number(wall.normal.y()) + ", " +
-                     number(wall.normal.z()) + ") has no direction; give one pointing to the free side");
+    refuse(what, "the normal (" + number_text(wall.normal.x()) + ", " + number_text(wall.normal.y()) + ", " +
+                     number_text(wall.normal.z()) + ") has no direction; give one pointing to the free side");
   }
   wall.normal /= length;
-  if (!(wall.stiffness > 0.0)) refuse(what, "stiffness K " + number(wall.stiffness) + " N/m is not positive");
-  if (wall.damping < 0.0) refuse(what, "damping D " + number(wall.damping) + " N*s/m is negative");
+  if (!(wall.stiffness > 0.0)) refuse(what, "stiffness K " + number_text(wall.stiffness) + " N/m is not positive");
+  if (wall.damping < 0.0) refuse(what, "damping D " + number_text(wall.damping) + " N*s/m is negative");
 }
 
 void check_friction(const Friction& friction, const RobotModel& model, const std::string& what) {
@@ -70,16 +65,16 @@ void check_friction(const Friction& friction, const RobotModel& model, const std
     }
     const bool prismatic = model.joint(i).type == JointType::Prismatic;
     if (friction.viscous[i] < 0.0) {
-      refuse(what, joint + ": viscous friction " + number(friction.viscous[i]) + (prismatic ? " N*s/m" : " N*m*s/rad") +
+      refuse(what, joint + ": viscous friction " + number_text(friction.viscous[i]) + (prismatic ? " N*s/m" : " N*m*s/rad") +
                        " is negative");
     }
     if (friction.coulomb[i] < 0.0) {
-      refuse(what, joint + ": Coulomb friction " + number(friction.coulomb[i]) + (prismatic ? " N" : " N*m") +
+      refuse(what, joint + ": Coulomb friction " + number_text(friction.coulomb[i]) + (prismatic ? " N" : " N*m") +
                        " is negative");
     }
     if (friction.stiction.size() > 0 && !(friction.stiction[i] >= friction.coulomb[i])) {
-      refuse(what, joint + ": stiction " + number(friction.stiction[i]) + (prismatic ? " N" : " N*m") +
-                       " is below Coulomb friction " + number(friction.coulomb[i]) + " (or not finite)");
+      refuse(what, joint + ": stiction " + number_text(friction.stiction[i]) + (prismatic ? " N" : " N*m") +
+                       " is below Coulomb friction " + number_text(friction.coulomb[i]) + " (or not finite)");
     }
   }
   if (friction.stiction.size() > 0 && friction.stiction.size() != n) {
@@ -87,13 +82,13 @@ void check_friction(const Friction& friction, const RobotModel& model, const std
                      std::to_string(n) + " joints");
   }
   if (!(friction.stribeck_velocity > 0.0) || !std::isfinite(friction.stribeck_velocity)) {
-    refuse(what, "the Stribeck velocity " + number(friction.stribeck_velocity) + " is not a positive number");
+    refuse(what, "the Stribeck velocity " + number_text(friction.stribeck_velocity) + " is not a positive number");
   }
 }
 
 void check_perturbation(const InertiaPerturbation& perturbation, const std::string& what) {
   if (!(perturbation.fraction >= 0.0 && perturbation.fraction < 1.0)) {
-    refuse(what, "FRACTION " + number(perturbation.fraction) +
+    refuse(what, "FRACTION " + number_text(perturbation.fraction) +
                      " is not in [0, 1): a body's mass and spread are scaled by as little as 1 - FRACTION, which "
                      "must stay positive (0.2 is +-20 %)");
   }

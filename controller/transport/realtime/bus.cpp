@@ -17,6 +17,7 @@
 #include <thread>
 #include <vector>
 
+#include "controller/transport/realtime/clock.hpp"
 #include "controller/transport/realtime/fragments.hpp"
 #include "controller/transport/realtime/mailbox.hpp"
 #include "controller/transport/realtime/realtime.hpp"
@@ -48,12 +49,6 @@ constexpr int kFragmentSlots = 64;
 constexpr int kMessageSlots = 8;
 // How often the assembler looks for messages whose fragments stopped coming.
 constexpr int64_t kExpiryCheckNs = 100'000'000;
-
-int64_t monotonic_ns() {
-  timespec t{};
-  clock_gettime(CLOCK_MONOTONIC, &t);
-  return int64_t{t.tv_sec} * 1'000'000'000 + t.tv_nsec;
-}
 
 }  // namespace
 
