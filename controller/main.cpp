@@ -29,6 +29,7 @@
 #include "controller/node.hpp"
 #include "controller/world.hpp"
 #include "core/geometry/scene_file.hpp"
+#include "core/atomic_file.hpp"
 #include "core/dynamics/dynamics.hpp"
 #include "core/error.hpp"
 #include "core/model/model.hpp"
@@ -268,17 +269,7 @@ void write_summary(const std::string& path, const Summary& s) {
                      {"reflexes", s.reflexes},
                      {"peak_tip_force_n", s.peak_tip_force},
                      {"realtime", s.realtime_granted}};
-  const std::string tmp = path + ".tmp." + std::to_string(getpid());
-  {
-    std::ofstream out(tmp);
-    out << json.dump(2) << "\n";
-    out.flush();
-    if (!out) throw chasles::Error("cannot write the summary to " + tmp);
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw chasles::Error("cannot write the summary to " + path);
-  }
+  chasles::write_file_atomically(path, json.dump(2) + "\n");
 }
 
 }  // namespace

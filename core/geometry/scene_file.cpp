@@ -1,8 +1,5 @@
 #include "core/geometry/scene_file.hpp"
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -17,6 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "core/atomic_file.hpp"
 #include "core/error.hpp"
 #include "core/geometry/collision_model.hpp"
 #include "core/lie/so3.hpp"
@@ -568,60 +566,6 @@ std::vector<WorkspaceBox> trailing_workspace_boxes(const Scene& scene, size_t& f
 
 namespace {
 
-std::string directory_of(const std::string& path) {
-  const std::string dir = fs::path(path).parent_path().string();
-  return dir.empty() ? "." : dir;
-}
-
-std::string system_error(const std::string& path, const std::string& what) {
-  return path + ": " + what + ": " + std::strerror(errno);
-}
-
-// Into a temporary file beside `path` (mkstemp: no other writer's name), flushed to the disk, then
-// renamed over it: a reader sees the old file or the new one, never half of one.
-void write_atomically(const std::string& path, const std::string& content) {
-  std::string temporary = path + ".tmp.XXXXXX";
-  const int fd = ::mkstemp(temporary.data());
-  if (fd < 0) throw Error(system_error(path, "cannot create a temporary file beside it"));
-  const auto give_up = [&](const std::string& what) {
-    const std::string why = system_error(path, what);
-    ::close(fd);
-    std::remove(temporary.c_str());
-    throw Error(why);
-  };
-  const char* data = content.data();
-  size_t left = content.size();
-  while (left > 0) {
-    const ssize_t written = ::write(fd, data, left);
-    if (written < 0) {
-      if (errno == EINTR) continue;
-      give_up("cannot write");
-    }
-    data += written;
-    left -= static_cast<size_t>(written);
-  }
-  // mkstemp makes the file 0600; give it what a plain open would (0666 less the umask).
-  const mode_t mask = ::umask(0);
-  ::umask(mask);
-  if (::fchmod(fd, 0666 & ~mask) != 0 || ::fsync(fd) != 0) give_up("cannot write");
-  if (::close(fd) != 0) {
-    const std::string why = system_error(path, "cannot write");
-    std::remove(temporary.c_str());
-    throw Error(why);
-  }
-  if (std::rename(temporary.c_str(), path.c_str()) != 0) {
-    const std::string why = system_error(path, "cannot replace");
-    std::remove(temporary.c_str());
-    throw Error(why);
-  }
-  // The rename is durable once the directory is.
-  const int dir = ::open(directory_of(path).c_str(), O_RDONLY | O_DIRECTORY);
-  if (dir >= 0) {
-    ::fsync(dir);
-    ::close(dir);
-  }
-}
-
 }  // namespace
 
 void write_scene_file(const std::string& path, const Scene& scene) {
@@ -655,7 +599,7 @@ void write_scene_file(const std::string& path, const Scene& scene) {
                          {"clearance", clearance_json(b.clearance)}});
   }
   Ordered document = {{"version", kSceneFileVersion}, {"objects", objects}, {"planes", planes}, {"workspace", workspace}};
-  write_atomically(path, document.dump(2) + "\n");
+  write_file_atomically(path, document.dump(2) + "\n");
 }
 
 }  // namespace chasles::geometry
