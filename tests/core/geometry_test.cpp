@@ -68,22 +68,7 @@ void expect_near(const Transform& actual, const Transform& expected, double tole
   EXPECT_LE((actual.translation() - expected.translation()).cwiseAbs().maxCoeff(), tolerance);
 }
 
-// A binary STL's vertices as the floats it stores: 80-byte header, count, 50 bytes per triangle.
-std::vector<Vector3d> read_binary_stl(const std::string& path) {
-  const std::string bytes = testing::read_file(path);
-  uint32_t count = 0;
-  std::memcpy(&count, bytes.data() + 80, 4);
-  EXPECT_EQ(bytes.size(), 84 + 50 * static_cast<size_t>(count)) << path;
-  std::vector<Vector3d> out;
-  for (uint32_t t = 0; t < count; ++t) {
-    for (int v = 0; v < 3; ++v) {
-      float xyz[3];
-      std::memcpy(xyz, bytes.data() + 84 + 50 * t + 12 + 12 * v, 12);
-      out.emplace_back(xyz[0], xyz[1], xyz[2]);
-    }
-  }
-  return out;
-}
+using testing::read_binary_stl;
 
 std::vector<Vector3d> read_obj(const std::string& path) {
   std::istringstream text(testing::read_file(path));

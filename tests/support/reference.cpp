@@ -1,9 +1,12 @@
 #include "support/reference.hpp"
 
+#include <cstring>
 #include <fstream>
 #include <iomanip>
 #include <nlohmann/json.hpp>
 #include <sstream>
+
+#include "support/process.hpp"
 
 namespace chasles::testing {
 namespace {
@@ -100,6 +103,23 @@ namespace {
 ::testing::AssertionResult matrices_near_relative(const Eigen::MatrixXd& actual, const Eigen::MatrixXd& expected,
                                                   double tolerance) {
   return compare(actual, expected, tolerance * std::max(1.0, expected.cwiseAbs().maxCoeff()));
+}
+
+std::vector<Eigen::Vector3d> read_binary_stl(const std::string& path) {
+  const std::string bytes = read_file(path);
+  uint32_t count = 0;
+  if (bytes.size() >= 84) std::memcpy(&count, bytes.data() + 80, 4);
+  EXPECT_EQ(bytes.size(), 84 + 50 * static_cast<size_t>(count)) << path;
+  std::vector<Eigen::Vector3d> out;
+  if (bytes.size() != 84 + 50 * static_cast<size_t>(count)) return out;
+  for (uint32_t t = 0; t < count; ++t) {
+    for (int v = 0; v < 3; ++v) {
+      float xyz[3];
+      std::memcpy(xyz, bytes.data() + 84 + 50 * t + 12 + 12 * v, 12);
+      out.emplace_back(xyz[0], xyz[1], xyz[2]);
+    }
+  }
+  return out;
 }
 
 }  // namespace chasles::testing

@@ -54,4 +54,8 @@ double max_abs_diff(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b);
 ::testing::AssertionResult matrices_near_relative(const Eigen::MatrixXd& actual, const Eigen::MatrixXd& expected,
                                                   double tolerance);
 
+/// A binary STL's vertices as the floats it stores (80-byte header, triangle count, 50 bytes per
+/// triangle), three per triangle; a size that disagrees with the count fails the test.
+std::vector<Eigen::Vector3d> read_binary_stl(const std::string& path);
+
 }  // namespace chasles::testing
