@@ -32,7 +32,8 @@ ClearanceWorld::ClearanceWorld(const RobotModel& model, geometry::Proximity prox
       row(Eigen::VectorXd::Zero(model.dof())),
       twists(6, model.dof()) {}
 
-Clearance::Clearance(const RobotModel&, const ClearanceConfig& config) : config_(config) {}
+Clearance::Clearance(const RobotModel& model, const ClearanceConfig& config)
+    : config_(config), cut_(model.dof()), carried_qdd_(Eigen::VectorXd::Zero(model.dof())) {}
 
 void Clearance::set_world(ClearanceWorld* world) {
   world_ = world;
@@ -102,8 +103,8 @@ void Clearance::distance_row(const RobotModel& model, const geometry::PairDistan
   }
 }
 
-bool Clearance::shape(const RobotModel& model, const Data& at_from, const Eigen::VectorXd& q_from, double dt,
-                      motion::Reference& ref) {
+bool Clearance::shape(const RobotModel& model, const Data& at_from, const motion::Reference& from, double dt,
+                      const Eigen::VectorXd& acceleration, motion::Reference& ref) {
   if (++uncut_ticks_ > ClearanceStatus::kSlowingHold) {
     status_.slowing = -1;
     status_.kept = 1.0;
@@ -113,7 +114,7 @@ bool Clearance::shape(const RobotModel& model, const Data& at_from, const Eigen:
   ClearanceWorld& w = *world_;
   const auto& pairs = w.proximity.pairs();
   geometry::compute_distances(w.proximity, at_from.T_body, w.at_reference);
-  w.free_step = (ref.q - q_from) / dt;
+  w.free_step = (ref.q - from.q) / dt;
   w.speed = w.free_step.cwiseAbs();
   // Each pair within its influence may close at most at a rate its room sets: the source's step is
   // slowed along its own path by the least factor that keeps every pair within its rate — never a
@@ -147,10 +148,25 @@ bool Clearance::shape(const RobotModel& model, const Data& at_from, const Eigen:
   status_.slowing = most;
   w.proximity.name_pair(status_.slowing, status_.slowing_name, sizeof(status_.slowing_name));
   status_.kept = scale;
-  ref.q = q_from + scale * dt * w.free_step;
-  ref.qd = scale * w.free_step;
-  ref.qdd.setZero();
+  // The source's path, slowed: its step and its velocity at the step's end both scaled, and the
+  // acceleration that makes over the tick, within the limits — the law's feedforward for the motion
+  // the reference makes. (The source's own, scaled, pushed the arm on into what the reference was
+  // held short of.) A stream's or a jog's generator plans its next step from its own acceleration
+  // instead, scaled (hand_back): from this one, or from none, it regains only J·dt of its
+  // braking per tick, and under a small cut at every tick a stream ran up to 0.17 rad past its
+  // last setpoint, into a joint's position limit.
+  carried_qdd_ = scale * ref.qdd;
+  ref.q = from.q + scale * dt * w.free_step;
+  ref.qd *= scale;
+  ref.qdd = ((ref.qd - from.qd) / dt).cwiseMax(-acceleration).cwiseMin(acceleration);
+  cut_ = ref;
+  carried_ = true;
   return true;
+}
+
+void Clearance::hand_back(motion::Reference& ref) {
+  if (carried_ && ref.q == cut_.q && ref.qd == cut_.qd && ref.qdd == cut_.qdd) ref.qdd = carried_qdd_;
+  carried_ = false;
 }
 
 void Clearance::repel(const RobotModel& model, const Data& at_state, Eigen::VectorXd& tau) {

@@ -89,12 +89,17 @@ class Clearance {
   /// inside its stop distance, the deepest, or −1 (inside() until the next). Allocates nothing.
   int observe(const Data& at_state);
   int inside() const { return inside_; }
-  /// Cuts the reference a source moved from `q_from` (where `at_from` holds the body poses) to
+  /// Cuts the reference a source moved from `from` (where `at_from` holds the body poses) to
   /// `ref` over dt, so that no pair within its influence closes faster than it may. Returns
-  /// whether it cut it; then ref.q is q_from plus the step kept, ref.qd that step's velocity.
-  /// Allocates nothing.
-  bool shape(const RobotModel& model, const Data& at_from, const Eigen::VectorXd& q_from, double dt,
-             motion::Reference& ref);
+  /// whether it cut it; then ref.q is from.q plus the share of the step kept, ref.qd the source's
+  /// velocity times that share, and ref.qdd the change from from.qd over dt within
+  /// ±`acceleration`: the acceleration the cut reference makes. Allocates nothing.
+  bool shape(const RobotModel& model, const Data& at_from, const motion::Reference& from, double dt,
+             const Eigen::VectorXd& acceleration, motion::Reference& ref);
+  /// At the next tick, before the source moves `ref`: if it is still the reference shape() cut,
+  /// gives it back the source's own acceleration, scaled by the share kept — what the source's
+  /// generator plans its next step from. Allocates nothing.
+  void hand_back(motion::Reference& ref);
   /// Adds the repulsive torque at the state (after observe) to tau. Allocates nothing.
   void repel(const RobotModel& model, const Data& at_state, Eigen::VectorXd& tau);
 
@@ -117,6 +122,9 @@ class Clearance {
   int uncut_ticks_ = 0;  // since the reference was last cut
   int inside_ = -1;      // the pair the state is inside the stop distance of
   char reason_[192] = {};
+  motion::Reference cut_;        // the reference as shape() left it
+  Eigen::VectorXd carried_qdd_;  // the source's acceleration, scaled, to plan on from it
+  bool carried_ = false;         // cut at the latest tick, not yet handed back
 };
 
 }  // namespace chasles::controller

@@ -52,7 +52,7 @@ Controller::Controller(const RobotModel& model, const Config& config)
       stop_(model.dof(), limits_, generator_),
       source_(&goal_),
       ref_(model.dof()),
-      ref_from_(Eigen::VectorXd::Zero(model.dof())),
+      ref_from_(model.dof()),
       planned_(model),
       q_(Eigen::VectorXd::Zero(model.dof())),
       qd_(Eigen::VectorXd::Zero(model.dof())),
@@ -420,7 +420,8 @@ void Controller::update_reference(int64_t now_ns) {
     return;
   }
   const Tick tick{now_ns, model_, &kinematics_};
-  ref_from_ = ref_.q;
+  clearance_.hand_back(ref_);
+  ref_from_ = ref_;
   if (mode_ == Mode::kReflex) {
     if (retracting_) goal_.advance(tick, ref_);  // holds the goal once there
     if (compliant_) ref_.hold(q_);               // the arm goes where it is pushed
@@ -448,8 +449,11 @@ void Controller::update_reference(int64_t now_ns) {
 }
 
 void Controller::keep_clear() {
-  if (!clearance_.active() || (ref_.q.array() == ref_from_.array()).all()) return;
-  if (!clearance_.shape(*model_, kinematics_.at(*model_, ref_from_), ref_from_, config_.period, ref_)) return;
+  if (!clearance_.active() || (ref_.q.array() == ref_from_.q.array()).all()) return;
+  if (!clearance_.shape(*model_, kinematics_.at(*model_, ref_from_.q), ref_from_, config_.period,
+                        generator_.limits().acceleration, ref_)) {
+    return;
+  }
   if (mode_ == Mode::kReflex) {
     retracting_ = false;  // no retract into something else: the reflex holds where it was cut
     ref_.qd.setZero();
@@ -457,7 +461,7 @@ void Controller::keep_clear() {
   }
   // A motion laid out in time (a goal's quintic, a Cartesian path, a trajectory) waits along its
   // path: its clock is set back by the share of the tick it did not take. A stream, a jog and a
-  // brake plan from the reference every tick and need nothing more.
+  // brake plan from the reference every tick, with their own acceleration handed back (Clearance::hand_back).
   source_->delay(std::llround((1.0 - clearance_.status().kept) * config_.period * 1e9));
   if (ref_.qd.norm() < kClearStill && source_ != &stream_ && source_ != &tip_stream_ && source_ != &jog_) {
     // Stalled against what cut it, with no room to come: the motion is over, at rest where it is.

@@ -243,7 +243,7 @@ class Controller {
   StopMotion stop_;
   ReferenceSource* source_;
   motion::Reference ref_;
-  Eigen::VectorXd ref_from_;  // the reference before the source moved it this tick
+  motion::Reference ref_from_;  // the reference before the source moved it this tick
   PlannedPath planned_;  // a goal's or a trajectory's path, checked before it moves (path_clear)
   Eigen::VectorXd q_, qd_, error_, tau_;
   Eigen::VectorXd q_guarded_;  // the state the limit guard last saw, for a crossing
