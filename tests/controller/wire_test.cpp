@@ -39,7 +39,8 @@ void expect_wire(const std::vector<std::pair<Enum, int8_t>>& expected, int8_t Me
   ASSERT_EQ(int(expected.size()), enumerators::count<Enum>());
   for (const auto& [value, wire] : expected) {
     EXPECT_EQ(to_wire(value), wire) << int(value);
-    const Message m = through_bytes<Message>([&](Message& out) { out.*field = to_wire(value); });
+    const int8_t sent = to_wire(value);  // C++17 lambdas capture no structured binding
+    const Message m = through_bytes<Message>([&](Message& out) { out.*field = sent; });
     Enum back{};
     ASSERT_TRUE(from_wire(m.*field, back)) << int(wire);
     EXPECT_EQ(back, value) << int(wire);

@@ -11,7 +11,13 @@ inline void note_allocation() {
 }
 }  // namespace
 
-#if defined(__SANITIZE_ADDRESS__)
+// GCC says it compiles for ASan with __SANITIZE_ADDRESS__, clang with __has_feature.
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define CHASLES_ASAN 1
+#endif
+#endif
+#if defined(__SANITIZE_ADDRESS__) || defined(CHASLES_ASAN)
 // Under ASan the sanitizer owns malloc; it offers a hook instead of interposition. Declared here
 // because GCC does not ship <sanitizer/allocator_interface.h>.
 extern "C" int __sanitizer_install_malloc_and_free_hooks(void (*malloc_hook)(const volatile void*, size_t),
