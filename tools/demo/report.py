@@ -69,35 +69,28 @@ for law, t in ticks.items():
     print(f"  {law:<20} p50 {f(t['p50_us'], 2):>6}  p99 {f(t['p99_us'], 2):>6}  max {f(t['max_us'], 1):>7} us, "
           f"{t['allocations']} allocations")
 
-# The LCM log: events are (sync 0xEDA1DA01, number, utime, channel length, data length, channel, data).
-log = os.path.join(d, "chasles.lcmlog")
-counts = Counter()
-with open(log, "rb") as file:
-    while True:
-        head = file.read(28)
-        if len(head) < 28:
-            break
-        sync, _, _, channel_len, data_len = struct.unpack(">IqqII", head)
-        if sync != 0xEDA1DA01:
-            break
-        counts[file.read(channel_len).decode(errors="replace")] += 1
-        file.seek(data_len, 1)
-
-# The compliant segment: the plant's contact force (TRUTH) while the arm rests on the table, against
-# the two springs in series.
-press = json.load(open(os.path.join(d, "press.json")))
-def doubles(data, offset, n):
-    return list(struct.unpack_from(f">{n}d", data, offset)), offset + 8 * n
-# The LCM log's events, (utime, channel, data), in order (LCM's log format: a 28-byte header each).
+# The LCM log's events, (utime, channel, data), in order (LCM's log format: a 28-byte header each,
+# (sync 0xEDA1DA01, number, utime, channel length, data length), then the channel and the data).
 def events(path):
     with open(path, "rb") as file:
         while True:
             head = file.read(28)
             if len(head) < 28:
                 return
-            _, _, utime, channel_len, data_len = struct.unpack(">IqqII", head)
+            sync, _, utime, channel_len, data_len = struct.unpack(">IqqII", head)
+            if sync != 0xEDA1DA01:
+                return
             channel = file.read(channel_len).decode(errors="replace")
             yield utime, channel, file.read(data_len)
+
+log = os.path.join(d, "chasles.lcmlog")
+counts = Counter(channel for _, channel, _ in events(log))
+
+# The compliant segment: the plant's contact force (TRUTH) while the arm rests on the table, against
+# the two springs in series.
+press = json.load(open(os.path.join(d, "press.json")))
+def doubles(data, offset, n):
+    return list(struct.unpack_from(f">{n}d", data, offset)), offset + 8 * n
 truth_f = []
 for utime, channel, data in events(log):
     if not (press["from_utime"] <= utime <= press["to_utime"]):
