@@ -49,6 +49,8 @@ class TorqueGuard {
   /// The law's torque `tau` at now_ns made the command, in place. False, tau left unusable, when it
   /// is not finite. Allocates nothing.
   bool apply(Eigen::VectorXd& tau, int64_t now_ns);
+  /// Each joint's effort limit, N·m (∞ where the URDF gives none).
+  const Eigen::VectorXd& effort_limit() const { return effort_limit_; }
   /// Each joint's torque-rate limit, N·m/s.
   const Eigen::VectorXd& torque_rate() const { return torque_rate_; }
 

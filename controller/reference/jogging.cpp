@@ -26,10 +26,10 @@ JogMotion::JogMotion(int dof, const JogConfig& config, const motion::MotionLimit
                      double timeout, JogProgress& progress)
     : JoggedMotion(dof, config, limits, generator, timeout, progress), jog_(dof) {}
 
-bool JogMotion::take(const Jog& jog, const Eigen::MatrixXd& M, int64_t now_ns) {
+bool JogMotion::take(const Jog& jog, const Data& data, int64_t now_ns) {
   if (!clock_.take_if_newer(jog.utime)) return false;
   clock_.take(jog.utime, now_ns, timeout_);
-  generator_.cap_jerk(M);
+  generator_.fit_to_arm(data);
   jog_.utime = jog.utime;
   jog_.kind = jog.kind;
   jog_.frame = jog.frame;
@@ -51,9 +51,9 @@ TipStreamMotion::TipStreamMotion(int dof, const JogConfig& config, const motion:
                                  GeneratorLimits& generator, double timeout, JogProgress& progress)
     : JoggedMotion(dof, config, limits, generator, timeout, progress) {}
 
-bool TipStreamMotion::take(const TipSetpoint& setpoint, const Eigen::MatrixXd& M, int64_t now_ns) {
+bool TipStreamMotion::take(const TipSetpoint& setpoint, const Data& data, int64_t now_ns) {
   if (!clock_.take_if_newer(setpoint.utime)) return false;
-  generator_.cap_jerk(M);
+  generator_.fit_to_arm(data);
   const double age = clock_.take(setpoint.utime, now_ns, timeout_);
   const Eigen::Vector4d& w = setpoint.quaternion;
   twist_ = setpoint.twist;

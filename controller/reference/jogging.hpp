@@ -40,9 +40,9 @@ class JogMotion final : public JoggedMotion {
  public:
   JogMotion(int dof, const JogConfig& config, const motion::MotionLimits& limits, GeneratorLimits& generator,
             double timeout, JogProgress& progress);
-  /// Takes a command newer than the last (false, counted as dropped, if it is not), its jerk
-  /// capped at the pose of the state, whose mass matrix is M. Allocates nothing.
-  bool take(const Jog& jog, const Eigen::MatrixXd& M, int64_t now_ns);
+  /// Takes a command newer than the last (false, counted as dropped, if it is not), its
+  /// acceleration and jerk fitted to the arm at the state whose terms are `data`. Allocates nothing.
+  bool take(const Jog& jog, const Data& data, int64_t now_ns);
   Progress advance(const Tick& tick, motion::Reference& ref) override;
 
  private:
@@ -54,9 +54,9 @@ class TipStreamMotion final : public JoggedMotion {
   TipStreamMotion(int dof, const JogConfig& config, const motion::MotionLimits& limits, GeneratorLimits& generator,
                   double timeout, JogProgress& progress);
   /// Takes a setpoint newer than the last (false, counted as dropped, if it is not): the pose,
-  /// moved on with its twist by how late it came, its jerk capped at the pose of the state, whose
-  /// mass matrix is M. Its quaternion is taken as unit (checked by the caller). Allocates nothing.
-  bool take(const TipSetpoint& setpoint, const Eigen::MatrixXd& M, int64_t now_ns);
+  /// moved on with its twist by how late it came, its acceleration and jerk fitted to the arm at the
+  /// state whose terms are `data`. Its quaternion is taken as unit (checked by the caller). Allocates nothing.
+  bool take(const TipSetpoint& setpoint, const Data& data, int64_t now_ns);
   Progress advance(const Tick& tick, motion::Reference& ref) override;
 
  private:

@@ -31,10 +31,16 @@ const Data& ReferenceKinematics::at(const RobotModel& model, const Eigen::Vector
   return data_;
 }
 
-GeneratorLimits::GeneratorLimits(const motion::MotionLimits& limits, const Eigen::VectorXd& torque_rate, bool cap)
-    : jerk_(finite_or(limits.jerk, kUnlimitedJerk)), torque_rate_(torque_rate), cap_(cap) {
+GeneratorLimits::GeneratorLimits(const motion::MotionLimits& limits, const Eigen::VectorXd& effort,
+                                 const Eigen::VectorXd& torque_rate, bool cap_acceleration, bool cap_jerk)
+    : acceleration_(finite_or(limits.acceleration, kUnlimitedAcceleration)),
+      jerk_(finite_or(limits.jerk, kUnlimitedJerk)),
+      effort_(effort),
+      torque_rate_(torque_rate),
+      cap_acceleration_(cap_acceleration),
+      cap_jerk_(cap_jerk) {
   limits_.velocity = finite_or(limits.velocity, kUnlimitedVelocity);
-  limits_.acceleration = finite_or(limits.acceleration, kUnlimitedAcceleration);
+  limits_.acceleration = acceleration_;
   limits_.jerk = jerk_;
 }
 
@@ -42,17 +48,35 @@ GeneratorLimits::GeneratorLimits(const motion::MotionLimits& limits, const Eigen
 // until the next: the plan is then time-optimal for limits that stay put, as Ruckig's is for the
 // limits it is given. Capped anew every tick instead, a rest-to-rest move replanned under a jerk
 // that changed with M(q) took up to 1.17 times the time-optimal duration at its limits.
-void GeneratorLimits::cap_jerk(const Eigen::MatrixXd& M) {
-  if (!cap_) return;
-  // τ̇ ≈ M(q) q⃛ is what a reference's jerk asks of the torque. One factor for every joint keeps the
-  // jerks' proportions (and a twist's direction through a change); half the rate leaves room for
-  // M(q) to grow along the way to the next goal.
-  double scale = 1.0;
-  for (int i = 0; i < torque_rate_.size(); ++i) {
-    const double asked = M.row(i).cwiseAbs().dot(jerk_);
-    if (asked > 0.0) scale = std::min(scale, kTorqueRateShare * torque_rate_(i) / asked);
+//
+// One factor for every joint keeps the proportions of the accelerations (and the jerks), and so a
+// twist's direction through a change; half of what is left leaves room for M(q) and g(q) to change
+// along the way to the next goal.
+void GeneratorLimits::fit_to_arm(const Data& data) {
+  const Eigen::MatrixXd& M = data.M;
+  if (cap_acceleration_) {
+    // τ = M(q) q̈ + C(q, q̇) q̇ + g(q): what is left of a joint's effort once g(q) is held up is what
+    // the reference's acceleration may ask through M(q). Where gravity takes nearly all of it (a
+    // pose the arm barely holds), a fifth of the effort still counts as left: a reference that may not
+    // accelerate at all could not even brake.
+    double scale = 1.0;
+    for (int i = 0; i < effort_.size(); ++i) {
+      if (!std::isfinite(effort_(i))) continue;
+      const double asked = M.row(i).cwiseAbs().dot(acceleration_);
+      const double left = std::max(effort_(i) - std::abs(data.g(i)), 0.2 * effort_(i));
+      if (asked > 0.0) scale = std::min(scale, kEffortShare * left / asked);
+    }
+    limits_.acceleration = scale * acceleration_;
   }
-  limits_.jerk = scale * jerk_;
+  if (cap_jerk_) {
+    // τ̇ ≈ M(q) q⃛ is what a reference's jerk asks of the torque rate.
+    double scale = 1.0;
+    for (int i = 0; i < torque_rate_.size(); ++i) {
+      const double asked = M.row(i).cwiseAbs().dot(jerk_);
+      if (asked > 0.0) scale = std::min(scale, kTorqueRateShare * torque_rate_(i) / asked);
+    }
+    limits_.jerk = scale * jerk_;
+  }
 }
 
 bool StreamClock::take_if_newer(int64_t utime) {

@@ -42,26 +42,34 @@ struct Tick {
   ReferenceKinematics* kinematics = nullptr;
 };
 
-/// The limits the online generator plans streams, jogs and stops with: MotionLimits' velocity and
-/// acceleration (∞ as large finite values) and the jerk capped by the torque rate at the pose of
-/// the latest goal taken.
+/// The limits the online generator plans streams, jogs and stops with: MotionLimits' velocity (∞
+/// as a large finite value), and its acceleration and jerk capped at the pose of the latest goal
+/// taken by what the arm's effort and torque-rate limits let it follow there.
 class GeneratorLimits {
  public:
-  /// `torque_rate`: each joint's torque-rate limit, N·m/s; `cap`: whether the jerk is capped by it.
-  GeneratorLimits(const motion::MotionLimits& limits, const Eigen::VectorXd& torque_rate, bool cap);
+  /// `effort`, `torque_rate`: each joint's limits, N·m and N·m/s (∞ where there is none);
+  /// `cap_acceleration`, `cap_jerk`: whether the acceleration and the jerk are capped by them.
+  GeneratorLimits(const motion::MotionLimits& limits, const Eigen::VectorXd& effort, const Eigen::VectorXd& torque_rate,
+                  bool cap_acceleration, bool cap_jerk);
   const motion::Limits& limits() const { return limits_; }
-  /// The configured jerks scaled down by one factor until M(q) times them asks at most
+  /// At the state whose terms are `data` (M(q), g(q)): the configured accelerations scaled down by
+  /// one factor until M(q) times them asks at most kEffortShare of each joint's effort left over
+  /// from holding up g(q), and the configured jerks by another until M(q) times them asks at most
   /// kTorqueRateShare of each joint's torque-rate limit. Allocates nothing.
-  void cap_jerk(const Eigen::MatrixXd& M);
+  void fit_to_arm(const Data& data);
   /// The share of each joint's torque-rate limit a generated reference's jerk may take (through
   /// M): the rest is the feedback's, which must correct what the arm did not follow.
   static constexpr double kTorqueRateShare = 0.5;
+  /// The share of each joint's effort beyond |g(q)| a generated reference's acceleration may take:
+  /// the rest is the feedback's and the velocity terms' (C(q, q̇) q̇, which the pose alone does not
+  /// give).
+  static constexpr double kEffortShare = 0.5;
 
  private:
   motion::Limits limits_;
-  Eigen::VectorXd jerk_;  // the configured jerk, finite
-  Eigen::VectorXd torque_rate_;
-  bool cap_;
+  Eigen::VectorXd acceleration_, jerk_;  // as configured, finite
+  Eigen::VectorXd effort_, torque_rate_;
+  bool cap_acceleration_, cap_jerk_;
 };
 
 /// The timing of a stream of messages stamped by their sender (setpoints, jog commands): which

@@ -43,7 +43,7 @@ void StreamMotion::start(int64_t now_ns) {
   tick_ns_ = now_ns;
 }
 
-bool StreamMotion::take(const Setpoint& setpoint, const Eigen::MatrixXd& M, int64_t now_ns) {
+bool StreamMotion::take(const Setpoint& setpoint, const Data& data, int64_t now_ns) {
   if (!clock_.take_if_newer(setpoint.utime)) return false;
   const bool first = clock_.first();
   const double age = clock_.take(setpoint.utime, now_ns, timeout_);
@@ -55,7 +55,7 @@ bool StreamMotion::take(const Setpoint& setpoint, const Eigen::MatrixXd& M, int6
     held = held && p == target_.p(i);
     target_.p(i) = p;
   }
-  if (!held) generator_.cap_jerk(M);
+  if (!held) generator_.fit_to_arm(data);
   const motion::Limits& g = generator_.limits();
   for (int i = 0; i < setpoint.q.size(); ++i) {
     target_.v(i) = motion::velocity_that_stops_in_range(setpoint.qd(i), target_.p(i), limits_.lower(i), limits_.upper(i),
@@ -84,8 +84,8 @@ StopMotion::StopMotion(int dof, const motion::MotionLimits& limits, GeneratorLim
   size_states(dof, {&from_, &target_, &out_});
 }
 
-void StopMotion::start(const motion::Reference& ref, const Eigen::MatrixXd& M, int64_t from_ns) {
-  generator_.cap_jerk(M);
+void StopMotion::start(const motion::Reference& ref, const Data& data, int64_t from_ns) {
+  generator_.fit_to_arm(data);
   const motion::Limits& g = generator_.limits();
   for (int i = 0; i < ref.q.size(); ++i) {
     target_.p(i) = std::clamp(motion::stop_position(ref.q(i), ref.qd(i), ref.qdd(i), g.velocity(i), g.acceleration(i),

@@ -21,9 +21,9 @@ class StreamMotion final : public ReferenceSource {
   /// Takes a setpoint newer than the last (false, counted as dropped, if it is not): the target
   /// moves toward it, aged by how late it came, clamped into the limits less the margin, its
   /// velocity toward a limit cut to what can stop before it. Any goal but the same one at rest
-  /// again is planned under the jerk capped at the pose of the state, whose mass matrix is M.
-  /// Allocates nothing.
-  bool take(const Setpoint& setpoint, const Eigen::MatrixXd& M, int64_t now_ns);
+  /// again is planned under the acceleration and jerk fitted to the arm at the state whose terms
+  /// are `data` (GeneratorLimits::fit_to_arm). Allocates nothing.
+  bool take(const Setpoint& setpoint, const Data& data, int64_t now_ns);
   Progress advance(const Tick& tick, motion::Reference& ref) override;
   const char* failure() const override { return failure_; }
   /// When the reference last moved, ns: where a brake taking over starts from.
@@ -46,8 +46,8 @@ class StopMotion final : public ReferenceSource {
   StopMotion(int dof, const motion::MotionLimits& limits, GeneratorLimits& generator);
   /// Brakes `ref` to rest along the fastest stop the generator's limits allow, its end clamped
   /// into the position limits, moving on from from_ns (the last tick the reference moved); the
-  /// jerk capped at the pose of the state, whose mass matrix is M. Allocates nothing.
-  void start(const motion::Reference& ref, const Eigen::MatrixXd& M, int64_t from_ns);
+  /// acceleration and jerk fitted to the arm at the state whose terms are `data`. Allocates nothing.
+  void start(const motion::Reference& ref, const Data& data, int64_t from_ns);
   Progress advance(const Tick& tick, motion::Reference& ref) override;
   const char* failure() const override { return failure_; }
 

@@ -28,9 +28,14 @@ struct LimitConfig {
   /// The measured velocity may exceed a joint's limit by this fraction before the guard trips.
   double velocity_tolerance = 0.1;
   /// Whether the online generator (streams, jogs, stops) keeps its jerk within what the
-  /// torque-rate limit lets the arm follow at each state (Controller, cap_jerk_to_torque_rate):
+  /// torque-rate limit lets the arm follow at each state (GeneratorLimits::fit_to_arm):
   /// libfranka's Panda jerks ask up to ten times the torque rate. Off, it plans at `jerk` itself.
   bool jerk_within_torque_rate = true;
+  /// Whether the online generator keeps its acceleration within what the effort limits leave
+  /// beyond gravity at each state (GeneratorLimits::fit_to_arm): libfranka's Panda accelerations,
+  /// asked at an outstretched pose, want more than a shoulder's 87 N·m. Off, it plans at
+  /// `acceleration` itself.
+  bool acceleration_within_effort = true;
 
   /// Throws ArgumentError naming what is wrong (sizes, signs, non-finite values).
   void validate(int dof) const;

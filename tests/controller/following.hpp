@@ -36,9 +36,10 @@ class Following : public ::testing::Test {
       : model_(model), state_(model.dof()) {
     constexpr double kInf = std::numeric_limits<double>::infinity();
     config_ = Config::critically_damped(model.dof(), omega);
-    // The tests judge the generated reference against the configured limits themselves; the jerk's
-    // cap by the torque rate is judged on its own (stream_test).
+    // The tests judge the generated reference against the configured limits themselves; the caps of
+    // the acceleration by the effort and the jerk by the torque rate are judged on their own (stream_test).
     config_.limits.jerk_within_torque_rate = false;
+    config_.limits.acceleration_within_effort = false;
     // The state may be the reference itself, not an arm's answer to the torque: the contact
     // monitor, which would read the difference as a push, is off; the limits' guard stays on.
     config_.contact.collision_torque = config_.contact.contact_torque = Eigen::VectorXd::Constant(model.dof(), kInf);
