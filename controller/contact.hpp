@@ -16,7 +16,7 @@ namespace chasles::controller {
 
 /// What the controller does on a collision, until a new target.
 enum class Reflex : int8_t {
-  kStop = 0,       ///< hold where the arm is when it trips (the position loop brakes it)
+  kStop = 0,       ///< brake to rest from the arm's motion when it trips, within its effort; hold there
   kCompliant = 1,  ///< gravity compensation plus damping: the arm yields to whatever pushes it
   kRetract = 2,    ///< back along the tip's recent path by retract_distance, then hold
 };

@@ -42,7 +42,8 @@ Controller::Controller(const RobotModel& model, const Config& config)
       monitor_(model, config_),
       clearance_(model, config_.clearance),
       law_(model.dof(), config_),
-      generator_(limits_, guard_.torque_rate(), config_.limits.jerk_within_torque_rate),
+      generator_(limits_, guard_.effort_limit(), guard_.torque_rate(), config_.limits.acceleration_within_effort,
+                 config_.limits.jerk_within_torque_rate),
       goal_(model.dof(), limits_),
       path_(model.dof()),
       trajectory_(model.dof(), limits_),
@@ -157,7 +158,8 @@ bool Controller::set_model(const RobotModel& model) {
 void Controller::hold_at(const Eigen::VectorXd& q) {
   ref_.hold(q);
   mode_ = Mode::kHolding;
-  compliant_ = retracting_ = false;
+  compliant_ = false;
+  reflex_motion_ = nullptr;
 }
 
 void Controller::start_drive(ReferenceSource& source) {
@@ -166,7 +168,7 @@ void Controller::start_drive(ReferenceSource& source) {
 }
 
 void Controller::stop_motion(int64_t from_ns) {
-  stop_.start(ref_, data_.M, from_ns);
+  stop_.start(ref_, data_, from_ns);
   start_drive(stop_);
 }
 
@@ -194,28 +196,27 @@ void Controller::observe(const JointState& state) {
 }
 
 void Controller::start_reflex(int64_t now_ns, const char* reason, Reflex reflex) {
-  hold_at(q_);  // stop: hold here, braked by the position loop and the torque-rate limit
+  // From where the arm is and how it moves now, so the reference does not jump.
+  hold_at(q_);
+  ref_.qd = qd_;
   const ContactMonitor& contact = monitor_.contact();
-  switch (reflex) {
-    case Reflex::kStop:
-      break;
-    case Reflex::kCompliant:
-      compliant_ = true;
-      break;
-    case Reflex::kRetract: {
-      // From where the arm is and how it moves now, so the reference does not jump; slower than
-      // configured where the limits ask it.
-      contact.retract_goal(contact.config().retract_distance, retract_goal_);
-      ref_.qd = qd_;
-      motion::LimitExcess excess;
-      if (goal_.plan(ref_, retract_goal_, contact.config().retract_duration, excess) > 0.0) {
-        goal_.start(now_ns);
-        retracting_ = true;
-      } else {
-        ref_.qd.setZero();  // no retract within the limits from this motion: a stop
-      }
-      break;
+  if (reflex == Reflex::kRetract) {
+    contact.retract_goal(contact.config().retract_distance, retract_goal_);
+    motion::LimitExcess excess;
+    if (goal_.plan(ref_, retract_goal_, contact.config().retract_duration, excess) > 0.0) {
+      goal_.start(now_ns);  // slower than configured where the limits ask it
+      reflex_motion_ = &goal_;
     }
+  }
+  if (reflex == Reflex::kCompliant) {
+    compliant_ = true;
+  } else if (reflex_motion_ == nullptr) {
+    // A stop (or a retract the limits do not allow from this motion): the reference brakes from
+    // the arm's own motion to rest, within the acceleration its effort leaves it here. A reference
+    // held still while the arm moves fast asks a torque the arm may not have: saturated, the arm
+    // swung on, up to 30 times its velocity limits (docs/controller.md, "Clearance").
+    stop_.start(ref_, data_, now_ns);
+    reflex_motion_ = &stop_;
   }
   mode_ = Mode::kReflex;
   path_.drop();  // a Cartesian plan in the works is dropped
@@ -385,7 +386,7 @@ bool Controller::set_setpoint(const Setpoint& setpoint, int64_t now_ns) {
     return refuse("setpoint: of the wrong size or with non-finite values");
   }
   enter_stream(stream_, "a stream", now_ns);
-  return stream_.take(setpoint, data_.M, now_ns);
+  return stream_.take(setpoint, data_, now_ns);
 }
 
 bool Controller::set_tip_setpoint(const TipSetpoint& setpoint, int64_t now_ns) {
@@ -398,7 +399,7 @@ bool Controller::set_tip_setpoint(const TipSetpoint& setpoint, int64_t now_ns) {
     return refuse("tip setpoint: a quaternion of norm %g, not a unit one", norm);
   }
   enter_stream(tip_stream_, "a Cartesian stream", now_ns);
-  return tip_stream_.take(setpoint, data_.M, now_ns);
+  return tip_stream_.take(setpoint, data_, now_ns);
 }
 
 bool Controller::set_jog(const Jog& jog, int64_t now_ns) {
@@ -411,7 +412,7 @@ bool Controller::set_jog(const Jog& jog, int64_t now_ns) {
     return refuse("jog: of the wrong size or with non-finite values");
   }
   enter_stream(jog_, "a jog", now_ns);
-  return jog_.take(jog, data_.M, now_ns);
+  return jog_.take(jog, data_, now_ns);
 }
 
 void Controller::update_reference(int64_t now_ns) {
@@ -423,9 +424,12 @@ void Controller::update_reference(int64_t now_ns) {
   clearance_.hand_back(ref_);
   ref_from_ = ref_;
   if (mode_ == Mode::kReflex) {
-    if (retracting_) goal_.advance(tick, ref_);  // holds the goal once there
-    if (compliant_) ref_.hold(q_);               // the arm goes where it is pushed
-    if (retracting_) keep_clear();
+    if (compliant_) ref_.hold(q_);  // the arm goes where it is pushed
+    if (reflex_motion_ == nullptr) return;
+    const ReferenceSource::Progress progress = reflex_motion_->advance(tick, ref_);
+    keep_clear();
+    if (progress == ReferenceSource::Progress::kFailed) ref_.hold(ref_from_.q);  // never seen in the tests
+    if (progress != ReferenceSource::Progress::kMoving) reflex_motion_ = nullptr;  // at rest, held
     return;
   }
   if (mode_ != Mode::kRunning) return;
@@ -455,8 +459,8 @@ void Controller::keep_clear() {
     return;
   }
   if (mode_ == Mode::kReflex) {
-    retracting_ = false;  // no retract into something else: the reflex holds where it was cut
-    ref_.qd.setZero();
+    reflex_motion_ = nullptr;  // no retract or brake into something else: the reflex holds where it was cut
+    ref_.hold(ref_.q);
     return;
   }
   // A motion laid out in time (a goal's quintic, a Cartesian path, a trajectory) waits along its

@@ -161,9 +161,9 @@ class Controller {
   const Data& reference_data() const { return kinematics_.data(); }
   /// The limits every reference keeps to and the measured state is guarded by.
   const motion::MotionLimits& limits() const { return limits_; }
-  /// The limits the online generator plans streams, jogs and stops with now: limits_' velocity and
-  /// acceleration (∞ as large finite values) and the jerk capped by the torque rate at the pose of
-  /// the latest goal taken (cap_jerk_to_torque_rate).
+  /// The limits the online generator plans streams, jogs and stops with now: limits_' velocity (∞
+  /// as a large finite value), its acceleration and jerk capped by the effort and the torque rate
+  /// at the state of the latest goal taken (GeneratorLimits::fit_to_arm).
   const motion::Limits& generator_limits() const { return generator_.limits(); }
   /// The thresholds and reflex in force (the defaults filled in from the model).
   const ContactConfig& contact_config() const { return monitor_.contact().config(); }
@@ -250,7 +250,8 @@ class Controller {
   Eigen::VectorXd retract_goal_;
   Mode mode_ = Mode::kWaiting;
   bool stood_down_ = false;
-  bool compliant_ = false, retracting_ = false;
+  bool compliant_ = false;
+  ReferenceSource* reflex_motion_ = nullptr;  // what moves the reference in REFLEX: a stop or a retract
   // Fixed buffers: the reasons are formatted on the real-time thread, which must not allocate.
   char fault_reason_[192] = {};
   char rejection_[192] = {};

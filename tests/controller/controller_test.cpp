@@ -277,6 +277,11 @@ TEST_F(ControllerTest, ClampsToEffortLimitsAndLimitsTheTorqueRate) {
 // through the joints' coupling (clamped joint by joint, the Panda's joints 1 and 3 were driven the
 // wrong way after a FAULT at 200 Hz).
 TEST_F(ControllerTest, TheTorqueRateLimitKeepsTheLawsDirection) {
+  // The knock below is the test's, not a collision: no reflex, so the law acts on the hold.
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  auto& contact = config_.contact;
+  contact.contact_torque = contact.collision_torque = VectorXd::Constant(7, kInf);
+  contact.contact_force = contact.collision_force = contact.contact_moment = contact.collision_moment = kInf;
   Controller limited(model_, config_);
   Config free_config = config_;
   free_config.torque_ramp = 1e-9;
@@ -289,6 +294,8 @@ TEST_F(ControllerTest, TheTorqueRateLimitKeepsTheLawsDirection) {
   state_.seq = 2;
   ASSERT_TRUE(limited.tick(kMs, fresh(kMs)));
   ASSERT_TRUE(law.tick(kMs, fresh(kMs)));
+  ASSERT_EQ(limited.mode(), Mode::kHolding);
+  ASSERT_EQ(law.mode(), Mode::kHolding);
   const VectorXd effort = VectorXd::NullaryExpr(7, [&](Eigen::Index i) { return model_.joint(int(i)).limits.effort; });
   ASSERT_LT((law.torque().cwiseAbs() - effort).maxCoeff(), 0.0) << "the law's torque must be within the effort limits";
   const VectorXd step = effort / config_.torque_ramp * config_.period;

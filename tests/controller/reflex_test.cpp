@@ -168,6 +168,63 @@ TEST_F(Reflexes, ACollisionStopsTheArmUntilANewTarget) {
   EXPECT_EQ(controller.mode(), Mode::kHolding);
 }
 
+// The stop reflex from speed: a joint measured past its velocity limit trips it, and the reference
+// takes the arm's own motion and brakes it to rest as fast as the limits in force allow (the
+// acceleration fitted to the effort at this pose, the jerk to the torque rate): each joint's speed
+// falls monotonically, and it travels the distance of that brake, v²/(2A) + vA/(2J) (v√(v/J) for
+// a v below A²/J, where the acceleration peaks before A). A reference held still instead asked a
+// fast arm for more torque than it has (docs/controller.md, "Clearance").
+TEST_F(Reflexes, AStopFromSpeedBrakesTheArmsOwnMotionToRestWithinTheLimitsInForce) {
+  config_.contact.contact_torque = config_.contact.collision_torque = VectorXd::Constant(7, kInf);
+  config_.contact.collision_force = config_.contact.contact_force = kInf;
+  config_.contact.collision_moment = config_.contact.contact_moment = kInf;
+  Controller controller(model_, config_);
+  ASSERT_TRUE(controller.tick(0, still(0, q0_, VectorXd::Zero(7))));
+  VectorXd v0(7);
+  v0 << 0.5, -0.4, 0.3, 0.0, 0.0, 0.2, -0.3;
+  v0(3) = -1.15 * model_.joint(3).limits.velocity;  // past the 10 % tolerance
+  JointState state = *still(1, q0_, VectorXd::Zero(7));
+  state.qd = v0;
+  ASSERT_TRUE(controller.tick(kMs, &state));
+  ASSERT_EQ(controller.mode(), Mode::kReflex);
+  EXPECT_NE(std::string(controller.reflex_reason()).find("joint panda_joint4: velocity"), std::string::npos)
+      << controller.reflex_reason();
+  EXPECT_TRUE(matrices_near(controller.reference().q, q0_, 0.0));
+  EXPECT_TRUE(matrices_near(controller.reference().qd, v0, 0.0)) << "from the arm's own motion";
+  const motion::Limits limits = controller.generator_limits();
+  double slowest = 0.0;  // s, the longest of the joints' brakes
+  VectorXd rest = q0_;
+  for (int i = 0; i < 7; ++i) {
+    const double v = std::abs(v0(i)), A = limits.acceleration(i), J = limits.jerk(i);
+    const double d = v >= A * A / J ? v * v / (2 * A) + v * A / (2 * J) : v * std::sqrt(v / J);
+    rest(i) += std::copysign(d, v0(i));
+    slowest = std::max(slowest, v >= A * A / J ? v / A + A / J : 2 * std::sqrt(v / J));
+  }
+  // The arm follows the reference exactly from here.
+  VectorXd speed = v0.cwiseAbs();
+  int ticks = 0;
+  for (int64_t k = 2; controller.reference().qd.cwiseAbs().maxCoeff() > 0.0; ++k, ++ticks) {
+    ASSERT_LT(ticks, 5000);
+    state.seq = k, state.arrival_ns = k * kMs;
+    state.q = controller.reference().q, state.qd = controller.reference().qd, state.effort = controller.torque();
+    ASSERT_TRUE(controller.tick(k * kMs, &state));
+    ASSERT_EQ(controller.mode(), Mode::kReflex);
+    for (int i = 0; i < 7; ++i) {
+      EXPECT_LE(std::abs(controller.reference().qd(i)), speed(i) + 1e-12) << "tick " << k << " joint " << i;
+      EXPECT_LE(std::abs(controller.reference().qdd(i)), limits.acceleration(i) * (1 + 1e-9)) << "joint " << i;
+      speed(i) = std::abs(controller.reference().qd(i));
+    }
+  }
+  EXPECT_LE(ticks, std::ceil(slowest / 1e-3) + 1);
+  EXPECT_GE(ticks, std::floor(slowest / 1e-3) - 1);
+  EXPECT_TRUE(matrices_near(controller.reference().q, rest, 1e-9));
+  // At rest, it holds there.
+  state.seq = 9000, state.arrival_ns = 9000 * kMs;
+  ASSERT_TRUE(controller.tick(9000 * kMs, &state));
+  EXPECT_TRUE(matrices_near(controller.reference().q, rest, 1e-9));
+  EXPECT_EQ(controller.mode(), Mode::kReflex);
+}
+
 TEST_F(Reflexes, TheCompliantReflexCompensatesGravityAndDampsTheJoints) {
   config_.contact.reflex = Reflex::kCompliant;
   config_.torque_ramp = 1e-9;  // no rate limit: this test is about the law
