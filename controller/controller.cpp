@@ -196,27 +196,28 @@ void Controller::observe(const JointState& state) {
 }
 
 void Controller::start_reflex(int64_t now_ns, const char* reason, Reflex reflex) {
-  // From where the arm is and how it moves now, so the reference does not jump.
   hold_at(q_);
-  ref_.qd = qd_;
-  const ContactMonitor& contact = monitor_.contact();
-  if (reflex == Reflex::kRetract) {
-    contact.retract_goal(contact.config().retract_distance, retract_goal_);
-    motion::LimitExcess excess;
-    if (goal_.plan(ref_, retract_goal_, contact.config().retract_duration, excess) > 0.0) {
-      goal_.start(now_ns);  // slower than configured where the limits ask it
-      reflex_motion_ = &goal_;
-    }
-  }
   if (reflex == Reflex::kCompliant) {
     compliant_ = true;
-  } else if (reflex_motion_ == nullptr) {
-    // A stop (or a retract the limits do not allow from this motion): the reference brakes from
-    // the arm's own motion to rest, within the acceleration its effort leaves it here. A reference
-    // held still while the arm moves fast asks a torque the arm may not have: saturated, the arm
-    // swung on, up to 30 times its velocity limits (docs/controller.md, "Clearance").
-    stop_.start(ref_, data_, now_ns);
-    reflex_motion_ = &stop_;
+  } else {
+    ref_.qd = qd_;  // from how the arm moves now, so the reference does not jump
+    const ContactMonitor& contact = monitor_.contact();
+    if (reflex == Reflex::kRetract) {
+      contact.retract_goal(contact.config().retract_distance, retract_goal_);
+      motion::LimitExcess excess;
+      if (goal_.plan(ref_, retract_goal_, contact.config().retract_duration, excess) > 0.0) {
+        goal_.start(now_ns);  // slower than configured where the limits ask it
+        reflex_motion_ = &goal_;
+      }
+    }
+    if (reflex_motion_ == nullptr) {
+      // A stop (or a retract the limits do not allow from this motion): the reference brakes from
+      // the arm's own motion to rest, within the acceleration its effort leaves it here. A reference
+      // held still while the arm moves fast asks a torque the arm may not have: saturated, the arm
+      // swung on, up to 30 times its velocity limits (docs/controller.md, "Clearance").
+      stop_.start(ref_, data_, now_ns);
+      reflex_motion_ = &stop_;
+    }
   }
   mode_ = Mode::kReflex;
   path_.drop();  // a Cartesian plan in the works is dropped

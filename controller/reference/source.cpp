@@ -54,28 +54,28 @@ GeneratorLimits::GeneratorLimits(const motion::MotionLimits& limits, const Eigen
 // along the way to the next goal.
 void GeneratorLimits::fit_to_arm(const Data& data) {
   const Eigen::MatrixXd& M = data.M;
+  // The largest factor s ≤ 1 with Σ_j |M_ij| s·limit_j ≤ budget(i) for every joint i.
+  const auto factor_within = [&M](const Eigen::VectorXd& limit, auto budget) {
+    double scale = 1.0;
+    for (int i = 0; i < M.rows(); ++i) {
+      const double asked = M.row(i).cwiseAbs().dot(limit);
+      if (asked > 0.0) scale = std::min(scale, budget(i) / asked);
+    }
+    return scale;
+  };
   if (cap_acceleration_) {
     // τ = M(q) q̈ + C(q, q̇) q̇ + g(q): what is left of a joint's effort once g(q) is held up is what
     // the reference's acceleration may ask through M(q). Where gravity takes nearly all of it (a
     // pose the arm barely holds), a fifth of the effort still counts as left: a reference that may not
-    // accelerate at all could not even brake.
-    double scale = 1.0;
-    for (int i = 0; i < effort_.size(); ++i) {
-      if (!std::isfinite(effort_(i))) continue;
-      const double asked = M.row(i).cwiseAbs().dot(acceleration_);
-      const double left = std::max(effort_(i) - std::abs(data.g(i)), 0.2 * effort_(i));
-      if (asked > 0.0) scale = std::min(scale, kEffortShare * left / asked);
-    }
-    limits_.acceleration = scale * acceleration_;
+    // accelerate at all could not even brake. A joint without an effort limit (∞) bounds nothing.
+    limits_.acceleration = factor_within(acceleration_, [&](int i) {
+                             return kEffortShare * std::max(effort_(i) - std::abs(data.g(i)), 0.2 * effort_(i));
+                           }) *
+                           acceleration_;
   }
   if (cap_jerk_) {
     // τ̇ ≈ M(q) q⃛ is what a reference's jerk asks of the torque rate.
-    double scale = 1.0;
-    for (int i = 0; i < torque_rate_.size(); ++i) {
-      const double asked = M.row(i).cwiseAbs().dot(jerk_);
-      if (asked > 0.0) scale = std::min(scale, kTorqueRateShare * torque_rate_(i) / asked);
-    }
-    limits_.jerk = scale * jerk_;
+    limits_.jerk = factor_within(jerk_, [&](int i) { return kTorqueRateShare * torque_rate_(i); }) * jerk_;
   }
 }
 
