@@ -22,7 +22,7 @@ using testing::data_path;
 using testing::matrices_near;
 using testing::panda;
 
-VectorXd bent_pose() {
+VectorXd start_pose() {
   VectorXd q(7);
   q << 0.1, 0.5, -0.2, -1.2, 0.1, 1.0, 0.3;
   return q;
@@ -34,8 +34,8 @@ TEST(CartesianPath, FollowsTheScrewLineAndReachesTheGoal) {
   IkSolver solver(model);
   CartesianRequest request(7);
   request.id = 1;
-  request.q_start = bent_pose();
-  VectorXd q_goal = bent_pose();
+  request.q_start = start_pose();
+  VectorXd q_goal = start_pose();
   q_goal << -0.3, 0.2, 0.3, -1.9, -0.2, 1.6, 0.5;
   request.T_goal = forward_kinematics(model, data, q_goal);
   request.duration = 2.0;
@@ -90,7 +90,7 @@ TEST(CartesianPath, TheSampledJointMotionMovesTheTipAtTheScrewLinesTwist) {
   const motion::MotionLimits limits(model, {});
   CartesianRequest request(7);
   request.id = 3;
-  request.q_start = bent_pose();
+  request.q_start = start_pose();
   VectorXd q_goal(7);
   q_goal << -0.3, 0.2, 0.3, -1.9, -0.2, 1.6, 0.5;
   request.T_goal = forward_kinematics(model, data, q_goal);
@@ -132,7 +132,7 @@ TEST(CartesianPath, EveryLimitHoldsAlongThePathTickByTick) {
   const motion::MotionLimits limits(model, {});
   CartesianRequest request(7);
   request.id = 4;
-  request.q_start = bent_pose();
+  request.q_start = start_pose();
   VectorXd q_goal(7);
   q_goal << 0.6, 0.1, -0.5, -2.0, 0.4, 1.4, -0.2;
   request.T_goal = forward_kinematics(model, data, q_goal);

@@ -21,6 +21,7 @@ namespace {
 
 using testing::matrices_near;
 using testing::matrices_near_relative;
+using testing::relative_error;
 
 const char* const kTip = "iiwa_link_ee";
 
@@ -57,12 +58,6 @@ std::string load_error(const std::string& xml, const std::string& tip = kTip) {
     return e.what();
   }
   return "";
-}
-
-// |a − e| ≤ tolerance · max(1, |e|_max) over the pairs of vectors or matrices given, the largest
-// relative error found; the reference's own magnitudes set the scale (τ reaches 10² N·m).
-double relative_error(const Eigen::MatrixXd& a, const Eigen::MatrixXd& e) {
-  return testing::max_abs_diff(a, e) / std::max(1.0, e.cwiseAbs().maxCoeff());
 }
 
 TEST(Armature, TheUrdfsTransmissionsGiveTheReferencesArmature) {

@@ -16,7 +16,7 @@
 namespace chasles {
 namespace {
 
-RobotModel panda() {
+RobotModel panda_to_hand() {
   UrdfOptions options;
   options.tip_link = "panda_hand";
   return load_urdf_file(testing::data_path("panda.urdf"), options);
@@ -132,7 +132,7 @@ TEST(Excitation, AtRestAtTheStartAndAtTheEndOfEveryPeriod) {
 // A short optimisation (20 states a period, 3 harmonics, 15 iterations: what CI affords), judged
 // by what it must deliver rather than by its figures.
 TEST(Excitation, OptimisedPandaKeepsItsLimitsAndIsBetterConditionedThanItsStart) {
-  const RobotModel model = panda();
+  const RobotModel model = panda_to_hand();
   const int n = model.dof();
   const BaseParameters base = base_parameters(model, 30, 1);
   ASSERT_EQ(base.count, 62);  // regressor_test: 43 inertial + 2 n friction + n − 2 rotors
@@ -198,7 +198,7 @@ TEST(Excitation, OptimisedPandaKeepsItsLimitsAndIsBetterConditionedThanItsStart)
 }
 
 TEST(Excitation, RefusesWhatItCannotDo) {
-  const RobotModel model = panda();
+  const RobotModel model = panda_to_hand();
   const BaseParameters base = base_parameters(model, 30, 1);
   const ExcitationLimits limits = panda_limits(model);
   ExcitationOptions options;

@@ -20,9 +20,7 @@
 namespace chasles {
 namespace {
 
-double relative_error(const Vector10d& a, const Vector10d& e) {
-  return (a - e).cwiseAbs().maxCoeff() / std::max(1.0, e.cwiseAbs().maxCoeff());
-}
+using testing::relative_error;
 
 // A random body with J ≻ 0: mass in [0.1, 10] kg, centre of mass within 0.5 m, and a second moment
 // about it Σ_c = m R diag(σ) Rᵀ with σ in [1e-4, 1e-1] m² (a body 2 cm to 60 cm across).

@@ -25,12 +25,12 @@ namespace {
 using testing::matrices_near;
 using testing::matrices_near_relative;
 
-struct Arm {
+struct LoadedArm {
   std::string name;
   RobotModel model;
 };
 
-std::vector<Arm> arms() {
+std::vector<LoadedArm> arms() {
   const auto load = [](const std::string& file, const std::string& tip) {
     UrdfOptions options;
     options.tip_link = tip;
@@ -128,7 +128,7 @@ TEST(perturbation, EveryBodyStaysPhysicalAndWithinTheBound) {
   constexpr double kRounding = 1e-12;  // relative: the recomposition of I and its eigenvalues
   double mass_low = 0, mass_high = 0, centre_low = 0, centre_high = 0, moment_low = 0, moment_high = 0;
   int bodies = 0;
-  for (const Arm& arm : arms()) {
+  for (const LoadedArm& arm : arms()) {
     const Eigen::MatrixXd nominal = inertial_parameters(arm.model);
     for (uint64_t seed = 1; seed <= 5; ++seed) {
       SCOPED_TRACE(arm.name + ", seed " + std::to_string(seed));
@@ -157,7 +157,7 @@ TEST(perturbation, EveryBodyStaysPhysicalAndWithinTheBound) {
   for (const double low : {mass_low, centre_low, moment_low}) EXPECT_LT(low, -0.85);
   for (const double high : {mass_high, centre_high, moment_high}) EXPECT_GT(high, 0.85);
 
-  for (const Arm& arm : arms()) {
+  for (const LoadedArm& arm : arms()) {
     const Eigen::MatrixXd nominal = inertial_parameters(arm.model);
     for (int corner = 0; corner < 1 << 7; ++corner) {
       Vector10d u;  // the mass, centre and spread draws at ±1, the axis and angle varied with them
@@ -175,7 +175,7 @@ TEST(perturbation, EveryBodyStaysPhysicalAndWithinTheBound) {
 // parameters for every body. The kinematics are the nominal model's exactly (forward kinematics
 // at seeded configurations, the joints, the armature), the dynamics not (M(q) differs).
 TEST(perturbation, TheSeedIsTheModelAndTheKinematicsAreUntouched) {
-  for (const Arm& arm : arms()) {
+  for (const LoadedArm& arm : arms()) {
     SCOPED_TRACE(arm.name);
     const RobotModel a = with_perturbed_inertias(arm.model, 0.2, 11);
     const RobotModel again = with_perturbed_inertias(arm.model, 0.2, 11);

@@ -19,12 +19,14 @@
 namespace chasles {
 namespace {
 
+using testing::relative_error;
+
 using testing::matrices_near_relative;
 
-struct Arm {
+struct ArmFile {
   std::string name, tip;
 };
-void PrintTo(const Arm& arm, std::ostream* out) { *out << arm.name; }
+void PrintTo(const ArmFile& arm, std::ostream* out) { *out << arm.name; }
 
 struct State {
   Eigen::VectorXd q, qd, qdd;
@@ -50,12 +52,7 @@ std::vector<State> random_states(const RobotModel& model, int count, uint64_t se
   return states;
 }
 
-// |a − e| / max(1, |e|_max): the torque's own magnitude sets the scale (τ reaches 10² N·m).
-double relative_error(const Eigen::MatrixXd& a, const Eigen::MatrixXd& e) {
-  return testing::max_abs_diff(a, e) / std::max(1.0, e.cwiseAbs().maxCoeff());
-}
-
-class Regressor : public ::testing::TestWithParam<Arm> {
+class Regressor : public ::testing::TestWithParam<ArmFile> {
  protected:
   void SetUp() override {
     UrdfOptions options;
@@ -195,14 +192,14 @@ TEST_P(Regressor, WrongSizesAreRejected) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Arms, Regressor,
-                         ::testing::Values(Arm{"ur5", "tool0"}, Arm{"panda", "panda_hand"},
-                                           Arm{"iiwa14", "iiwa_link_ee"}, Arm{"arm", "tip"}),
-                         [](const ::testing::TestParamInfo<Arm>& p) { return p.param.name; });
+                         ::testing::Values(ArmFile{"ur5", "tool0"}, ArmFile{"panda", "panda_hand"},
+                                           ArmFile{"iiwa14", "iiwa_link_ee"}, ArmFile{"arm", "tip"}),
+                         [](const ::testing::TestParamInfo<ArmFile>& p) { return p.param.name; });
 
 // Y π with the URDF's π against Pinocchio's rnea (tests/data/<robot>.json, 50 cases each): the
 // rigid bodies' τ with the armature's entries of π at zero, and the iiwa's τ with its armature.
 TEST(RegressorReference, MatchesPinocchiosInverseDynamics) {
-  for (const Arm& arm : {Arm{"ur5", "tool0"}, Arm{"panda", "panda_hand"}, Arm{"iiwa14", "iiwa_link_ee"}}) {
+  for (const ArmFile& arm : {ArmFile{"ur5", "tool0"}, ArmFile{"panda", "panda_hand"}, ArmFile{"iiwa14", "iiwa_link_ee"}}) {
     SCOPED_TRACE(arm.name);
     const testing::Reference ref = testing::load_reference(arm.name);
     UrdfOptions options;
@@ -244,7 +241,7 @@ TEST(RegressorReference, MatchesPinocchiosInverseDynamics) {
 // turn with q̇₁ and q̇₂ alone (½ (aᵀ I a) q̇² of kinetic energy, the armature's own form), which
 // RotorsOfTheFirstTwoJointsFoldIntoTheirBodies checks directly.
 struct BaseCount {
-  Arm arm;
+  ArmFile arm;
   int inertial, total;
   int zero_columns;  ///< parameters that move no torque at all
 };
@@ -356,9 +353,9 @@ TEST_P(RevoluteRegressor, RotorsOfTheFirstTwoJointsFoldIntoTheirBodies) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Arms, RevoluteRegressor,
-                         ::testing::Values(Arm{"ur5", "tool0"}, Arm{"panda", "panda_hand"},
-                                           Arm{"iiwa14", "iiwa_link_ee"}),
-                         [](const ::testing::TestParamInfo<Arm>& p) { return p.param.name; });
+                         ::testing::Values(ArmFile{"ur5", "tool0"}, ArmFile{"panda", "panda_hand"},
+                                           ArmFile{"iiwa14", "iiwa_link_ee"}),
+                         [](const ::testing::TestParamInfo<ArmFile>& p) { return p.param.name; });
 
 }  // namespace
 }  // namespace chasles

@@ -210,7 +210,7 @@ std::vector<uint8_t> prefix(const std::vector<uint8_t>& bytes, size_t length) {
 // Every proper prefix of a valid encoding is refused by the checked decoder, for any arm, and so
 // is the encoding with one more byte.
 template <class Message>
-void expect_damage_refused(const std::vector<uint8_t>& bytes) {
+void expect_drake_damage_refused(const std::vector<uint8_t>& bytes) {
   for (size_t length = 0; length < bytes.size(); ++length) {
     EXPECT_NE(decode_checked<Message>(prefix(bytes, length), messages::kAnyArm), "") << "truncated to " << length;
   }
@@ -245,7 +245,7 @@ TEST(DrakeLcmtypes, IiwaStatusCheckedDecoderReadsWhatItShouldAndRefusesTheRest) 
   EXPECT_EQ(checked.joint_velocity_estimated, m.joint_velocity_estimated);
   EXPECT_EQ(checked.joint_torque_measured, m.joint_torque_measured);
   EXPECT_EQ(checked.joint_torque_external, m.joint_torque_external);
-  expect_damage_refused<drake::lcmt_iiwa_status>(bytes);
+  expect_drake_damage_refused<drake::lcmt_iiwa_status>(bytes);
   expect_reuse_allocates_nothing<drake::lcmt_iiwa_status>(bytes);
 
   // Another type (Drake's command, chasles's state) or too few bytes for a fingerprint.
@@ -301,7 +301,7 @@ TEST(DrakeLcmtypes, IiwaCommandCheckedDecoderReadsBothCounts) {
     EXPECT_EQ(checked.utime, m.utime);
     EXPECT_EQ(checked.joint_position, m.joint_position);
     EXPECT_EQ(checked.joint_torque, m.joint_torque);
-    expect_damage_refused<drake::lcmt_iiwa_command>(bytes);
+    expect_drake_damage_refused<drake::lcmt_iiwa_command>(bytes);
     expect_reuse_allocates_nothing<drake::lcmt_iiwa_command>(bytes);
   }
   const std::vector<uint8_t> bytes = encode(make_iiwa_command(kJoints, kJoints));
@@ -346,7 +346,7 @@ TEST(DrakeLcmtypes, PandaStatusCheckedDecoderReadsWhatItShouldAndRefusesTheRest)
   EXPECT_EQ(checked.joint_torque_external, m.joint_torque_external);
   EXPECT_EQ(checked.robot_mode, drake::lcmt_panda_status::kMove);
   EXPECT_EQ(checked.robot_utime, m.robot_utime);
-  expect_damage_refused<drake::lcmt_panda_status>(bytes);
+  expect_drake_damage_refused<drake::lcmt_panda_status>(bytes);
   expect_reuse_allocates_nothing<drake::lcmt_panda_status>(bytes);
 
   EXPECT_EQ(decode_checked<drake::lcmt_panda_status>(encode(make_iiwa_status())),
@@ -395,7 +395,7 @@ TEST(DrakeLcmtypes, PandaCommandCheckedDecoderReadsAllThreeCounts) {
     EXPECT_EQ(checked.joint_velocity, m.joint_velocity);
     EXPECT_EQ(checked.joint_torque, m.joint_torque);
     EXPECT_EQ(checked.control_mode_expected, m.control_mode_expected);
-    expect_damage_refused<drake::lcmt_panda_command>(bytes);
+    expect_drake_damage_refused<drake::lcmt_panda_command>(bytes);
     expect_reuse_allocates_nothing<drake::lcmt_panda_command>(bytes);
   }
   // Torque mode: counts at bytes 16, 20 and 24, then 56 bytes of torques and the mode.

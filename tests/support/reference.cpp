@@ -1,5 +1,6 @@
 #include "support/reference.hpp"
 
+#include <algorithm>
 #include <cstring>
 #include <fstream>
 #include <iomanip>
@@ -74,6 +75,10 @@ Reference load_reference(const std::string& robot) {
 }
 
 double max_abs_diff(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) { return (a - b).cwiseAbs().maxCoeff(); }
+
+double relative_error(const Eigen::MatrixXd& a, const Eigen::MatrixXd& e) {
+  return max_abs_diff(a, e) / std::max(1.0, e.cwiseAbs().maxCoeff());
+}
 
 namespace {
 ::testing::AssertionResult compare(const Eigen::MatrixXd& actual, const Eigen::MatrixXd& expected, double bound) {

@@ -44,6 +44,9 @@ Reference load_reference(const std::string& robot);
 
 /// Largest absolute difference; also usable outside assertions.
 double max_abs_diff(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b);
+/// max |a − e| / max(1, max |e|): the reference's own magnitude sets the scale where it exceeds 1
+/// (torques reach 10² N·m), the absolute error below it.
+double relative_error(const Eigen::MatrixXd& a, const Eigen::MatrixXd& e);
 
 /// Passes when every |actual − expected| ≤ tolerance; otherwise names the first offending
 /// element, with both values.

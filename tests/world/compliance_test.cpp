@@ -31,7 +31,6 @@ using Eigen::VectorXd;
 using controller::DaemonOptions;
 using controller::Law;
 using controller::Mode;
-constexpr double kInf = std::numeric_limits<double>::infinity();
 
 class Compliance : public ::testing::TestWithParam<Wire> {};
 

@@ -27,7 +27,6 @@ using Eigen::VectorXd;
 using controller::DaemonOptions;
 using controller::Mode;
 using controller::Reflex;
-constexpr double kInf = std::numeric_limits<double>::infinity();
 
 #ifdef CHASLES_SANITIZED
 constexpr bool kSanitized = true;

@@ -58,7 +58,6 @@ plant::SimulationOptions hidden_error(int n) {
 // during the excitation, over the 6 N·m collision threshold): for the identification run and the
 // comparison the thresholds are off, as one raises them on a real arm before it is identified.
 controller::DaemonOptions controller_for(const RobotModel& model, const VectorXd& damping, const VectorXd& coulomb) {
-  constexpr double kInf = std::numeric_limits<double>::infinity();
   controller::DaemonOptions o;
   o.control = controller::Config::critically_damped(model.dof(), 20.0);
   o.control.damping = damping;

@@ -28,7 +28,6 @@ using controller::DaemonOptions;
 using controller::Mode;
 using controller::Protocol;
 using Eigen::VectorXd;
-constexpr double kInf = std::numeric_limits<double>::infinity();
 
 class Protocols : public ::testing::TestWithParam<Wire> {
  protected:

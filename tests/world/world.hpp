@@ -17,6 +17,7 @@
 #include <chasles/controller_status_t.hpp>
 #include <chasles/robot_state_t.hpp>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -35,6 +36,9 @@
 #include "checks.hpp"
 
 namespace chasles::faults {
+
+/// A threshold or bound that never trips.
+inline constexpr double kInf = std::numeric_limits<double>::infinity();
 
 using controller::Bus;
 using controller::SimulatedClock;

@@ -26,7 +26,7 @@ struct DynamicsOptions {
   DynamicFitOptions fit;
 };
 
-const char* const kUrdfContents =
+const char* const kIdentifiedUrdfContents =
     "The identified URDF is the input URDF with (1) the <inertial> of each link that starts a body (the child of "
     "each movable joint between the base and the tip) holding the identified body less the links riding on it "
     "(a flange, a hand, fingers keep their <inertial>s): mass, centre of mass as origin xyz, inertia about it in "
@@ -167,7 +167,7 @@ Json report_json(const DynamicsOptions& o, const RobotModel& nominal, const cli:
                       {"iterations", r.iterations},
                       {"solver_seconds", r.solver_seconds},
                       {"fit_seconds", r.seconds}};
-  report["identified_urdf"] = {{"path", o.out}, {"contents", kUrdfContents}};
+  report["identified_urdf"] = {{"path", o.out}, {"contents", kIdentifiedUrdfContents}};
   return report;
 }
 
@@ -424,7 +424,7 @@ Command register_dynamics(CLI::App& app) {
                   "gives each parameter nominal and identified, the standard errors of what the torques determine, "
                   "their count against theory, the held-out torque RMS per joint before and after, the condition "
                   "number and the time taken. ") +
-      kUrdfContents +
+      kIdentifiedUrdfContents +
       "\nRun an excitation trajectory first (every joint moving, fast and far): a log that leaves a parameter "
       "combination undetermined is refused, naming it or the joints that barely move.\n"
       "Files are written atomically (temporary file, fsync, rename); on any error nothing is written.\n"

@@ -24,7 +24,7 @@ struct FitOptions {
   std::string marker_link = "marker";
 };
 
-const char* const kUrdfContents =
+const char* const kCorrectedUrdfContents =
     "The corrected URDF is the input URDF with (1) the <origin> of every movable joint between the base and the "
     "tip that the fit corrected replaced by O*exp([dxi])*exp([A]*dtheta) - the joint zero offset folded in, so its "
     "FK at the encoder readings q is the calibrated arm's; the original values stay in a comment beside each - and "
@@ -75,7 +75,7 @@ Json report_json(const FitOptions& o, const RobotModel& nominal, const std::vect
                               {"changed_joint_origins", changed_joints},
                               {"marker_link", o.marker_link},
                               {"marker_joint", "marker_joint"},
-                              {"contents", kUrdfContents}};
+                              {"contents", kCorrectedUrdfContents}};
   Json split;
   split["rows"] = static_cast<int>(fit.size() + holdout.size());
   split["fit_rows"] = static_cast<int>(fit.size());
@@ -277,7 +277,7 @@ Command register_fit(CLI::App& app) {
   fit->footer(std::string("Estimates per-joint corrections of the joint origins (local PoE: O <- O*exp([dxi])), "
                           "joint zero offsets, the tracker-to-base and tip-to-marker transforms; only the "
                           "identifiable ones (the report lists the others and why). ") +
-              kUrdfContents +
+              kCorrectedUrdfContents +
               "\nFiles are written atomically (temporary file, fsync, rename); on any error nothing is written.\n"
               "Example:\n"
               "  chasles_calibrate fit --urdf ur5.urdf --tip tool0 --data ur5.csv --holdout 0.2 --out ur5_cal.urdf "
