@@ -39,6 +39,7 @@
 #include "core/model/urdf.hpp"
 #include "following.hpp"
 #include "support/arm.hpp"
+#include "support/contact_off.hpp"
 #include "support/reference.hpp"
 
 namespace chasles::controller {
@@ -113,9 +114,7 @@ Config trial_config(const ArmSpec& spec, const RobotModel& model) {
     config.limits.acceleration = testing::franka_acceleration();
     config.limits.jerk = testing::franka_jerk();
   }
-  config.contact.collision_torque = config.contact.contact_torque = VectorXd::Constant(model.dof(), kInf);
-  config.contact.collision_force = config.contact.contact_force = kInf;
-  config.contact.collision_moment = config.contact.contact_moment = kInf;
+  chasles::testing::never_trip(config.contact, model.dof());
   config.check_torque_semantics = false;
   return config;
 }

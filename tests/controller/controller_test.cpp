@@ -25,6 +25,7 @@
 #include "core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/arm.hpp"
+#include "support/contact_off.hpp"
 #include "support/reference.hpp"
 
 namespace chasles::controller {
@@ -278,10 +279,7 @@ TEST_F(ControllerTest, ClampsToEffortLimitsAndLimitsTheTorqueRate) {
 // wrong way after a FAULT at 200 Hz).
 TEST_F(ControllerTest, TheTorqueRateLimitKeepsTheLawsDirection) {
   // The knock below is the test's, not a collision: no reflex, so the law acts on the hold.
-  constexpr double kInf = std::numeric_limits<double>::infinity();
-  auto& contact = config_.contact;
-  contact.contact_torque = contact.collision_torque = VectorXd::Constant(7, kInf);
-  contact.contact_force = contact.collision_force = contact.contact_moment = contact.collision_moment = kInf;
+  chasles::testing::never_trip(config_.contact, 7);
   Controller limited(model_, config_);
   Config free_config = config_;
   free_config.torque_ramp = 1e-9;
@@ -314,10 +312,7 @@ TEST_F(ControllerTest, TheTorqueRateLimitKeepsTheLawsDirection) {
 TEST_F(ControllerTest, KnownCoulombFrictionIsFedForwardOnTheReferencesVelocity) {
   config_.torque_ramp = 1e-9;
   // The states here are the reference itself, not an arm's response to the torque: no reflex.
-  constexpr double kInf = std::numeric_limits<double>::infinity();
-  auto& contact = config_.contact;
-  contact.contact_torque = contact.collision_torque = VectorXd::Constant(7, kInf);
-  contact.contact_force = contact.collision_force = contact.contact_moment = contact.collision_moment = kInf;
+  chasles::testing::never_trip(config_.contact, 7);
   Controller without(model_, config_);
   config_.coulomb = VectorXd::LinSpaced(7, 0.6, 0.2);
   Controller with(model_, config_);

@@ -11,6 +11,7 @@
 #include "controller/controller.hpp"
 #include "core/dynamics/dynamics.hpp"
 #include "support/arm.hpp"
+#include "support/contact_off.hpp"
 
 namespace chasles::controller::testing {
 
@@ -34,7 +35,6 @@ class Following : public ::testing::Test {
   /// Another arm from `start`, with the default acceleration and jerk limits.
   Following(const RobotModel& model, const Eigen::VectorXd& start, double omega = 20.0)
       : model_(model), state_(model.dof()) {
-    constexpr double kInf = std::numeric_limits<double>::infinity();
     config_ = Config::critically_damped(model.dof(), omega);
     // The tests judge the generated reference against the configured limits themselves; the caps of
     // the acceleration by the effort and the jerk by the torque rate are judged on their own (stream_test).
@@ -42,9 +42,7 @@ class Following : public ::testing::Test {
     config_.limits.acceleration_within_effort = false;
     // The state may be the reference itself, not an arm's answer to the torque: the contact
     // monitor, which would read the difference as a push, is off; the limits' guard stays on.
-    config_.contact.collision_torque = config_.contact.contact_torque = Eigen::VectorXd::Constant(model.dof(), kInf);
-    config_.contact.collision_force = config_.contact.contact_force = kInf;
-    config_.contact.collision_moment = config_.contact.contact_moment = kInf;
+    chasles::testing::never_trip(config_.contact, model.dof());
     // Nor is its effort the torque applied, which the torque-semantics check would take for a
     // driver's gravity missing (semantics_check_test and the World's protocols judge that).
     config_.check_torque_semantics = false;

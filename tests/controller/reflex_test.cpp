@@ -14,6 +14,7 @@
 #include "core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/arm.hpp"
+#include "support/contact_off.hpp"
 #include "support/reference.hpp"
 
 namespace chasles::controller {
@@ -175,9 +176,7 @@ TEST_F(Reflexes, ACollisionStopsTheArmUntilANewTarget) {
 // a v below A²/J, where the acceleration peaks before A). A reference held still instead asked a
 // fast arm for more torque than it has (docs/controller.md, "Clearance").
 TEST_F(Reflexes, AStopFromSpeedBrakesTheArmsOwnMotionToRestWithinTheLimitsInForce) {
-  config_.contact.contact_torque = config_.contact.collision_torque = VectorXd::Constant(7, kInf);
-  config_.contact.collision_force = config_.contact.contact_force = kInf;
-  config_.contact.collision_moment = config_.contact.contact_moment = kInf;
+  chasles::testing::never_trip(config_.contact, 7);
   Controller controller(model_, config_);
   ASSERT_TRUE(controller.tick(0, still(0, q0_, VectorXd::Zero(7))));
   VectorXd v0(7);
@@ -291,9 +290,7 @@ TEST_F(Reflexes, TheRetractReflexGoesBackAlongTheTipsPath) {
 // still gives τ̂_ext = (1 − e^{−K t}) τ_ext at every state, and is reported once the mean of 100
 // intervals is in. A sender that leaves utime at 0 is timed by the states' arrival.
 TEST_F(Reflexes, TheObserverStepsByTheStatesOwnClockAndAnotherRateIsReported) {
-  config_.contact.contact_torque = config_.contact.collision_torque = VectorXd::Constant(7, kInf);
-  config_.contact.contact_force = config_.contact.collision_force = kInf;
-  config_.contact.contact_moment = config_.contact.collision_moment = kInf;
+  chasles::testing::never_trip(config_.contact, 7);
   VectorXd tau_ext = VectorXd::Zero(7);
   tau_ext << 2.0, -3.0, 1.5, 4.0, -0.5, 0.7, 0.2;
   for (const bool with_utime : {true, false}) {

@@ -19,9 +19,8 @@
 namespace chasles {
 namespace {
 
-using testing::relative_error;
-
 using testing::matrices_near_relative;
+using testing::relative_error;
 
 struct ArmFile {
   std::string name, tip;

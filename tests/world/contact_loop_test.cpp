@@ -17,6 +17,7 @@
 #include "core/kinematics/kinematics.hpp"
 #include "core/model/payload.hpp"
 #include "core/model/urdf.hpp"
+#include "support/contact_off.hpp"
 #include "support/reference.hpp"
 #include "world.hpp"
 
@@ -43,11 +44,7 @@ DaemonOptions options_for(const RobotModel& model, double omega = 20.0) {
 }
 
 // Never reacts: the estimate alone is under test.
-void blind(DaemonOptions& o, int n) {
-  auto& c = o.control.contact;
-  c.contact_torque = c.collision_torque = VectorXd::Constant(n, kInf);
-  c.contact_force = c.collision_force = c.contact_moment = c.collision_moment = kInf;
-}
+void blind(DaemonOptions& o, int n) { testing::never_trip(o.control.contact, n); }
 
 // Five configurations per arm, away from singularities and joint limits.
 std::vector<VectorXd> configurations(const RobotModel& model) {
