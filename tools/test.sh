@@ -37,6 +37,8 @@ if [ "${1:-}" = "--sanitize" ]; then
            "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-Og -g1 -DNDEBUG" -DCHASLES_BUILD_TOOLS=OFF)
 fi
 [ $# -eq 0 ] || fuzz=0
+# The MuJoCo plant and its tests, in both stages: MuJoCo's library at the version tools/mujoco.sh pins.
+options+=("-DCHASLES_MUJOCO_PREFIX=$("$root/tools/mujoco.sh")")
 # The Python package and its tests, in the Release stage only (an extension module under ASan needs
 # the runtime preloaded into the interpreter; the C++ it binds is sanitized by the other suites).
 if [ "$build" = "$root/build" ]; then
