@@ -11,6 +11,7 @@
 #include "core/error.hpp"
 #include "core/kinematics/kinematics.hpp"
 #include "core/model/urdf.hpp"
+#include "tests/support/allocation_counter.hpp"
 #include "tests/support/reference.hpp"
 #include "tools/mujoco/mujoco_plant.hpp"
 
@@ -125,6 +126,23 @@ TEST(MujocoPlant, PressOnTheElbowIsBalancedByTheArmAndExplainedByTheJacobian) {
   for (int k = 0; k < 10; ++k) plant.step(hold(model, data, q0, plant));
   EXPECT_TRUE(plant.contacts().empty());
   EXPECT_EQ(plant.tau_ext().norm(), 0.0);
+}
+
+// The step is the plant's real-time work: MuJoCo's arena and the plant's buffers are sized when
+// it is built.
+TEST(MujocoPlant, StepAllocatesNothingInContact) {
+  const Loaded arm = load({"panda.urdf", "panda_hand"});
+  Eigen::VectorXd q0(7);
+  q0 << 0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.8;
+  MujocoPlant plant(arm.model, data_path("panda.urdf"), arm.geometry, {}, q0, Eigen::VectorXd::Zero(7), 1e-3);
+  plant.press("panda_link4", Vector3d::Zero(), Vector3d::UnitY(), 20.0);
+  Data data(arm.model);
+  Eigen::VectorXd tau = gravity_torques(arm.model, data, q0);
+  plant.step(tau);
+  chasles::testing::AllocationCounter counter;
+  for (int k = 0; k < 200; ++k) plant.step(tau);
+  EXPECT_EQ(counter.count(), 0);
+  EXPECT_FALSE(plant.contacts().empty());
 }
 
 TEST(MujocoPlant, RefusesWhatItCannotDo) {
