@@ -96,29 +96,33 @@ void sample_surface(const Shape& shape, double spacing, std::vector<Vector3d>& p
       return;
     }
     case ShapeKind::kConvex: {
-      // A vertex's normal: the mean of the directions whose support it is (its normal cone's
-      // middle, about); an edge's midpoint takes its two ends' mean.
-      const size_t n = shape.vertices.size();
-      std::vector<Vector3d> directions, normal(n, Vector3d::Zero());
-      fibonacci(static_cast<int>(16 * n), false, directions);
-      for (const Vector3d& u : directions) {
-        size_t best = 0;
-        for (size_t i = 1; i < n; ++i)
-          if (shape.vertices[i].dot(u) > shape.vertices[best].dot(u)) best = i;
-        normal[best] += u;
-      }
+      // The hull's triangles are the triples of vertices that are each other's neighbours (qhull's
+      // triangulated output: on a convex surface a 3-cycle of edges bounds a face); each is
+      // sampled on a barycentric grid, with its outward normal.
+      const std::vector<Vector3d>& v = shape.vertices;
       Vector3d centre = Vector3d::Zero();
-      for (const Vector3d& v : shape.vertices) centre += v / static_cast<double>(n);
-      for (size_t i = 0; i < n; ++i)
-        normal[i] = normal[i].norm() > 0.0 ? normal[i].normalized() : (shape.vertices[i] - centre).normalized();
-      for (size_t i = 0; i < n; ++i) {
-        points.push_back(shape.vertices[i]), normals.push_back(normal[i]);
-        for (const int j : shape.neighbours[i])
-          if (static_cast<size_t>(j) > i) {
-            points.push_back(0.5 * (shape.vertices[i] + shape.vertices[static_cast<size_t>(j)]));
-            normals.push_back((normal[i] + normal[static_cast<size_t>(j)]).normalized());
+      for (const Vector3d& x : v) centre += x / static_cast<double>(v.size());
+      auto adjacent = [&](int a, int b) {
+        const std::vector<int>& na = shape.neighbours[static_cast<size_t>(a)];
+        return std::find(na.begin(), na.end(), b) != na.end();
+      };
+      for (int i = 0; i < static_cast<int>(v.size()); ++i)
+        for (const int j : shape.neighbours[static_cast<size_t>(i)])
+          for (const int k : shape.neighbours[static_cast<size_t>(i)]) {
+            if (!(i < j && j < k) || !adjacent(j, k)) continue;
+            const Vector3d &a = v[static_cast<size_t>(i)], &b = v[static_cast<size_t>(j)], &c = v[static_cast<size_t>(k)];
+            Vector3d n = (b - a).cross(c - a);
+            if (!(n.norm() > 0.0)) continue;
+            n.normalize();
+            if (n.dot(a - centre) < 0.0) n = -n;
+            const int m = count_for(std::max({(b - a).norm(), (c - a).norm(), (c - b).norm()}), spacing);
+            for (int p = 0; p < m; ++p)
+              for (int q = 0; p + q < m; ++q) {
+                // Cell centres of the grid of m² small triangles (those pointing the same way).
+                const double wb = (p + 1.0 / 3.0) / m, wc = (q + 1.0 / 3.0) / m;
+                points.push_back(a + wb * (b - a) + wc * (c - a)), normals.push_back(n);
+              }
           }
-      }
       return;
     }
   }

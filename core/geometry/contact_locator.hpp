@@ -12,7 +12,7 @@
 //
 // Candidates are fixed at construction: points on every collision object's surface, in its body's
 // frame, with their outward normals — a grid on each face of a box, rings on a cylinder or a
-// capsule, a Fibonacci spiral on a sphere, a hull's vertices and the midpoints of its edges.
+// capsule, a Fibonacci spiral on a sphere, a barycentric grid on each of a hull's triangles.
 //
 // What torques cannot tell: a push on body b constrains b equations, so on a proximal link (b ≤ 3
 // for 3 force components) many points explain τ_ext exactly and the friction cone alone chooses;
