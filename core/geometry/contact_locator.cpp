@@ -146,7 +146,9 @@ ContactLocator::ContactLocator(const RobotModel& model, const CollisionModel& co
       samples_.push_back({object.T_body_object * points[k], object.T_body_object.linear() * normals[k], object.body,
                           static_cast<int>(o)});
   }
+  std::stable_sort(samples_.begin(), samples_.end(), [](const Sample& a, const Sample& b) { return a.body > b.body; });
   const size_t n = static_cast<size_t>(model.dof()) + 1;
+  tail_.assign(n, 0.0);
   V_.assign(n, Matrix3d::Zero()), X_.assign(n, Matrix3d::Zero()), W_.assign(n, Matrix3d::Zero());
   gv_.assign(n, Vector3d::Zero()), gw_.assign(n, Vector3d::Zero());
 }
@@ -165,8 +167,14 @@ const ContactEstimate& ContactLocator::locate(const Data& data, const Eigen::Ref
   best_ = ContactEstimate{};
   best_.residual = std::sqrt(tau2);
   if (tau2 == 0.0) return best_;
+  // A point of body b leaves at least the torque of the joints beyond b unexplained: samples come
+  // ordered from the tip's body to the base's, and a body whose bound already exceeds the best fit
+  // is skipped with all before it: the same least cost as the exhaustive search (a tie may go to
+  // another candidate).
+  for (int b = n; b-- > 0;) tail_[b] = tail_[b + 1] + tau_ext[b] * tau_ext[b];
   double best_cost = std::numeric_limits<double>::infinity();
   for (const Sample& s : samples_) {
+    if (tail_[s.body] >= best_cost) break;
     const Transform& T = data.T_body[static_cast<size_t>(s.body)];
     const Vector3d p = T * s.point, normal = T.linear() * s.normal;
     // a_j = v_j − [p] ω_j: H = Σ a aᵀ and g = Σ a τ from the prefix sums.

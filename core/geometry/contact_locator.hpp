@@ -70,6 +70,7 @@ class ContactLocator {
   // Prefix sums over joints 1…b (index b): Σ v vᵀ, Σ v ωᵀ, Σ ω ωᵀ, Σ v τ, Σ ω τ, Σ τ².
   std::vector<Matrix3d> V_, X_, W_;
   std::vector<Vector3d> gv_, gw_;
+  std::vector<double> tail_;  // index b: Σ τ_j² over the joints beyond body b
   ContactEstimate best_;
 };
 
