@@ -75,14 +75,23 @@ if ! ruckig_source=$("$root/tools/ruckig.sh"); then
   echo "bench: no Ruckig: tools/ruckig.sh could not fetch its sources (see above); running without the comparison with Ruckig" >&2
 fi
 
+# MuJoCo's C library for chasles_mujoco_bench (tools/mujoco.sh); without it, that bench is left out.
+mujoco_prefix=""
+if ! mujoco_prefix=$("$root/tools/mujoco.sh"); then
+  mujoco_prefix=""
+  echo "bench: no MuJoCo: tools/mujoco.sh could not install it (see above); running without chasles_mujoco_bench" >&2
+fi
+
 # Tests and tools are not needed here; leaving them out keeps this build independent of them.
 build="$root/build-bench"
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCHASLES_BUILD_BENCHMARKS=ON \
   -DCHASLES_BUILD_TESTS=OFF -DCHASLES_BUILD_TOOLS=OFF -DCHASLES_WERROR=OFF \
-  -DCHASLES_PINOCCHIO_PREFIX="$pinocchio_prefix" -DCHASLES_RUCKIG_SOURCE="$ruckig_source" >&2
+  -DCHASLES_PINOCCHIO_PREFIX="$pinocchio_prefix" -DCHASLES_RUCKIG_SOURCE="$ruckig_source" \
+  -DCHASLES_MUJOCO_PREFIX="$mujoco_prefix" >&2
 targets=(chasles_bench chasles_ik_bench chasles_contact_bench)
 [ -n "$pinocchio_prefix" ] && targets+=(chasles_pinocchio_bench chasles_coal_bench)
 [ -n "$ruckig_source" ] && targets+=(chasles_ruckig_bench)
+[ -n "$mujoco_prefix" ] && targets+=(chasles_mujoco_bench)
 cmake --build "$build" --target "${targets[@]}" -j 2 >&2
 
 report=$(mktemp)
@@ -302,4 +311,10 @@ if c is None or r is None:
 print()
 print(f"ns per plan (median CPU time): chasles {c:.0f}, Ruckig {r:.0f}, ratio {c / r:.2f} (the issue's target: <= 1.00)")
 EOF
+fi
+
+if [ -n "$mujoco_prefix" ]; then
+  echo "bench: running chasles_mujoco_bench (the MuJoCo plant's step beside chasles's, and one contact locate)" >&2
+  echo
+  "$build/tests/bench/chasles_mujoco_bench" --benchmark_repetitions=3 --benchmark_report_aggregates_only=true
 fi
