@@ -194,13 +194,6 @@ inline std::string prepare(const void* data, size_t size, jog_command_t& m) {
   return {};
 }
 
-inline std::string prepare(const void* data, size_t size, sim_truth_t& m) {
-  if (!read_int32(data, size, kTruthCount, m.num_joints)) return truncated(size);
-  if (std::string why = impossible_count(m.num_joints, size); !why.empty()) return why;
-  m.tau_ext.assign(size_t(m.num_joints), 0.0);
-  return {};
-}
-
 inline std::string prepare(const void* data, size_t size, control_mode_t& m) {
   if (!read_int32(data, size, kModeCount, m.num_joints)) return truncated(size);
   if (std::string why = impossible_count(m.num_joints, size); !why.empty()) return why;
@@ -325,6 +318,25 @@ inline void size_rows(std::vector<std::vector<double>>& rows, int32_t n, size_t 
   for (auto& row : rows) row.assign(columns, 0.0);
 }
 
+inline std::string prepare(const void* data, size_t size, sim_truth_t& m) {
+  // After tau_ext: tip_wrench_ext and contact; a contact's two strings take 5 bytes at least, its
+  // point, normal and force 72.
+  constexpr size_t kAfterTorques = 48 + 1, kContact = 5 + 5 + 72;
+  if (!read_int32(data, size, kTruthCount, m.num_joints)) return truncated(size);
+  if (std::string why = impossible_count(m.num_joints, size); !why.empty()) return why;
+  ByteWalk walk(data, size, kTruthCount + 4);
+  const bool ok = walk.skip(uint64_t(m.num_joints) * 8 + kAfterTorques) &&
+                  walk.count(m.num_contacts, kContact, "num_contacts") &&
+                  walk.strings(m.contact_link, m.num_contacts, "contact_link") &&
+                  walk.strings(m.contact_other, m.num_contacts, "contact_other");
+  if (!ok) return walk.why();
+  m.tau_ext.assign(size_t(m.num_joints), 0.0);
+  size_rows(m.contact_point, m.num_contacts, 3);
+  size_rows(m.contact_normal, m.num_contacts, 3);
+  size_rows(m.contact_force, m.num_contacts, 3);
+  return {};
+}
+
 inline std::string prepare(const void* data, size_t size, scene_t& m) {
   // The fixed part of each entry: an object's kind, size, position, quaternion, clearance and
   // vertex count; a plane's normal, offset, link count and clearance; a box's position,
@@ -380,6 +392,12 @@ inline bool finite(const double* values, size_t n) {
   }
   return true;
 }
+inline bool finite(const std::vector<std::vector<double>>& rows) {
+  for (const auto& row : rows) {
+    if (!finite(row)) return false;
+  }
+  return true;
+}
 
 // The first field holding a non-finite number, or nullptr.
 inline const char* non_finite(const robot_state_t& m) {
@@ -387,7 +405,12 @@ inline const char* non_finite(const robot_state_t& m) {
 }
 inline const char* non_finite(const joint_torque_command_t& m) { return finite(m.torque) ? nullptr : "torque"; }
 inline const char* non_finite(const sim_truth_t& m) {
-  return !finite(m.tau_ext) ? "tau_ext" : !finite(m.tip_wrench_ext, 6) ? "tip_wrench_ext" : nullptr;
+  return !finite(m.tau_ext)                ? "tau_ext"
+         : !finite(m.tip_wrench_ext, 6)    ? "tip_wrench_ext"
+         : !finite(m.contact_point)        ? "contact_point"
+         : !finite(m.contact_normal)       ? "contact_normal"
+         : !finite(m.contact_force)        ? "contact_force"
+                                           : nullptr;
 }
 inline const char* non_finite(const control_mode_t& m) {
   return !finite(m.joint_stiffness)                                   ? "joint_stiffness"
@@ -405,12 +428,6 @@ inline const char* non_finite(const payload_t& m) {
          : !finite(m.centre_of_mass, 3)          ? "centre_of_mass"
          : !finite(&m.inertia[0][0], 9)          ? "inertia"
                                                  : nullptr;
-}
-inline bool finite(const std::vector<std::vector<double>>& rows) {
-  for (const auto& row : rows) {
-    if (!finite(row)) return false;
-  }
-  return true;
 }
 inline const char* non_finite(const joint_trajectory_t& m) {
   return !finite(m.time_from_start)                 ? "time_from_start"

@@ -24,17 +24,8 @@ void check_payload(const Payload& payload, const std::string& what) {
 }  // namespace
 
 void check_push(const Push& push, const std::string& what) {
-  if (!std::isfinite(push.start) || !std::isfinite(push.duration) || !std::isfinite(push.ramp) ||
-      !finite(push.wrench)) {
-    refuse(what, "a number is not finite");
-  }
-  if (push.start < 0.0) refuse(what, "START " + number_text(push.start) + " s is before the plant's first step (0)");
-  if (!(push.duration > 0.0)) refuse(what, "DURATION " + number_text(push.duration) + " s is not positive");
-  if (push.ramp < 0.0) refuse(what, "RAMP " + number_text(push.ramp) + " s is negative");
-  if (push.ramp > 0.5 * push.duration) {
-    refuse(what, "RAMP " + number_text(push.ramp) + " s is longer than half of DURATION " + number_text(push.duration) +
-                     " s: the ramps in and out must both fit in the window (RAMP <= DURATION/2)");
-  }
+  if (!finite(push.wrench)) refuse(what, "a number is not finite");
+  check_window(push.start, push.duration, push.ramp, what);
 }
 
 void check_wall(Wall& wall, const std::string& what) {
@@ -94,12 +85,25 @@ void check_perturbation(const InertiaPerturbation& perturbation, const std::stri
   }
 }
 
-double Push::profile(double t) const {
+void check_window(double start, double duration, double ramp, const std::string& what) {
+  if (!std::isfinite(start) || !std::isfinite(duration) || !std::isfinite(ramp)) refuse(what, "a number is not finite");
+  if (start < 0.0) refuse(what, "START " + number_text(start) + " s is before the plant's first step (0)");
+  if (!(duration > 0.0)) refuse(what, "DURATION " + number_text(duration) + " s is not positive");
+  if (ramp < 0.0) refuse(what, "RAMP " + number_text(ramp) + " s is negative");
+  if (ramp > 0.5 * duration) {
+    refuse(what, "RAMP " + number_text(ramp) + " s is longer than half of DURATION " + number_text(duration) +
+                     " s: the ramps in and out must both fit in the window (RAMP <= DURATION/2)");
+  }
+}
+
+double trapezoid(double t, double start, double duration, double ramp) {
   const double end = start + duration;
   if (t < start || t > end) return 0.0;
   if (ramp <= 0.0) return 1.0;
   return std::min({1.0, (t - start) / ramp, (end - t) / ramp});
 }
+
+double Push::profile(double t) const { return trapezoid(t, start, duration, ramp); }
 
 EnvironmentOptions checked_environment(const EnvironmentOptions& options, const RobotModel& model) {
   EnvironmentOptions out = options;

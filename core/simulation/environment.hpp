@@ -21,6 +21,14 @@
 
 namespace chasles::plant {
 
+/// The trapezoid in [0, 1] of a window of simulated time: 0 before `start` and after start +
+/// duration, ramped linearly in over `ramp` s and out over `ramp` s, 1 between. With no ramp the
+/// window is closed, [start, start + duration]. A push's and a press's (tools/mujoco) profile.
+double trapezoid(double t, double start, double duration, double ramp);
+/// Throws ArgumentError, `what` first, unless the window's numbers are finite, start ≥ 0,
+/// duration > 0 and 0 ≤ ramp ≤ duration / 2.
+void check_window(double start, double duration, double ramp, const std::string& what);
+
 /// A wrench the environment applies to the tip over a window of simulated time, ramped linearly in
 /// over `ramp` seconds from `start` and out over `ramp` seconds ending at start + duration.
 struct Push {
@@ -29,8 +37,7 @@ struct Push {
   double ramp = 0.0;                   ///< s; 0 ≤ ramp ≤ duration / 2 (0: a step on and off)
   Vector6d wrench = Vector6d::Zero();  ///< (m, f), N·m and N, base-aligned at the tip origin
 
-  /// The trapezoid's value in [0, 1] at time t: 0 before start and after start + duration, 1 on the
-  /// plateau. With no ramp the window is closed, [start, start + duration].
+  /// trapezoid(t, start, duration, ramp).
   double profile(double t) const;
 };
 

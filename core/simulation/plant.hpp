@@ -23,22 +23,11 @@
 
 #include "core/model/model.hpp"
 #include "core/simulation/environment.hpp"
+#include "core/simulation/physics.hpp"
 
 namespace chasles::plant {
 
-/// What the nominal model (the one the plant was given, with the known damping D) leaves out, at
-/// one sample; see lcmtypes/chasles_sim_truth_t.lcm, which carries it.
-struct Truth {
-  int64_t steps = -1;                          ///< steps taken when sampled (the state's seq); −1: none yet
-  double time = 0.0;                           ///< s of simulated time, steps × period
-  /// N·m or N: ID_nominal(q, q̇, q̈_true) + D q̇ − τ, everything the nominal model does not explain:
-  /// contact, payload and friction, and the error of its inertias when they are perturbed.
-  Eigen::VectorXd tau_ext;
-  Vector6d tip_wrench_ext = Vector6d::Zero();  ///< contact (m, f) on the tip, base-aligned at its origin
-  bool contact = false;                        ///< a push acts or a wall is penetrated
-};
-
-class Plant {
+class Plant final : public Physics {
  public:
   /// Starts at rest at q0. `damping` is the viscous joint damping D, one entry per joint
   /// (N·m·s/rad or N·s/m), which the controller knows. Every step() is `dt` seconds long, in
@@ -50,27 +39,28 @@ class Plant {
 
   /// Advances the arm by dt with the joint torque tau, clamped to the URDF effort limits, held
   /// constant over the step (zero-order hold). Allocates nothing.
-  void step(const Eigen::Ref<const Eigen::VectorXd>& tau);
+  void step(const Eigen::Ref<const Eigen::VectorXd>& tau) override;
 
   /// The torque that brings the arm to rest where it is: τ = g(q) − K q̇ with K = M(q) / T, so
   /// that each joint's velocity decays as exp(−t / T) whatever its inertia (MR eq. 8.1 with
   /// q̈ = −q̇ / T, the small Coriolis term left to the decay). The arm's own brake: it knows the
   /// payload (the true model), not the contact. Effort limits apply in step().
-  const Eigen::VectorXd& brake_torque(double time_constant);
+  const Eigen::VectorXd& brake_torque(double time_constant) override;
 
   /// Samples the truth at the present state and time, with the effort of the last step as τ, and
   /// returns it. Allocates nothing.
-  const Truth& sample_truth();
+  const Truth& sample_truth() override;
   /// The latest sample_truth().
-  const Truth& truth() const { return truth_; }
+  const Truth& truth() const override { return truth_; }
+  bool has_environment() const override { return environment_.any(); }
 
-  const Eigen::VectorXd& q() const { return q_; }
-  const Eigen::VectorXd& qd() const { return qd_; }
+  const Eigen::VectorXd& q() const override { return q_; }
+  const Eigen::VectorXd& qd() const override { return qd_; }
   /// The torque applied over the last step, after clamping; zero before the first step.
-  const Eigen::VectorXd& effort() const { return effort_; }
-  int64_t steps() const { return steps_; }
+  const Eigen::VectorXd& effort() const override { return effort_; }
+  int64_t steps() const override { return steps_; }
   /// Simulated time since the first step: steps × dt, s.
-  double time() const { return static_cast<double>(steps_) * dt_; }
+  double time() const override { return static_cast<double>(steps_) * dt_; }
   /// The model integrated: the nominal one with its inertias perturbed (with_perturbed_inertias of
   /// the environment's perturbation) and the payload on its last body; the nominal one without either.
   const RobotModel& true_model() const { return true_model_; }

@@ -399,13 +399,40 @@ TEST(environment, TruthDecoderRefusesWhatIsNotATruth) {
   EXPECT_TRUE(back.contact);
 
   EXPECT_EQ(decode(bytes, 6), "for 7 joints; the arm has 6");
-  // 8 (fingerprint) + 8 (utime) + 8 (seq) + 4 (num_joints) + 7 × 8 + 6 × 8 + 1 (contact) = 133 bytes.
-  ASSERT_EQ(bytes.size(), 133u);
-  EXPECT_EQ(decode(std::vector<uint8_t>(bytes.begin(), bytes.end() - 1), 7), "of 132 bytes; expected 133 for 7 joints");
+  // 8 (fingerprint) + 8 (utime) + 8 (seq) + 4 (num_joints) + 7 × 8 + 6 × 8 + 1 (contact) + 4
+  // (num_contacts) = 137 bytes.
+  ASSERT_EQ(bytes.size(), 137u);
+  EXPECT_EQ(decode(std::vector<uint8_t>(bytes.begin(), bytes.end() - 1), 7), "truncated: 136 bytes");
   EXPECT_EQ(decode(std::vector<uint8_t>(bytes.begin(), bytes.begin() + 20), 7), "truncated: 20 bytes");
   std::vector<uint8_t> forged = bytes;
   forged[24] = 0x7f;  // num_joints, big-endian, after the fingerprint, utime and seq: 0x7f000007
-  EXPECT_EQ(decode(forged, messages::kAnyArm), "num_joints 2130706439 in a message of 133 bytes");
+  EXPECT_EQ(decode(forged, messages::kAnyArm), "num_joints 2130706439 in a message of 137 bytes");
+  forged = bytes;
+  forged[133] = 0x7f;  // num_contacts, the last 4 bytes: 0x7f000000
+  EXPECT_EQ(decode(forged, messages::kAnyArm), "num_contacts 2130706432 in a message of 137 bytes");
+
+  // A contact goes through whole: the names, the point, the normal and the force.
+  truth.num_contacts = 1;
+  truth.contact_link = {"panda_link4"};
+  truth.contact_other = {"pusher"};
+  truth.contact_point = {{0.1, 0.2, 0.3}};
+  truth.contact_normal = {{0.0, 1.0, 0.0}};
+  truth.contact_force = {{0.5, 20.0, -0.25}};
+  bytes = encode(truth);
+  ASSERT_EQ(messages::decode_checked(bytes.data(), bytes.size(), back), "");
+  EXPECT_EQ(back.contact_link, truth.contact_link);
+  EXPECT_EQ(back.contact_other, truth.contact_other);
+  EXPECT_EQ(back.contact_point, truth.contact_point);
+  EXPECT_EQ(back.contact_normal, truth.contact_normal);
+  EXPECT_EQ(back.contact_force, truth.contact_force);
+  EXPECT_EQ(decode(std::vector<uint8_t>(bytes.begin(), bytes.end() - 8), 7), "of " + std::to_string(bytes.size() - 8) +
+                                                                             " bytes; expected " + std::to_string(bytes.size()) + " for 7 joints");
+  truth.contact_force[0][1] = std::nan("");
+  EXPECT_EQ(decode(encode(truth), 7), "with non-finite contact_force");
+  truth.contact_force[0][1] = 20.0;
+  truth.num_contacts = 0;
+  truth.contact_link.clear(), truth.contact_other.clear();
+  truth.contact_point.clear(), truth.contact_normal.clear(), truth.contact_force.clear();
   truth.tip_wrench_ext[3] = std::nan("");
   EXPECT_EQ(decode(encode(truth), 7), "with non-finite tip_wrench_ext");
   truth.tip_wrench_ext[3] = 0.0;
@@ -416,6 +443,57 @@ TEST(environment, TruthDecoderRefusesWhatIsNotATruth) {
   std::vector<uint8_t> state_bytes(static_cast<size_t>(state.getEncodedSize()));
   state.encode(state_bytes.data(), 0, static_cast<int>(state_bytes.size()));
   EXPECT_EQ(decode(state_bytes, messages::kAnyArm), "not a sim_truth_t (wrong fingerprint)");
+}
+
+// More contacts than a message holds: the MAX_CONTACTS largest forces go out, in the engine's
+// order, and publishing them allocates nothing of its own.
+TEST(environment, TruthPublisherSendsTheLargestContactsWithoutAllocating) {
+  Bus bus("memq://");
+  std::vector<sim_truth_t> heard;
+  const auto subscription = bus.subscribe("TRUTH", [&heard](const uint8_t* data, size_t size) {
+    sim_truth_t m;
+    if (messages::decode_checked(data, size, m, 7, messages::Finite::Required).empty()) heard.push_back(m);
+  });
+  plant::TruthPublisher publisher(bus, "TRUTH", 7);
+  plant::Truth truth;
+  truth.tau_ext = Eigen::VectorXd::Constant(7, 0.25);
+  const int total = sim_truth_t::MAX_CONTACTS + 6;
+  truth.contacts.reserve(size_t(total));
+  // Forces |f| = 1 + (k * 37) % total: a permutation of 1 … total, the six smallest scattered.
+  for (int k = 0; k < total; ++k) {
+    plant::ArmContact c;
+    c.link = "panda_link4", c.other = "pusher";
+    c.point = Vector3d(k, 0, 0);
+    c.normal = Vector3d::UnitY();
+    c.force = Vector3d(0, 1.0 + (k * 37) % total, 0);
+    truth.contacts.push_back(c);
+  }
+  truth.contact = true;
+  publisher.publish(1, 0, truth);  // the first send may set up LCM's own buffers
+  bus.handle_pending();
+  // memq:// copies every message it queues: what the bus allocates for a send of the same bytes
+  // is the baseline, and the publisher adds nothing to it.
+  const std::vector<uint8_t> same(size_t(heard.back().getEncodedSize()));
+  long baseline = 0;
+  {
+    AllocationCounter counter;
+    bus.publish("TRUTH", same);  // zeros: heard, and not a truth
+    baseline = counter.count();
+  }
+  AllocationCounter counter;
+  publisher.publish(2, 1, truth);
+  EXPECT_EQ(counter.count(), baseline);
+  bus.handle_pending();
+  ASSERT_EQ(heard.size(), 2u);
+  const sim_truth_t& m = heard.back();
+  ASSERT_EQ(m.num_contacts, sim_truth_t::MAX_CONTACTS);
+  double previous = -1.0;
+  for (int k = 0; k < m.num_contacts; ++k) {
+    EXPECT_GT(m.contact_force[size_t(k)][1], 6.0);  // none of the six smallest
+    EXPECT_GT(m.contact_point[size_t(k)][0], previous);  // in the engine's order
+    previous = m.contact_point[size_t(k)][0];
+    EXPECT_EQ(m.contact_link[size_t(k)], "panda_link4");
+  }
 }
 
 }  // namespace

@@ -143,7 +143,8 @@ class Rig {
   }
 
   plant::Simulation& simulation() { return *simulation_; }
-  const plant::Plant& plant() const { return simulation_->plant(); }
+  /// chasles's own plant, which the rig always runs.
+  const plant::Plant& plant() const { return dynamic_cast<const plant::Plant&>(simulation_->plant()); }
   /// The plant's true state (the sent position may be noisy).
   const Eigen::VectorXd& q() const { return simulation_->plant().q(); }
   const Eigen::VectorXd& qd() const { return simulation_->plant().qd(); }

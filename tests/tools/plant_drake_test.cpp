@@ -183,7 +183,7 @@ class DrakeRig {
     const Eigen::VectorXd& tau_ext = reader_.tau_ext();
     h.tau_ext.assign(tau_ext.data(), tau_ext.data() + n);
     if (simulation_) {
-      const plant::Plant& plant = simulation_->plant();
+      const plant::Physics& plant = simulation_->plant();
       h.q.assign(plant.q().data(), plant.q().data() + n);
       h.qd.assign(plant.qd().data(), plant.qd().data() + n);
       h.effort.assign(plant.effort().data(), plant.effort().data() + n);

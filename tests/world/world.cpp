@@ -166,8 +166,18 @@ World::~World() {
 plant::Simulation& World::start_plant(const Eigen::VectorXd& q0, const plant::SimulationOptions& options) {
   plant_.reset();
   plant_clock_ = std::make_unique<plant::PausableClock>(clock_);
-  plant_ = std::make_unique<plant::Simulation>(model_, options, q0, Eigen::VectorXd::Constant(q0.size(), 0.5), bus_,
-                                               *plant_clock_);
+  return started(std::make_unique<plant::Simulation>(model_, options, q0, Eigen::VectorXd::Constant(q0.size(), 0.5),
+                                                     bus_, *plant_clock_));
+}
+
+plant::Simulation& World::start_plant(std::unique_ptr<plant::Physics> engine, const plant::SimulationOptions& options) {
+  plant_.reset();
+  plant_clock_ = std::make_unique<plant::PausableClock>(clock_);
+  return started(std::make_unique<plant::Simulation>(model_, options, std::move(engine), bus_, *plant_clock_));
+}
+
+plant::Simulation& World::started(std::unique_ptr<plant::Simulation> simulation) {
+  plant_ = std::move(simulation);
   plant_->start();
   plant_next_ = now() + plant_->period_ns();
   bus_.handle_pending();

@@ -145,10 +145,14 @@ class World {
   ~World();
 
   Recorder& recorder() { return *recorder_; }
+  /// The memq:// bus everything is on, for a test's own subscriptions.
+  Bus& bus() { return bus_; }
   int64_t now() const { return clock_.now_ns(); }
 
   /// A plant at q0 (damping 0.5 on every joint by default), its first state sent now.
   plant::Simulation& start_plant(const Eigen::VectorXd& q0, const plant::SimulationOptions& options = {});
+  /// A plant on another engine (MuJoCo's), started where it stands.
+  plant::Simulation& start_plant(std::unique_ptr<plant::Physics> engine, const plant::SimulationOptions& options);
   /// The plant stops as a killed process does: no more states, no goodbye.
   void kill_plant();
   plant::Simulation* plant() { return plant_.get(); }
@@ -184,6 +188,7 @@ class World {
   void turn(int64_t until);
   void run_tick(Controller& c);
   void answer_states();
+  plant::Simulation& started(std::unique_ptr<plant::Simulation> simulation);
 
   const RobotModel& model_;
   SimulatedClock clock_;

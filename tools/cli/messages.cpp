@@ -193,6 +193,23 @@ void lay_out(const sim_truth_t& m, Row& row) {
   row.joints("tau_ext", m.tau_ext);
   row.wrench("tip_wrench_ext", m.tip_wrench_ext);
   row.add("contact", int64_t{m.contact ? 1 : 0});
+  // A table has a fixed set of columns: the count, and the contact with the largest force
+  // (empty cells when there is none).
+  row.add("num_contacts", int64_t{m.num_contacts});
+  size_t largest = 0;
+  const auto force = [&m](size_t k) { return std::hypot(m.contact_force[k][0], m.contact_force[k][1], m.contact_force[k][2]); };
+  for (size_t k = 1; k < size_t(m.num_contacts); ++k)
+    if (force(k) > force(largest)) largest = k;
+  const bool any = m.num_contacts > 0;
+  row.add("largest_contact_link", any ? m.contact_link[largest] : std::string());
+  row.add("largest_contact_other", any ? m.contact_other[largest] : std::string());
+  for (const auto& [name, rows] : {std::pair{"largest_contact_point", &m.contact_point},
+                                   std::pair{"largest_contact_normal", &m.contact_normal},
+                                   std::pair{"largest_contact_force", &m.contact_force}}) {
+    for (int i = 0; i < 3; ++i) {
+      row.add((std::string(name) + "[" + "xyz"[i] + "]").c_str(), any ? number_text((*rows)[largest][size_t(i)]) : std::string());
+    }
+  }
 }
 
 void lay_out(const drake::lcmt_iiwa_status& m, Row& row) {

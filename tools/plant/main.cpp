@@ -20,6 +20,8 @@
 #include <cmath>
 #include <map>
 #include <csignal>
+#include <cstdlib>
+#include <sstream>
 #include <cstdio>
 #include <iostream>
 #include <limits>
@@ -39,6 +41,11 @@
 #include "tools/run_main.hpp"
 #include "tools/simulation/environment_forms.hpp"
 #include "tools/simulation/simulation.hpp"
+#ifdef CHASLES_WITH_MUJOCO
+#include "core/geometry/collision_model.hpp"
+#include "core/geometry/scene_file.hpp"
+#include "tools/mujoco/mujoco_plant.hpp"
+#endif
 
 namespace chasles::plant {
 
@@ -52,6 +59,9 @@ struct Options {
   std::vector<std::string> pushes, walls;
   std::string payload, friction, perturb_inertia, effort_noise, stalls;
   std::string armature;
+  // --engine mujoco: the engine, its scene, its presses and where the URDF's meshes are.
+  std::string engine = "chasles", scene;
+  std::vector<std::string> presses, package_dirs;
   bool realtime = false;
   std::string protocol = "chasles", torque_semantics;
   std::string lcm_url;
@@ -132,6 +142,47 @@ EnvironmentOptions environment(const RobotModel& model, const Options& o) {
   if (!o.friction.empty()) env.friction = parse_friction(o.friction, model);
   if (!o.perturb_inertia.empty()) env.perturbation = parse_perturbation(o.perturb_inertia);
   return env;
+}
+
+// Where package:// meshes are looked for: --package-dir, then $ROS_PACKAGE_PATH's folders (as
+// chasles_controller looks).
+std::vector<std::string> package_dirs(const Options& o) {
+  std::vector<std::string> dirs = o.package_dirs;
+  if (const char* path = std::getenv("ROS_PACKAGE_PATH")) {
+    std::stringstream folders(path);
+    for (std::string folder; std::getline(folders, folder, ':');)
+      if (!folder.empty()) dirs.push_back(folder);
+  }
+  return dirs;
+}
+
+// --engine mujoco: MuJoCo's plant, its scene from --scene (the objects; planes and workspace boxes
+// are the controller's safety zones, not things) and --press; chasles's plant's environment and
+// substeps are refused by name. Without MuJoCo built in, says how to build it.
+std::unique_ptr<Physics> mujoco_engine(const RobotModel& model, const Options& o, const Eigen::VectorXd& q0,
+                                       const Eigen::VectorXd& damping) {
+  for (const auto& [flag, given] : {std::pair{"--push", !o.pushes.empty()}, std::pair{"--wall", !o.walls.empty()},
+                                    std::pair{"--payload", !o.payload.empty()}, std::pair{"--friction", !o.friction.empty()},
+                                    std::pair{"--perturb-inertia", !o.perturb_inertia.empty()},
+                                    std::pair{"--substeps", o.sim.substeps != 1}}) {
+    if (given) {
+      throw ArgumentError(std::string(flag) + " is chasles's own plant's: MuJoCo's has a scene (--scene) and presses "
+                          "(--press) instead");
+    }
+  }
+#ifdef CHASLES_WITH_MUJOCO
+  const std::vector<std::string> dirs = package_dirs(o);
+  const geometry::CollisionModel geometry = geometry::load_collision_model(o.robot, model, {dirs, ""});
+  if (geometry.objects.empty()) throw ArgumentError(o.robot + ": --engine mujoco needs the arm's collision geometry, and it has none");
+  MujocoScene scene;
+  if (!o.scene.empty()) scene.objects = geometry::read_scene_file(o.scene, {dirs}).objects;
+  for (const std::string& text : o.presses) scene.presses.push_back(parse_press(text));
+  return std::make_unique<MujocoPlant>(model, o.robot, geometry, scene, q0, damping, 1.0 / o.sim.rate_hz);
+#else
+  (void)model, (void)q0, (void)damping;
+  throw ArgumentError("--engine mujoco: this chasles_plant was built without MuJoCo (configure with "
+                      "-DCHASLES_MUJOCO_PREFIX=$(tools/mujoco.sh), as tools/test.sh and tools/demo.sh do)");
+#endif
 }
 
 EffortNoise effort_noise(const Options& o) {
@@ -255,6 +306,25 @@ void add_options(CLI::App& app, Options& o) {
                  "compensation (default: full for chasles, overlay for drake-iiwa and drake-panda)")
       ->check(named(is_torque_semantics, "overlay, full"))
       ->type_name("SEMANTICS");
+  app.add_option("--engine", o.engine,
+                 "Who simulates the arm: 'chasles', its own rigid-body RK4 (exact; pushes and walls at the tip), or "
+                 "'mujoco', MuJoCo 3.3.4 (contact on any link with --scene's objects and --press)")
+      ->check(CLI::IsMember({"chasles", "mujoco"}))
+      ->capture_default_str();
+  app.add_option("--scene", o.scene,
+                 "--engine mujoco: the scene file (docs/scene.md) whose objects the arm can touch; its planes and "
+                 "workspace boxes are the controller's safety zones and are not simulated")
+      ->check(CLI::ExistingFile)
+      ->type_name("FILE");
+  app.add_option("--press", o.presses,
+                 "--engine mujoco: a ball pressing LINK, repeatable (one at a time): from START s of simulated time for "
+                 "DURATION s, ramped in and out over RAMP s each, along the line through (AX,AY,AZ) in the link's frame "
+                 "(m) with direction (DX,DY,DZ) in the base frame, with FORCE N")
+      ->type_name("LINK,START,DURATION,RAMP,AX,AY,AZ,DX,DY,DZ,FORCE");
+  app.add_option("--package-dir", o.package_dirs,
+                 "--engine mujoco: where the URDF's package://NAME/... meshes are looked for, as DIR/NAME/... "
+                 "(repeatable; then $ROS_PACKAGE_PATH's folders)")
+      ->type_name("DIR");
   app.add_option("--substeps", o.sim.substeps, "RK4 steps per step")->check(CLI::Range(1, 1000))->capture_default_str();
   app.add_option("--damping", o.damping, "Viscous joint damping, N*m*s/rad or N*s/m: one value, or one per joint")
       ->type_name("D[,D...]")
@@ -424,7 +494,9 @@ int main(int argc, char** argv) {
     }
     const Eigen::VectorXd q0 = initial_position(model, options.q0);
     const Eigen::VectorXd damping = joint_damping(model, options.damping);
-    options.sim.environment = environment(model, options);
+    const bool mujoco = options.engine == "mujoco";
+    std::unique_ptr<Physics> engine = mujoco ? mujoco_engine(model, options, q0, damping) : nullptr;
+    if (!mujoco) options.sim.environment = environment(model, options);
     options.sim.faults.effort_noise = effort_noise(options);
     options.sim.stalls = stalls(options);
 
@@ -460,7 +532,8 @@ int main(int argc, char** argv) {
     }
     const chasles::controller::SystemClock system_clock;
     PausableClock clock(system_clock);
-    Simulation simulation(model, options.sim, q0, damping, *bus, clock);
+    Simulation simulation = engine ? Simulation(model, options.sim, std::move(engine), *bus, clock)
+                                   : Simulation(model, options.sim, q0, damping, *bus, clock);
     pthread_sigmask(SIG_UNBLOCK, &stop_signals, nullptr);
 
     const std::string wire =
@@ -470,8 +543,8 @@ int main(int argc, char** argv) {
             : std::string(chasles::controller::to_string(options.sim.protocol)) + ": status on " +
                   simulation.status_channel() + ", commands on " + simulation.command_channel() + " (torque " +
                   chasles::controller::to_string(simulation.torque_semantics()) + ")";
-    std::fprintf(stderr, "chasles_plant: %s, %d joints to %s, %g Hz %s; %s%s%s\n", model.name().c_str(), model.dof(),
-                 model.tip_link().c_str(), options.sim.rate_hz,
+    std::fprintf(stderr, "chasles_plant: %s, %d joints to %s, %s, %g Hz %s; %s%s%s\n", model.name().c_str(), model.dof(),
+                 model.tip_link().c_str(), mujoco ? "MuJoCo" : "chasles's RK4", options.sim.rate_hz,
                  options.sim.lockstep ? "lockstep" : "real time (braked until the first command)", wire.c_str(),
                  simulation.publishes_truth() ? (", truth on " + options.sim.prefix + "TRUTH").c_str() : "",
                  model_errors(options.sim).c_str());

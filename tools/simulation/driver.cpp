@@ -44,7 +44,7 @@ const Eigen::VectorXd& Driver::brake(const Eigen::VectorXd& brake, const Eigen::
   return torque_;
 }
 
-DriverReport Driver::report(const Plant& plant, const Eigen::VectorXd* tau_ext, int64_t robot_utime) const {
+DriverReport Driver::report(const Physics& plant, const Eigen::VectorXd* tau_ext, int64_t robot_utime) const {
   const double success_rate =
       judged_steps_ > 0 ? static_cast<double>(fresh_steps_.count()) /
                               static_cast<double>(std::min(judged_steps_, kSuccessWindow))

@@ -12,7 +12,7 @@
 
 #include "controller/transport/conventions.hpp"
 #include "core/model/model.hpp"
-#include "core/simulation/plant.hpp"
+#include "core/simulation/physics.hpp"
 #include "tools/simulation/messaging.hpp"
 
 namespace chasles::plant {
@@ -29,7 +29,7 @@ class Driver {
   const Eigen::VectorXd& brake(const Eigen::VectorXd& brake, const Eigen::VectorXd& q);
   /// What a Drake status says of the driver at the last step, with the plant's state and the
   /// external joint torque `tau_ext` (nullptr: none).
-  DriverReport report(const Plant& plant, const Eigen::VectorXd* tau_ext, int64_t robot_utime) const;
+  DriverReport report(const Physics& plant, const Eigen::VectorXd* tau_ext, int64_t robot_utime) const;
 
   /// The number of steps whose freshness the Panda's control_command_success_rate counts
   /// (libfranka's "last 100 control commands").

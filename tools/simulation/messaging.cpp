@@ -338,23 +338,56 @@ void StatePublisher::publish(const std::vector<uint8_t>& bytes) {
 
 TruthPublisher::TruthPublisher(Bus& bus, std::string channel, int num_joints)
     : bus_(bus), channel_(std::move(channel)) {
+  constexpr auto kMax = static_cast<size_t>(sim_truth_t::MAX_CONTACTS);
   message_.utime = message_.seq = 0;
   message_.num_joints = num_joints;
   message_.tau_ext.assign(static_cast<size_t>(num_joints), 0.0);
   std::fill(std::begin(message_.tip_wrench_ext), std::end(message_.tip_wrench_ext), 0.0);
   message_.contact = false;
+  // Every row is there from the start; num_contacts says how many are sent.
+  message_.num_contacts = sim_truth_t::MAX_CONTACTS;
+  for (auto* names : {&message_.contact_link, &message_.contact_other}) {
+    names->assign(kMax, std::string(kNameRoom, 'x'));
+  }
+  for (auto* rows : {&message_.contact_point, &message_.contact_normal, &message_.contact_force}) {
+    rows->assign(kMax, std::vector<double>(3, 0.0));
+  }
   bytes_.resize(static_cast<size_t>(message_.getEncodedSize()));
+  message_.num_contacts = 0;
+  order_.reserve(4 * kMax);
 }
 
-void TruthPublisher::publish(int64_t utime, int64_t seq, const Eigen::VectorXd& tau_ext, const Vector6d& tip_wrench_ext,
-                             bool contact) {
+void TruthPublisher::publish(int64_t utime, int64_t seq, const Truth& truth) {
   message_.utime = utime;
   message_.seq = seq;
-  for (size_t i = 0; i < message_.tau_ext.size(); ++i) message_.tau_ext[i] = tau_ext[static_cast<Eigen::Index>(i)];
-  for (int i = 0; i < 6; ++i) message_.tip_wrench_ext[i] = tip_wrench_ext[i];
-  message_.contact = contact;
-  message_.encode(bytes_.data(), 0, static_cast<int>(bytes_.size()));
-  if (!bus_.publish(channel_, bytes_)) ++not_sent_;
+  for (size_t i = 0; i < message_.tau_ext.size(); ++i) message_.tau_ext[i] = truth.tau_ext[static_cast<Eigen::Index>(i)];
+  for (int i = 0; i < 6; ++i) message_.tip_wrench_ext[i] = truth.tip_wrench_ext[i];
+  message_.contact = truth.contact;
+  const auto& contacts = truth.contacts;
+  order_.resize(contacts.size());
+  for (size_t k = 0; k < order_.size(); ++k) order_[k] = static_cast<int>(k);
+  const size_t sent = std::min(order_.size(), static_cast<size_t>(sim_truth_t::MAX_CONTACTS));
+  if (sent < order_.size()) {
+    std::nth_element(order_.begin(), order_.begin() + static_cast<std::ptrdiff_t>(sent), order_.end(), [&](int a, int b) {
+      return contacts[static_cast<size_t>(a)].force.squaredNorm() > contacts[static_cast<size_t>(b)].force.squaredNorm();
+    });
+    std::sort(order_.begin(), order_.begin() + static_cast<std::ptrdiff_t>(sent));  // in the engine's order
+  }
+  message_.num_contacts = static_cast<int32_t>(sent);
+  for (size_t k = 0; k < sent; ++k) {
+    const ArmContact& c = contacts[static_cast<size_t>(order_[k])];
+    message_.contact_link[k].assign(c.link);
+    message_.contact_other[k].assign(c.other);
+    for (int i = 0; i < 3; ++i) {
+      message_.contact_point[k][static_cast<size_t>(i)] = c.point[i];
+      message_.contact_normal[k][static_cast<size_t>(i)] = c.normal[i];
+      message_.contact_force[k][static_cast<size_t>(i)] = c.force[i];
+    }
+  }
+  const auto size = static_cast<size_t>(message_.getEncodedSize());
+  if (size > bytes_.size()) bytes_.resize(size);  // names longer than kNameRoom: the one allocation
+  message_.encode(bytes_.data(), 0, static_cast<int>(size));
+  if (!bus_.publish(channel_, bytes_.data(), size)) ++not_sent_;
 }
 
 }  // namespace chasles::plant

@@ -25,6 +25,7 @@
 #include "controller/transport/realtime/bus.hpp"
 #include "controller/transport/realtime/clock.hpp"
 #include "core/lie/types.hpp"
+#include "core/simulation/physics.hpp"
 
 namespace chasles::plant {
 
@@ -256,16 +257,20 @@ class TruthPublisher {
  public:
   TruthPublisher(Bus& bus, std::string channel, int num_joints);
 
-  /// Encodes and sends one truth; a send that fails is counted (not_sent()).
-  void publish(int64_t utime, int64_t seq, const Eigen::VectorXd& tau_ext, const Vector6d& tip_wrench_ext,
-               bool contact);
+  /// Encodes and sends one truth, its contacts with it (at most sim_truth_t::MAX_CONTACTS, those
+  /// with the largest forces); a send that fails is counted (not_sent()). Allocates nothing while
+  /// the names fit the room kept for them (kNameRoom bytes).
+  void publish(int64_t utime, int64_t seq, const Truth& truth);
   int64_t not_sent() const { return not_sent_; }
+
+  static constexpr size_t kNameRoom = 64;
 
  private:
   Bus& bus_;
   std::string channel_;
   sim_truth_t message_;
   std::vector<uint8_t> bytes_;
+  std::vector<int> order_;  // the contacts sent, by force
   int64_t not_sent_ = 0;
 };
 

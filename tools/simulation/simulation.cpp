@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "core/error.hpp"
+#include "core/simulation/plant.hpp"
 
 namespace chasles::plant {
 namespace {
@@ -51,22 +52,36 @@ int64_t StallSchedule::due(int64_t seq) {
 
 Simulation::Simulation(const RobotModel& model, const SimulationOptions& options, const Eigen::VectorXd& q0,
                        const Eigen::VectorXd& damping, Bus& bus, const Clock& clock)
+    : Simulation(model, options,
+                 std::make_unique<Plant>(model, q0, damping, 1.0 / options.rate_hz, options.substeps, options.environment),
+                 bus, clock, /*own_plant=*/true) {}
+
+Simulation::Simulation(const RobotModel& model, const SimulationOptions& options, std::unique_ptr<Physics> physics,
+                       Bus& bus, const Clock& clock)
+    : Simulation(model, options, std::move(physics), bus, clock, /*own_plant=*/false) {}
+
+Simulation::Simulation(const RobotModel& model, const SimulationOptions& options, std::unique_ptr<Physics> physics,
+                       Bus& bus, const Clock& clock, bool own_plant)
     : options_(options),
       bus_(bus),
       clock_(clock),
       status_channel_(status_channel_of(options)),
       command_channel_(command_channel_of(options)),
-      plant_(model, q0, damping, 1.0 / options.rate_hz, options.substeps, options.environment),
+      physics_(std::move(physics)),
       driver_(model, semantics_of(options)),
       times_(1.0 / options.rate_hz, &seq_),
       inbox_(clock, command_channel_, model.dof(), options.protocol, &times_),
       publisher_(bus, status_channel_, model.dof(), options.faults, max_in_flight(options), options.protocol),
-      publish_truth_(options.truth || options.environment.any()),
+      publish_truth_(options.truth || physics_->has_environment()),
       truth_publisher_(bus, options.prefix + "TRUTH", model.dof()),
       dt_(1.0 / options.rate_hz),
       period_ns_(static_cast<int64_t>(std::llround(1e9 / options.rate_hz))),
       brake_time_constant_(std::max(kBrakeTimeConstant, kBrakeStepsPerTimeConstant * dt_)),
       stalls_(options.stalls, options.rate_hz) {
+  if (!own_plant && options.environment.any()) {
+    throw ArgumentError("the plant's environment (pushes, walls, payload, friction, perturbed inertias) is chasles's "
+                        "own plant's; another engine has its own scene");
+  }
   if (options.protocol != controller::Protocol::kChasles && options.rate_hz > 1e6) {
     throw ArgumentError(std::string("a rate of more than 10^6 steps per second for ") +
                         controller::to_string(options.protocol) +
@@ -105,17 +120,17 @@ void Simulation::publish_state(int64_t now_ns) {
   const int64_t utime = times_.utime(seq_);
   const Truth* truth = nullptr;
   if (options_.protocol == controller::Protocol::kChasles) {
-    publisher_.encode(utime, seq_, plant_.q(), plant_.qd(), plant_.effort());
+    publisher_.encode(utime, seq_, physics_->q(), physics_->qd(), physics_->effort());
   } else {
-    if (options_.environment.any()) truth = &plant_.sample_truth();
+    if (physics_->has_environment()) truth = &physics_->sample_truth();
     const int64_t robot_utime = std::llround(1e6 * static_cast<double>(seq_) * dt_);
-    publisher_.encode(utime, seq_, plant_.q(), driver_.report(plant_, truth != nullptr ? &truth->tau_ext : nullptr, robot_utime));
+    publisher_.encode(utime, seq_, physics_->q(), driver_.report(*physics_, truth != nullptr ? &truth->tau_ext : nullptr, robot_utime));
   }
   publisher_.send(now_ns);
   last_send_ns_ = now_ns;
   if (!publish_truth_) return;
-  if (truth == nullptr) truth = &plant_.sample_truth();
-  truth_publisher_.publish(utime, seq_, truth->tau_ext, truth->tip_wrench_ext, truth->contact);
+  if (truth == nullptr) truth = &physics_->sample_truth();
+  truth_publisher_.publish(utime, seq_, *truth);
 }
 
 // Lockstep: one step per command that answers the latest state (state_seq == seq), applied at
@@ -129,11 +144,11 @@ void Simulation::on_command(const uint8_t* data, size_t size) {
     ++stale_;
     return;
   }
-  step_and_publish(driver_.command(command, true, plant_.q()));
+  step_and_publish(driver_.command(command, true, physics_->q()));
 }
 
 void Simulation::step_and_publish(const Eigen::VectorXd& tau) {
-  plant_.step(tau);
+  physics_->step(tau);
   ++seq_;
   publish_state(clock_.now_ns());
 }
@@ -143,10 +158,10 @@ void Simulation::step() {
   count_late_cycle(now);
   update_brake(now);
   if (braking_) {
-    step_and_publish(driver_.brake(plant_.brake_torque(brake_time_constant_), plant_.q()));
+    step_and_publish(driver_.brake(physics_->brake_torque(brake_time_constant_), physics_->q()));
   } else {
     const bool fresh = inbox_.fresh();
-    step_and_publish(driver_.command(inbox_.take(), fresh, plant_.q()));
+    step_and_publish(driver_.command(inbox_.take(), fresh, physics_->q()));
   }
   publisher_.flush(now);
   inbox_.report_rejections(now);

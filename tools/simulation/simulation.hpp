@@ -1,8 +1,8 @@
-// The simulated arm on a bus: dynamics (Plant) in its environment, zero-order hold of the latest
-// valid command, the watchdog's brake, injected faults on the states it sends, the truth beside
-// them, one step at a time on a Clock. It speaks one protocol (controller/transport/protocol.hpp): chasles's
-// own, or Drake's iiwa or Panda driver's, with that driver's conventions (docs/protocols.md, "The
-// plant speaks them too").
+// The simulated arm on a bus: its dynamics (a Physics: chasles's own Plant in its environment, or
+// MuJoCo's), zero-order hold of the latest valid command, the watchdog's brake, injected faults on
+// the states it sends, the truth beside them, one step at a time on a Clock. It speaks one
+// protocol (controller/transport/protocol.hpp): chasles's own, or Drake's iiwa or Panda driver's,
+// with that driver's conventions (docs/protocols.md, "The plant speaks them too").
 // chasles_plant runs it on the system clock and UDP multicast; the in-process tests run it beside
 // a controller::Node on a SimulatedClock and a memq:// bus.
 #pragma once
@@ -10,6 +10,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <atomic>
+#include <memory>
 #include <optional>
 #include <random>
 #include <string>
@@ -18,7 +19,8 @@
 #include "controller/transport/realtime/bus.hpp"
 #include "controller/transport/realtime/clock.hpp"
 #include "core/model/model.hpp"
-#include "core/simulation/plant.hpp"
+#include "core/simulation/environment.hpp"
+#include "core/simulation/physics.hpp"
 #include "tools/simulation/driver.hpp"
 #include "tools/simulation/messaging.hpp"
 
@@ -106,6 +108,12 @@ class Simulation {
   /// their utime, µs).
   Simulation(const RobotModel& model, const SimulationOptions& options, const Eigen::VectorXd& q0,
              const Eigen::VectorXd& damping, Bus& bus, const Clock& clock);
+  /// The same on another engine (MuJoCo's: tools/mujoco), which steps at 1 / options.rate_hz and
+  /// starts where the caller put it. options.environment and options.substeps are chasles's plant's:
+  /// with an engine given, an environment is refused (ArgumentError); the engine's own scene is its
+  /// environment.
+  Simulation(const RobotModel& model, const SimulationOptions& options, std::unique_ptr<Physics> physics, Bus& bus,
+             const Clock& clock);
   Simulation(const Simulation&) = delete;
   Simulation& operator=(const Simulation&) = delete;
 
@@ -139,7 +147,7 @@ class Simulation {
   int64_t state_utime(int64_t seq) const { return times_.utime(seq); }
   /// The seq of the state sent stamped `utime`; −1 when none was.
   int64_t state_seq(int64_t utime) const { return times_.seq(utime); }
-  const Plant& plant() const { return plant_; }
+  const Physics& plant() const { return *physics_; }
   bool braking() const { return braking_; }
   int64_t steps() const { return seq_; }
   int64_t brakes() const { return brakes_; }
@@ -154,17 +162,19 @@ class Simulation {
   int64_t stale_commands() const { return stale_ + inbox_.stale(); }
   int64_t states_not_sent() const { return publisher_.dropped(); }
   /// Whether a sim_truth_t goes out on PREFIX TRUTH right after every state produced (options.truth
-  /// or a non-empty environment).
+  /// or an engine with an environment: Physics::has_environment).
   bool publishes_truth() const { return publish_truth_; }
   /// The truth at the latest state produced (Truth::steps is its seq); steps −1 when the truth is
   /// not published (it is then not computed either).
-  const Truth& truth() const { return plant_.truth(); }
+  const Truth& truth() const { return physics_->truth(); }
   /// Truths whose send failed.
   int64_t truths_not_sent() const { return truth_publisher_.not_sent(); }
   /// One line on stderr: what the run did.
   void print_summary() const;
 
  private:
+  Simulation(const RobotModel& model, const SimulationOptions& options, std::unique_ptr<Physics> physics, Bus& bus,
+             const Clock& clock, bool own_plant);
   static int max_in_flight(const SimulationOptions& options);
   int64_t max_command_lag() const;
   void on_command(const uint8_t* data, size_t size);
@@ -181,7 +191,7 @@ class Simulation {
   Bus& bus_;
   const Clock& clock_;
   const std::string status_channel_, command_channel_;
-  Plant plant_;
+  std::unique_ptr<Physics> physics_;
   Driver driver_;
   StateTimes times_;
   CommandInbox inbox_;
