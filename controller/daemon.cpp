@@ -63,6 +63,13 @@ struct Daemon::Impl {
     }
   }
 
+  void locator_loop() {
+    while (!done.load(std::memory_order_relaxed)) {
+      const int64_t due = node.locate();
+      node.locator_bell().wait_until(std::min(due, clock.now_ns() + kIdleNs));
+    }
+  }
+
   void status_loop() {
     while (!done.load(std::memory_order_relaxed)) {
       const int64_t due = node.report();
@@ -117,13 +124,16 @@ Summary Daemon::run(const std::atomic<bool>& stop) {
   if (!d.state_driven()) receiver = std::thread([&d] { d.receive_until(INT64_MAX); });
   std::thread status([&d] { d.status_loop(); });
   std::thread ik([&d] { d.ik_loop(); });
+  std::thread locator([&d] { d.locator_loop(); });
   std::thread loop([&d, &stop] { d.realtime_loop(stop); });
   loop.join();
   d.done = true;
   d.node.planner_bell().ring();
   d.node.reporter_bell().ring();
+  d.node.locator_bell().ring();
   status.join();
   ik.join();
+  locator.join();
   if (receiver.joinable()) receiver.join();
   return d.node.summary(1e-9 * static_cast<double>(d.clock.now_ns() - start));
 }

@@ -6,6 +6,9 @@
 //                   --tick clock: ticks every period on an absolute-time sleep, with the latest
 //                   state, and an LCM thread receives (for a plant that does not stream).
 //   IK worker       plans Cartesian goals into joint paths with Ceres (milliseconds, allocating)
+//   locator thread  finds where on the arm a contact is from the observer's external torque
+//                   (milliseconds a search), woken by the loop while there is one; publishes
+//                   contact_estimate_t on PREFIX CONTACT
 //   status thread   drains the timing records into histograms, publishes controller_status_t
 //                   at status_hz (at once on a change of mode) and reports changes on stderr
 //

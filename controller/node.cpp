@@ -108,6 +108,13 @@ void Node::Planner::check(const RobotModel& model, JointPath& planned) {
 
 Node::Reporter::Reporter(const RobotModel& model) : data(model), last(model.dof()) {}
 
+Node::Locating::Locating(const RobotModel& model) : data(model) {
+  message = contact_estimate_t{};
+  message.state = contact_estimate_t::NONE;
+  message.link.reserve(256);
+  bytes.resize(static_cast<size_t>(message.getEncodedSize()) + 256);
+}
+
 // chasles's channels with the prefix, the driver's status and command channels as the protocol
 // names them unless given.
 Channels channels_of(const DaemonOptions& options) {
@@ -137,10 +144,19 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
       requests_(CartesianRequest(n_)),
       worlds_(options.clearance),
       paths_(2, JointPath(n_)),
+      locate_inputs_(LocateInput{Eigen::VectorXd::Zero(n_), Eigen::VectorXd::Zero(n_)}),
       loop_(models_.front().model, options, models_.front().payload),
       planner_(model, options.control.limits),
+      locating_(model),
       reporter_(model) {
   reporter_.status.num_joints = n_;
+  const DaemonOptions::Locate& locate = options.locate;
+  if (!(locate.rate_hz > 0.0) || !std::isfinite(locate.rate_hz) || !(locate.floor >= 0.0) || !std::isfinite(locate.floor)) {
+    throw ArgumentError("contact localisation: the rate must be > 0 Hz and the floor >= 0 N*m, both finite");
+  }
+  if (locate.enabled && !options.arm.objects.empty()) {
+    locating_.locator = std::make_unique<geometry::ContactLocator>(model_, options.arm, locate.locator);
+  }
   planner_.use(model_, options_.clearance);
   if (!loop_.controller.set_clearance_world(options_.clearance.get())) {
     throw ArgumentError("the collision geometry was built for another arm");
@@ -253,6 +269,7 @@ int64_t Node::tick(int64_t scheduled) {
   }
   if (!records_.push(record)) ++loop_.counters.lost_records;
   publish_snapshot();
+  if (fresh && locating_.locator) hand_to_locator();
   // The status goes out at once on what an operator must hear about now.
   const int64_t rejected = loop_.controller.rejected_targets() + loop_.controller.rejected_modes(),
                 foreign = foreign_commands();
@@ -293,6 +310,61 @@ void Node::stand_down() {
   loop_.controller.stand_down("another sender is commanding %s (%s; our latest state %s%lld): stopped commanding",
                               channels_.command.c_str(), first, by_seq ? "" : "utime ",
                               static_cast<long long>(latest));
+}
+
+// The locator is woken only while there is something to find, and once more when it has gone (to
+// say so); otherwise it takes the newest state when it looks.
+void Node::hand_to_locator() {
+  LocateInput& in = locate_inputs_.back();
+  in.q = loop_.state.q;
+  in.tau_ext = loop_.controller.contact().tau_ext;
+  in.utime = loop_.state.utime;
+  in.seq = loop_.state.seq;
+  const bool above = in.tau_ext.norm() >= options_.locate.floor;
+  locate_inputs_.publish();
+  if (above || above_floor_) locator_bell_.ring();
+  above_floor_ = above;
+}
+
+// Its own thread: a search over the arm's surface takes milliseconds, many ticks. A state under
+// the floor is NONE, published once when the last estimate was LOCATED.
+int64_t Node::locate() {
+  constexpr int64_t kIdleNs = 100'000'000;
+  const int64_t now = clock_.now_ns();
+  if (!locating_.locator) return now + kIdleNs;
+  if (now < locating_.next_ns) return locating_.next_ns;
+  if (!locate_inputs_.take()) return now + kIdleNs;
+  const LocateInput& in = locate_inputs_.front();
+  contact_estimate_t& m = locating_.message;
+  const double norm = in.tau_ext.norm();
+  const bool above = norm >= options_.locate.floor;
+  if (!above && !locating_.located) return now + kIdleNs;
+  m.utime = in.utime;
+  m.seq = in.seq;
+  m.tau_ext_norm = norm;
+  if (above) {
+    space_jacobian(model_, locating_.data, in.q);
+    const geometry::ContactEstimate& e = locating_.locator->locate(locating_.data, in.tau_ext);
+    m.state = contact_estimate_t::LOCATED;
+    m.link.assign(e.link);
+    m.body = e.body;
+    for (int k = 0; k < 3; ++k) m.point[k] = e.point[k], m.normal[k] = e.normal[k], m.force[k] = e.force[k];
+    m.residual = e.residual;
+    m.contact = e.force.norm() >= options_.control.contact.contact_force;
+  } else {
+    m = contact_estimate_t{};
+    m.utime = in.utime, m.seq = in.seq, m.tau_ext_norm = norm;
+    m.state = contact_estimate_t::NONE;
+  }
+  locating_.located = above;
+  const int64_t done = clock_.now_ns();
+  m.compute_us = 1e-3 * static_cast<double>(done - now);
+  const auto size = static_cast<size_t>(m.getEncodedSize());
+  if (size > locating_.bytes.size()) locating_.bytes.resize(size);
+  m.encode(locating_.bytes.data(), 0, static_cast<int>(size));
+  buses_.status.publish(channels_.contact, locating_.bytes.data(), size);
+  locating_.next_ns = now + static_cast<int64_t>(std::llround(1e9 / options_.locate.rate_hz));
+  return locating_.next_ns;
 }
 
 // Written straight into the mailbox's free slot: nothing is copied twice on the loop.

@@ -17,8 +17,10 @@
 // step waits for another. The loop rings the workers' doorbells when it hands them work.
 #pragma once
 
+#include <chasles/contact_estimate_t.hpp>
 #include <chasles/controller_status_t.hpp>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -78,6 +80,12 @@ class Node {
   /// Drains the timing records, reports changes on stderr and publishes a status when one is due
   /// (or the mode changed); returns when the next is due.
   int64_t report();
+  /// The locator thread's: where on the arm the newest state's τ̂_ext comes from, published as
+  /// contact_estimate_t (DaemonOptions::locate); returns when to look again (its bell rings
+  /// sooner when the loop has a torque above the floor for it).
+  int64_t locate();
+  /// The latest estimate published (state NONE before the first); the locator's thread.
+  const contact_estimate_t& located() const { return locating_.message; }
   /// The summary of the run so far, over `seconds` of it.
   Summary summary(double seconds);
 
@@ -89,6 +97,8 @@ class Node {
   /// Rung by the loop when report() must run before the status is due: a change of mode, a
   /// refused target, a foreign command.
   Doorbell& reporter_bell() { return reporter_bell_; }
+  /// Rung by the loop when a state's τ̂_ext is above the locator's floor, or has just fallen under it.
+  Doorbell& locator_bell() { return locator_bell_; }
 
  private:
   // One tick's measurements, queued by the loop for the status step.
@@ -161,6 +171,8 @@ class Node {
   /// Messages heard on the command channel that this process did not send.
   int64_t foreign_commands() const { return inbox_.own_commands().foreign(); }
   void publish_snapshot();
+  /// The loop's: the state just read and its τ̂_ext into the locator's mailbox.
+  void hand_to_locator();
   void follow_plant_time(int64_t wake);
   void drain();
   void fill_status();
@@ -172,7 +184,7 @@ class Node {
   const int n_;
   const int64_t period_ns_;
   Channels channels_;
-  Doorbell planner_bell_, reporter_bell_;
+  Doorbell planner_bell_, reporter_bell_, locator_bell_;
   Inbox inbox_;
   // Built by the worker from model_ and a payload, swapped in by the loop between ticks; the
   // controller drives the mailbox's front, which the worker never writes.
@@ -184,6 +196,12 @@ class Node {
   // controller computes with the front, which the worker never writes.
   Mailbox<std::shared_ptr<ClearanceWorld>> worlds_;
   SpscRing<JointPath> paths_;           // IK → loop
+  // loop → locator: the newest state's joint positions and τ̂_ext.
+  struct LocateInput {
+    Eigen::VectorXd q, tau_ext;
+    int64_t utime = 0, seq = 0;
+  };
+  Mailbox<LocateInput> locate_inputs_;
   bool realtime_granted_ = false;
 
   // Each thread's own state, touched by its step alone; the threads meet only in the mailboxes,
@@ -245,6 +263,18 @@ class Node {
     /// Whether `path` (planned, ok) keeps clear; if not, it is failed saying why.
     void check(const RobotModel& model, JointPath& path);
   } planner_;
+
+  // The locator's: locate(). Null locator: no collision geometry, or not asked for.
+  struct Locating {
+    explicit Locating(const RobotModel& model);
+    std::unique_ptr<geometry::ContactLocator> locator;
+    Data data;
+    contact_estimate_t message;
+    std::vector<uint8_t> bytes;
+    int64_t next_ns = 0;
+    bool located = false;  // the latest published said LOCATED
+  } locating_;
+  bool above_floor_ = false;  // the loop's: the latest state handed over was above the floor
 
   // The status step's: report() and summary().
   struct Reporter {

@@ -10,6 +10,7 @@
 
 #include "controller/controller.hpp"
 #include "controller/transport/protocol.hpp"
+#include "core/geometry/contact_locator.hpp"
 #include "controller/statistics.hpp"
 #include "core/model/payload.hpp"
 
@@ -51,6 +52,16 @@ struct DaemonOptions {
   int cpu_wake_latency_us = 0;
   double seconds = 0.0;  ///< stop after this long; 0: run until stopped
   double status_hz = 100.0;
+  /// Where on the arm a contact is (core/geometry/contact_locator.hpp), on a thread of its own, from
+  /// the observer's τ̂_ext of the newest state: at most rate_hz times a second while |τ̂_ext| ≥
+  /// floor N·m, published as contact_estimate_t on PREFIX CONTACT. Needs `arm`'s collision objects
+  /// (none: no locator).
+  struct Locate {
+    bool enabled = true;
+    double rate_hz = 100.0;
+    double floor = 0.2;
+    geometry::ContactLocatorOptions locator;
+  } locate;
   TickSource tick = TickSource::kState;
   /// Read the receiving socket on the loop's own thread (Bus::Receive::kDirect, udpm:// only)
   /// rather than through LCM's receive thread.

@@ -13,6 +13,7 @@
 #include <lcm/lcm_coretypes.h>
 
 #include <chasles/arm_target_t.hpp>
+#include <chasles/contact_estimate_t.hpp>
 #include <chasles/control_mode_t.hpp>
 #include <chasles/controller_status_t.hpp>
 #include <chasles/jog_command_t.hpp>
@@ -374,11 +375,20 @@ inline std::string prepare(const void* data, size_t size, scene_t& m) {
   return {};
 }
 
-// Types with no joint count: fixed size.
+// Types with no joint count: fixed size, or sized by a string.
 template <typename Message>
-inline constexpr bool kCountless = std::is_same_v<Message, payload_t> || std::is_same_v<Message, tip_setpoint_t>;
+inline constexpr bool kCountless = std::is_same_v<Message, payload_t> || std::is_same_v<Message, tip_setpoint_t> ||
+                                   std::is_same_v<Message, contact_estimate_t>;
 inline std::string prepare(const void*, size_t, payload_t&) { return {}; }
 inline std::string prepare(const void*, size_t, tip_setpoint_t&) { return {}; }
+// The link's name, after utime, seq, state and contact.
+inline std::string prepare(const void* data, size_t size, contact_estimate_t& m) {
+  std::vector<std::string> link;
+  ByteWalk walk(data, size, 8 + 8 + 8 + 1 + 1);
+  if (!walk.strings(link, 1, "link")) return walk.why();
+  m.link = std::move(link[0]);
+  return {};
+}
 
 inline bool finite(const std::vector<double>& values) {
   for (double x : values) {
@@ -459,6 +469,13 @@ inline const char* non_finite(const joint_setpoint_t& m) {
 }
 inline const char* non_finite(const jog_command_t& m) {
   return !finite(m.joint_velocity) ? "joint_velocity" : !finite(m.twist, 6) ? "twist" : nullptr;
+}
+inline const char* non_finite(const contact_estimate_t& m) {
+  return !finite(m.point, 3)                                         ? "point"
+         : !finite(m.normal, 3)                                      ? "normal"
+         : !finite(m.force, 3)                                       ? "force"
+         : !std::isfinite(m.residual) || !std::isfinite(m.tau_ext_norm) ? "residual"
+                                                                     : nullptr;
 }
 inline const char* non_finite(const tip_setpoint_t& m) {
   return !finite(m.position, 3) ? "position" : !finite(m.quaternion, 4) ? "quaternion" : !finite(m.twist, 6) ? "twist" : nullptr;

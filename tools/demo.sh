@@ -5,6 +5,7 @@
 #
 #   tools/demo.sh [--seconds N] [--robot ur5|panda|iiwa|FILE.urdf] [--tip LINK] [--summary FILE]
 #                 [--tick state|clock] [--protocol chasles|drake-iiwa|drake-panda]
+#                 [--engine chasles|mujoco]
 #
 #   --seconds N      length of the programme of targets (default 16, at least 10); the waypoint
 #                    trajectory, a stream of setpoints and the jogs follow it (about 12 s; on the
@@ -19,6 +20,9 @@
 #   --protocol P     the messages plant and controller speak (docs/protocols.md): chasles's own
 #                    (default), or Drake's iiwa driver's (IIWA_STATUS/IIWA_COMMAND at 200 Hz, the
 #                    torque sent less g(q)) or Panda driver's (PANDA_STATUS/PANDA_COMMAND, 1 kHz)
+#   --engine E       who simulates the arm: chasles's own plant (default: RK4, the push and the
+#                    table act on the tip) or MuJoCo (tools/mujoco.sh installs it: the table is a
+#                    box under the hand, the push a ball pressing the elbow; docs/simulation.md)
 #
 # In a private network namespace (tools/netns.sh) it starts lcm-logger, chasles_plant (real time,
 # 1 kHz, damped, with a table under the arm) and chasles_controller --realtime, sends a programme
@@ -330,6 +334,33 @@ print(f"{b[0][3]!r},{b[1][3]!r},{surface!r},0,0,1")
 print(pose(b, -0.015))
 PY
   )
+  # On MuJoCo the table is a thing the hand's own shapes meet: a box (the plant's --scene) just wide
+  # enough for the hand, its top 5 mm under the lowest point of the collision geometry on the tip's
+  # body at pose_b (chasles eval --collision), so that the same press takes that point 1 cm into it.
+  local mujoco_scene=$dir/mujoco_table.json
+  if [ "$DEMO_ENGINE" = mujoco ]; then
+    echo "{\"cases\":[{\"q\":[$pose_b]}]}" >"$dir/pose_b_case.json"
+    "$DEMO_BUILD/tools/chasles" eval --urdf "$DEMO_URDF" ${DEMO_TIP:+--tip "$DEMO_TIP"} --cases "$dir/pose_b_case.json" \
+      --collision --package-dir "$root/tests/data/packages" >"$dir/pose_b_collision.json"
+    python3 - "$dir/pose_b_collision.json" "$dir/model.json" "$mujoco_scene" <<'PY'
+import json, sys
+case = json.load(open(sys.argv[1]))["cases"][0]
+n = len(json.load(open(sys.argv[2]))["joint_types"])
+hand = [b for b in case["collision_boxes"] if b["body"] == n]
+if not hand:
+    sys.exit("demo.sh: the tip's body has no collision geometry for MuJoCo's table to meet")
+lo = [min(b["min"][k] for b in hand) for k in range(3)]
+hi = [max(b["max"][k] for b in hand) for k in range(3)]
+top = lo[2] - 0.005
+size = [hi[0] - lo[0] + 0.1, hi[1] - lo[1] + 0.1, 0.05]  # 5 cm to spare on every side
+below = [b["object"] for b in case["collision_boxes"] if b["body"] < n and b["min"][2] < top
+         and b["max"][0] > lo[0] - 0.05 and b["min"][0] < hi[0] + 0.05 and b["max"][1] > lo[1] - 0.05 and b["min"][1] < hi[1] + 0.05]
+if below:
+    sys.exit("demo.sh: " + ", ".join(below) + " would be inside MuJoCo's table at the press pose")
+json.dump({"version": 1, "objects": [{"name": "table", "shape": {"box": {"size": size}},
+           "pose": {"xyz": [(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, top - 0.025]}}]}, open(sys.argv[3], "w"), indent=1)
+PY
+  fi
 
   # The planner's trajectory: from the arm at rest on the table, up to pose_b in 0.5 s, then pose_b ->
   # pose_a -> home, each leg a straight line in joint space timed by one trapezoidal profile for all
@@ -495,9 +526,21 @@ PY
   local press_k=1000 table_k=10000
 
   start lcm-logger lcm-logger --lcm-url="$lcm_url" --force "$dir/chasles.lcmlog"
+  # On MuJoCo: the box under the hand, and instead of the tip's push a ball pressing the elbow with
+  # the same 30 N along x, over the same window.
+  local environment=(--push "$push" --wall "$table,$table_k,100") press_link=
+  if [ "$DEMO_ENGINE" = mujoco ]; then
+    case "$(basename "$DEMO_URDF")" in
+      panda.urdf) press_link=panda_link4 ;;
+      iiwa14.urdf) press_link=iiwa_link_4 ;;
+      ur5.urdf) press_link=forearm_link ;;
+      *) press_link=$DEMO_TIP ;;
+    esac
+    push="$press_link,$t_push,$push_s,0.01,0,0,0,1,0,0,30"
+    environment=(--engine mujoco --package-dir "$root/tests/data/packages" --scene "$mujoco_scene" --press "$push")
+  fi
   start chasles_plant "$DEMO_BUILD/tools/chasles_plant" "${model[@]}" --realtime --protocol "$DEMO_PROTOCOL" \
-    --damping 0.5 --q0 "$home" \
-    --push "$push" --wall "$table,$table_k,100" --lcm-url "$lcm_url"
+    --damping 0.5 --q0 "$home" "${environment[@]}" --lcm-url "$lcm_url"
   # The controller knows the plant's joint damping and feeds it forward (--damping). On the Panda
   # it takes the arm's own acceleration and jerk limits, libfranka's; elsewhere the defaults.
   local limits=() clearance=()
@@ -519,9 +562,12 @@ PY
     --tick "$DEMO_TICK" --summary "$dir/summary.json"
   run_start=$(now)
   # Where the report reads the press: the window in which the arm rests on the table, as utimes.
-  awk -v s="$run_start" -v a="$t_measure" -v b="$t_lift" -v k="$press_k" -v K="$table_k" \
-    'BEGIN { printf "{\"press_k\": %s, \"table_k\": %s, \"depth\": 0.01, \"from_utime\": %.0f, \"to_utime\": %.0f}\n",
-             k, K, (s + a) * 1e6, (s + b) * 1e6 }' >"$dir/press.json"
+  # On MuJoCo the table is no spring of a known stiffness: the report holds the force against the
+  # commanded spring at the deflection it measures (the press's goal height against the tip's).
+  awk -v s="$run_start" -v a="$t_measure" -v b="$t_lift" -v k="$press_k" -v K="$table_k" -v e="$DEMO_ENGINE" \
+    -v goal="$(cut -d, -f3 <<<"$press_pose")" \
+    'BEGIN { printf "{\"press_k\": %s, \"table_k\": %s, \"depth\": 0.01, \"from_utime\": %.0f, \"to_utime\": %.0f, \"engine\": \"%s\", \"goal_z\": %s}\n",
+             k, K, (s + a) * 1e6, (s + b) * 1e6, e, goal }' >"$dir/press.json"
   sleep 0.3
   check_alive
 
@@ -539,7 +585,11 @@ PY
   send "JOINT move home to [$home]" "${model[@]}" --joint "$home" --duration "$move"
   wait_until "$t_hold2"
   send "hold" --hold
-  echo "  the plant pushes the tip: 30 N along x from ${t_push} s for ${push_s} s (chasles_plant --push $push)"
+  if [ "$DEMO_ENGINE" = mujoco ]; then
+    echo "  MuJoCo's ball presses the elbow ($press_link): 30 N along x from ${t_push} s for ${push_s} s (chasles_plant --press $push)"
+  else
+    echo "  the plant pushes the tip: 30 N along x from ${t_push} s for ${push_s} s (chasles_plant --push $push)"
+  fi
   wait_until "$t_release"
   send "hold (a new target ends the reflex)" --hold
   wait_until "$t_over"
@@ -621,16 +671,17 @@ fi
 # ---------------------------------------------------------------------------------------------
 # Outside: arguments, packages, build, then the run in a fresh network namespace.
 # ---------------------------------------------------------------------------------------------
-usage() { sed -n '6,21s/^# \{0,1\}//p' "$0"; }
+usage() { sed -n '6,25s/^# \{0,1\}//p' "$0"; }
 seconds=16
 robot=
 tip=
 summary=
 tick=state
 protocol=chasles
+engine=chasles
 while [ $# -gt 0 ]; do
   case "$1" in
-    --seconds | --robot | --tip | --summary | --tick | --protocol)
+    --seconds | --robot | --tip | --summary | --tick | --protocol | --engine)
       [ $# -ge 2 ] || { echo "demo.sh: $1 needs a value (try --help)" >&2; exit 2; }
       case "$1" in
         --seconds) seconds=$2 ;;
@@ -639,6 +690,7 @@ while [ $# -gt 0 ]; do
         --summary) summary=$2 ;;
         --tick) tick=$2 ;;
         --protocol) protocol=$2 ;;
+        --engine) engine=$2 ;;
       esac
       shift 2
       ;;
@@ -653,6 +705,10 @@ fi
 case "$tick" in
   state | clock) ;;
   *) echo "demo.sh: --tick must be state or clock (got '$tick')" >&2; exit 2 ;;
+esac
+case "$engine" in
+  chasles | mujoco) ;;
+  *) echo "demo.sh: --engine must be chasles or mujoco (got '$engine')" >&2; exit 2 ;;
 esac
 case "$protocol" in
   chasles | drake-panda) : "${robot:=panda}" ;;
@@ -685,12 +741,14 @@ chasles_install_missing "${chasles_packages_build[@]}" "${chasles_packages_plots
 
 build=${CHASLES_BUILD_DIR:-$root/build}
 echo "Building chasles, chasles_plant, chasles_controller, chasles_loop_bench and chasles_tick_bench in $build ..."
+# MuJoCo's library at the version tools/mujoco.sh pins, for chasles_plant --engine mujoco.
+[ "$engine" = mujoco ] && chasles_cmake_options=("-DCHASLES_MUJOCO_PREFIX=$("$root/tools/mujoco.sh")")
 chasles_build demo "$build" chasles chasles_plant chasles_controller_daemon chasles_loop_bench chasles_tick_bench || exit 1
 
 dir="$build/demo/$(date +%Y%m%d-%H%M%S)"
 mkdir -p "$dir"
 export DEMO_INSIDE=1 DEMO_DIR="$dir" DEMO_BUILD="$build" DEMO_SECONDS="$seconds" DEMO_URDF="$urdf" \
-  DEMO_TIP="$tip" DEMO_TICK="$tick" DEMO_PROTOCOL="$protocol"
+  DEMO_TIP="$tip" DEMO_TICK="$tick" DEMO_PROTOCOL="$protocol" DEMO_ENGINE="$engine"
 "$root/tools/netns.sh" bash "$root/tools/demo.sh"
 
 # The figures of the run, from its LCM log (before the report, which reads the clearance from them).

@@ -39,13 +39,15 @@ chasles_packages_fuzz=(clang-14 libclang-rt-14-dev)
 
 chasles_root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 
-# chasles_build NAME BUILD_DIR TARGET...: configures BUILD_DIR (warnings are errors) and builds the
-# targets, the log in BUILD_DIR/NAME-build.log; when that fails, its tail and one line on stderr.
+# chasles_build NAME BUILD_DIR TARGET...: configures BUILD_DIR (warnings are errors, and the options
+# in chasles_cmake_options) and builds the targets, the log in BUILD_DIR/NAME-build.log; when that
+# fails, its tail and one line on stderr.
+chasles_cmake_options=()
 chasles_build() {
   local name=$1 build=$2
   shift 2
   mkdir -p "$build"
-  if ! { cmake -S "$chasles_root" -B "$build" -G Ninja -DCHASLES_WERROR=ON &&
+  if ! { cmake -S "$chasles_root" -B "$build" -G Ninja -DCHASLES_WERROR=ON "${chasles_cmake_options[@]}" &&
     cmake --build "$build" -j 2 --target "$@"; } >"$build/$name-build.log" 2>&1; then
     tail -n 40 "$build/$name-build.log" >&2
     echo "$name.sh: the build failed (full log: $build/$name-build.log)" >&2

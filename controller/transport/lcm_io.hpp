@@ -36,7 +36,7 @@ namespace chasles::controller {
 
 /// Channel names: a configurable prefix, so several arms can share one network.
 struct Channels {
-  std::string state, command, target, status, mode, payload, trajectory, setpoint, tip_setpoint, jog, scene;
+  std::string state, command, target, status, mode, payload, trajectory, setpoint, tip_setpoint, jog, scene, contact;
   explicit Channels(const std::string& prefix = "CHASLES_")
       : state(prefix + "STATE"),
         command(prefix + "COMMAND"),
@@ -48,7 +48,8 @@ struct Channels {
         setpoint(prefix + "SETPOINT"),
         tip_setpoint(prefix + "TIP_SETPOINT"),
         jog(prefix + "JOG"),
-        scene(prefix + "SCENE") {}
+        scene(prefix + "SCENE"),
+        contact(prefix + "CONTACT") {}
 };
 
 /// Counts rejected messages and keeps the latest reason, for the status report. Lock-free: with

@@ -235,6 +235,7 @@ void World::run_tick(Controller& c) {
   bus_.handle_pending();
   c.node->plan();
   c.node->report();
+  c.node->locate();
   bus_.handle_pending();
 }
 

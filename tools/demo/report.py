@@ -104,16 +104,28 @@ expected = k * K / (k + K) * depth
 # The controller's side of the same window: its estimate of the force, and whether it faulted.
 window = [r for r in csv.DictReader(open(os.path.join(d, "status.csv")))
           if press["from_utime"] <= int(r["log_utime"]) <= press["to_utime"]]
+mujoco = press.get("engine") == "mujoco"
+if mujoco and window:
+    # MuJoCo's table is no spring of a known stiffness: the commanded spring at the deflection the
+    # tip shows (its height above the press's goal) is what the table must push back with.
+    deflection = sum(float(r["tip_position[z]"]) for r in window) / len(window) - press["goal_z"]
+    expected = k * deflection
 estimate = [float(r["tip_wrench_ext[fz]"]) for r in window]
 faulted = len({r["faults"] for r in window}) > 1 or any(r["state"] == "3" for r in window)
 print()
-print(f"Compliant segment: Cartesian impedance {k:g} N/m pressing {100 * depth:g} cm behind a {K:g} N/m table:")
+if mujoco:
+    print(f"Compliant segment: Cartesian impedance {k:g} N/m pressing the hand {100 * depth:g} cm into MuJoCo's table:")
+else:
+    print(f"Compliant segment: Cartesian impedance {k:g} N/m pressing {100 * depth:g} cm behind a {K:g} N/m table:")
 if truth_f:
     mean = sum(truth_f) / len(truth_f)
     print(f"  contact force (plant's truth)   {mean:.3f} N, mean of {len(truth_f)} steps at rest on the table")
     if estimate:
         print(f"  contact force (controller's estimate) {sum(estimate) / len(estimate):.3f} N, mean of {len(estimate)} statuses")
-    print(f"  k K/(k + K) depth               {expected:.3f} N  (truth / expected = {mean / expected:.4f})")
+    if mujoco:
+        print(f"  k (z_tip - z_goal)              {expected:.3f} N  (truth / expected = {mean / expected:.4f})")
+    else:
+        print(f"  k K/(k + K) depth               {expected:.3f} N  (truth / expected = {mean / expected:.4f})")
 else:
     print("  the plant reported no contact with the table while the arm pressed on it")
 if faulted:
