@@ -108,6 +108,7 @@ std::string gains_text(const Json& value, const std::string& name) {
 // The settings the library gives its defaults for: each flag starts from them, so that a default is
 // written once, in C++, and the help prints it from there.
 const chasles::controller::Config kDefault{};
+const chasles::controller::DaemonOptions::Locate kDefaultLocate{};
 const chasles::geometry::ProximityOptions kDefaultProximity{};
 
 struct Flags {
@@ -134,6 +135,9 @@ struct Flags {
   // Clearance: the collision geometry, where its meshes are, and the distances kept.
   std::string collision = "auto", srdf, scene;
   std::vector<std::string> package_dirs;
+  // Contact localisation (DaemonOptions::locate).
+  std::string locate = "on";
+  double locate_hz = kDefaultLocate.rate_hz, locate_floor = kDefaultLocate.floor;
   double self_stop_mm = 1e3 * kDefaultProximity.self.stop, self_influence_mm = 1e3 * kDefaultProximity.self.influence;
   double clearance_margin_mm = 1e3 * kDefault.clearance.reference_margin;
   double clearance_time_constant_ms = 1e3 * kDefault.clearance.time_constant;
@@ -414,6 +418,18 @@ int main(int argc, char** argv) {
                  "a closing pair is stopped within this deceleration, m/s^2")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+  app.add_option("--locate", flags.locate,
+                 "find where on the arm a contact is, from the external torque and the collision geometry, on a "
+                 "thread of its own; published as contact_estimate_t on <prefix>CONTACT: on (with the geometry) or off")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->capture_default_str();
+  app.add_option("--locate-hz", flags.locate_hz, "at most this many searches a second (each takes milliseconds)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--locate-floor", flags.locate_floor,
+                 "search only while |tau_ext| is at least this, N*m (the observer's noise on a real arm lies under it)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   app.add_option("--repulsion", flags.repulsion,
                  "under free drive and impedance, the force pushing a pair apart at its stop distance, N")
       ->check(CLI::NonNegativeNumber)
@@ -565,6 +581,9 @@ int main(int argc, char** argv) {
     options.control.clearance.deceleration = flags.clearance_deceleration;
     options.control.clearance.repulsion = flags.repulsion;
     load_clearance(model, flags, options);
+    options.locate.enabled = flags.locate == "on";
+    options.locate.rate_hz = flags.locate_hz;
+    options.locate.floor = flags.locate_floor;
 
     // CPU 0 usually takes most interrupts and housekeeping; the last CPU is the conventional one
     // to set aside. Users with an isolated core (isolcpus) name it.

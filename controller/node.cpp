@@ -145,6 +145,7 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
       worlds_(options.clearance),
       paths_(2, JointPath(n_)),
       locate_inputs_(LocateInput{Eigen::VectorXd::Zero(n_), Eigen::VectorXd::Zero(n_)}),
+      located_(contact_estimate_t{}),
       loop_(models_.front().model, options, models_.front().payload),
       planner_(model, options.control.limits),
       locating_(model),
@@ -363,6 +364,7 @@ int64_t Node::locate() {
   if (size > locating_.bytes.size()) locating_.bytes.resize(size);
   m.encode(locating_.bytes.data(), 0, static_cast<int>(size));
   buses_.status.publish(channels_.contact, locating_.bytes.data(), size);
+  located_.write(m);
   locating_.next_ns = now + static_cast<int64_t>(std::llround(1e9 / options_.locate.rate_hz));
   return locating_.next_ns;
 }
@@ -602,6 +604,15 @@ void Node::fill_status() {
   status.clearance_distance = s.clearance.closest >= 0 ? s.clearance.closest_distance : 0.0;
   status.clearance_slowed_by = s.clearance.slowing >= 0 ? s.clearance.slowing_name : "";
   status.clearance_kept = s.clearance.kept;
+  located_.read(reporter_.located);
+  const contact_estimate_t& found = reporter_.located;
+  const bool located = found.state == contact_estimate_t::LOCATED;
+  status.contact_link = located ? found.link : "";
+  status.contact_located_flag = located && found.contact;
+  for (int k = 0; k < 3; ++k) {
+    status.contact_point[k] = located ? found.point[k] : 0.0;
+    status.contact_force[k] = located ? found.force[k] : 0.0;
+  }
   const Transform& T = forward_kinematics(model_, reporter_.data, s.q);
   const Eigen::Quaterniond quaternion(T.linear());
   for (int i = 0; i < 3; ++i) status.tip_position[i] = T.translation()(i);

@@ -202,6 +202,7 @@ class Node {
     int64_t utime = 0, seq = 0;
   };
   Mailbox<LocateInput> locate_inputs_;
+  Mailbox<contact_estimate_t> located_;  // locator → status: the latest estimate published
   bool realtime_granted_ = false;
 
   // Each thread's own state, touched by its step alone; the threads meet only in the mailboxes,
@@ -282,6 +283,7 @@ class Node {
     Data data;
     Snapshot last;
     bool have_snapshot = false;
+    contact_estimate_t located;  // the locator's latest
     Timing window, total;
     double error_sq_sum = 0.0, error_max = 0.0;
     int64_t error_samples = 0;

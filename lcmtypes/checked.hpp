@@ -137,7 +137,9 @@ inline std::string prepare(const void* data, size_t size, controller_status_t& m
   }
   m.trajectory_message.assign(size_t(trajectory_length - 1), ' ');
   size_t at = trajectory_at + 4 + size_t(trajectory_length) + kStatusClearanceAfterTrajectory + 24 * size_t(m.num_joints);
-  for (auto [text, name] : {std::pair{&m.clearance_pair, "clearance_pair"}, std::pair{&m.clearance_slowed_by, "clearance_slowed_by"}}) {
+  // Each string is followed by a double, but the last (contact_link), whose followers need no walk.
+  for (auto [text, name] : {std::pair{&m.clearance_pair, "clearance_pair"}, std::pair{&m.clearance_slowed_by, "clearance_slowed_by"},
+                            std::pair{&m.contact_link, "contact_link"}}) {
     int32_t length_of = 0;
     if (!read_int32(data, size, at, length_of)) return truncated(size);
     if (length_of < 1 || uint64_t(length_of) > size) {

@@ -530,13 +530,16 @@ PY
   # the same 30 N along x, over the same window.
   local environment=(--push "$push" --wall "$table,$table_k,100") press_link=
   if [ "$DEMO_ENGINE" = mujoco ]; then
+    # Aimed at the link's origin, but on the Panda 8 cm up its forearm: at home the line through
+    # the elbow's origin meets link 3 first (the plant would skip the press, and say so).
+    local press_aim=0,0,0
     case "$(basename "$DEMO_URDF")" in
-      panda.urdf) press_link=panda_link4 ;;
+      panda.urdf) press_link=panda_link4 press_aim=-0.04,0.08,0 ;;
       iiwa14.urdf) press_link=iiwa_link_4 ;;
       ur5.urdf) press_link=forearm_link ;;
       *) press_link=$DEMO_TIP ;;
     esac
-    push="$press_link,$t_push,$push_s,0.01,0,0,0,1,0,0,30"
+    push="$press_link,$t_push,$push_s,0.01,$press_aim,1,0,0,30"
     environment=(--engine mujoco --package-dir "$root/tests/data/packages" --scene "$mujoco_scene" --press "$push")
   fi
   start chasles_plant "$DEMO_BUILD/tools/chasles_plant" "${model[@]}" --realtime --protocol "$DEMO_PROTOCOL" \
@@ -568,6 +571,10 @@ PY
     -v goal="$(cut -d, -f3 <<<"$press_pose")" \
     'BEGIN { printf "{\"press_k\": %s, \"table_k\": %s, \"depth\": 0.01, \"from_utime\": %.0f, \"to_utime\": %.0f, \"engine\": \"%s\", \"goal_z\": %s}\n",
              k, K, (s + a) * 1e6, (s + b) * 1e6, e, goal }' >"$dir/press.json"
+  # Where the report looks for the push the controller located (on MuJoCo: the press on the elbow).
+  awk -v s="$run_start" -v a="$t_push" -v d="$push_s" -v l="$press_link" \
+    'BEGIN { printf "{\"link\": \"%s\", \"from_utime\": %.0f, \"to_utime\": %.0f}\n", l, (s + a) * 1e6, (s + a + d) * 1e6 }' \
+    >"$dir/push.json"
   sleep 0.3
   check_alive
 
@@ -660,6 +667,13 @@ PY
 report() {
   "$DEMO_BUILD/tools/chasles" log export "$DEMO_DIR/chasles.lcmlog" --channel CHASLES_STATUS \
     --out "$DEMO_DIR/status.csv" >/dev/null
+  # The located contacts and the plant's truth beside them (the controller locates with the arm's
+  # collision geometry; MuJoCo's truth names the contacts).
+  local channel
+  for channel in CONTACT TRUTH; do
+    "$DEMO_BUILD/tools/chasles" log export "$DEMO_DIR/chasles.lcmlog" --channel "CHASLES_$channel" \
+      --out "$DEMO_DIR/$(tr 'A-Z' 'a-z' <<<"$channel").csv" >/dev/null 2>&1 || true
+  done
   python3 "$root/tools/demo/report.py" "$DEMO_DIR"
 }
 

@@ -6,7 +6,9 @@
 
 #include <chasles/arm_target_t.hpp>
 #include <chasles/control_mode_t.hpp>
+#include <chasles/contact_estimate_t.hpp>
 #include <chasles/controller_status_t.hpp>
+#include <chasles/sim_truth_t.hpp>
 #include <chasles/jog_command_t.hpp>
 #include <chasles/tip_setpoint_t.hpp>
 #include <chasles/joint_torque_command_t.hpp>
@@ -116,6 +118,9 @@ controller_status_t make_status() {
   status.clearance_distance = 0.0125;
   status.clearance_slowed_by = "panda_link7/0 and wall";
   status.clearance_kept = 0.25;
+  status.contact_link = "panda_link4";
+  status.contact_located_flag = true;
+  for (int k = 0; k < 3; ++k) status.contact_point[k] = 0.1 * (k + 1), status.contact_force[k] = -2.0 * (k + 1);
   for (int i = 0; i < 6; ++i) status.tip_wrench_ext[i] = 0.25 * (i - 2);
   status.contact = true;
   status.collision = false;
@@ -299,7 +304,8 @@ TEST(lcmtypes, ControllerStatusRoundTrips) {
   EXPECT_EQ(buffer.size(), kHash + 8 + 1 + string_size + 4 + 3 * 8 * kJoints + 8 * 3 + 8 * 4 + 8 * kJoints +
                                (4 + 8 + 1) + 9 * 8 + 5 * 8 + 8 * kJoints + 6 * 8 + 2 + 2 * 8 + 1 + 8 + 8 +
                                (8 + 1 + 3 * 8 + 4) + trajectory_string + (1 + 8 + 8) + (1 + 8 + 8 + 8 + 8 + 1 + 4) +
-                               3 * 8 * kJoints + clearance_strings + 2 * 8);
+                               3 * 8 * kJoints + clearance_strings + 2 * 8 +
+                               (4 + status.contact_link.size() + 1) + 1 + 6 * 8);
   const auto back = decode<controller_status_t>(buffer);
   EXPECT_EQ(back.utime, status.utime);
   EXPECT_EQ(back.state, controller_status_t::FAULT);
@@ -336,6 +342,12 @@ TEST(lcmtypes, ControllerStatusRoundTrips) {
   EXPECT_EQ(back.clearance_distance, status.clearance_distance);
   EXPECT_EQ(back.clearance_slowed_by, status.clearance_slowed_by);
   EXPECT_EQ(back.clearance_kept, status.clearance_kept);
+  EXPECT_EQ(back.contact_link, status.contact_link);
+  EXPECT_TRUE(back.contact_located_flag);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(back.contact_point[k], status.contact_point[k]);
+    EXPECT_EQ(back.contact_force[k], status.contact_force[k]);
+  }
   for (int i = 0; i < 6; ++i) EXPECT_EQ(back.tip_wrench_ext[i], status.tip_wrench_ext[i]);
   EXPECT_TRUE(back.contact);
   EXPECT_FALSE(back.collision);
@@ -687,9 +699,12 @@ TEST(lcmtypes, FingerprintsArePinned) {
   EXPECT_EQ(static_cast<uint64_t>(arm_target_t::getHash()), 0x309277be8aae6666u);
   // controller_status_t gained the contact fields at its end ([K]), then the law and the payload's
   // mass, then the state period ([M]), then the trajectory's progress, the stream's and the jog's ([N]), then the
-  // clearance ([T]) at its end; no field changed meaning, and a reader built on an older contract
-  // refuses the new one by its fingerprint.
-  EXPECT_EQ(static_cast<uint64_t>(controller_status_t::getHash()), 0x100d88251178b6c2u);
+  // clearance ([T]), then the located contact ([U]) at its end; no field changed meaning, and a
+  // reader built on an older contract refuses the new one by its fingerprint.
+  EXPECT_EQ(static_cast<uint64_t>(controller_status_t::getHash()), 0x6f32b1ab2db30f6cu);
+  // sim_truth_t gained every contact at its end ([U]); contact_estimate_t is [U]'s.
+  EXPECT_EQ(static_cast<uint64_t>(sim_truth_t::getHash()), 0xed86a42eaf5c1d82u);
+  EXPECT_EQ(static_cast<uint64_t>(contact_estimate_t::getHash()), 0xe51ead88b77a4293u);
   EXPECT_EQ(static_cast<uint64_t>(control_mode_t::getHash()), 0xe4a15f556715af84u);
   EXPECT_EQ(static_cast<uint64_t>(payload_t::getHash()), 0x38b055cd3dfdfa1fu);
   EXPECT_EQ(static_cast<uint64_t>(joint_trajectory_t::getHash()), 0xd964c2fb834f2258u);

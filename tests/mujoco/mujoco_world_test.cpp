@@ -185,7 +185,7 @@ struct Found {
   contact_estimate_t last;       // the latest estimate while pressed
   Vector3d point, applied;       // MuJoCo's: the contacts' mean point and their total force
   double latency_ms = 0.0;       // from the press reaching 10 N to the first estimate flagged
-  bool flagged = false, none_after = false;
+  bool flagged = false, none_after = false, in_status = false;
 };
 
 Found press_and_locate(const Wire& wire, const plant::Press& press, const VectorXd& q0,
@@ -210,6 +210,9 @@ Found press_and_locate(const Wire& wire, const plant::Press& press, const Vector
       found.latency_ms = 1e3 * (static_cast<double>(h.step) * wire.period() - reached);
       break;
     }
+  // The status says the same as the latest estimate (the last status may be one estimate behind).
+  const std::optional<controller_status_t>& status = world.recorder().status();
+  found.in_status = status && status->contact_link == found.last.link && status->contact_located_flag == found.last.contact;
   world.run_for(press.duration);
   found.none_after = world.plant()->truth().contacts.empty() && contacts.heard.back().message.state == contact_estimate_t::NONE;
   return found;
@@ -233,6 +236,7 @@ TEST_P(OnMujoco, APressOnTheHandIsFoundWhereItIs) {
   EXPECT_TRUE(f.flagged);
   EXPECT_LE(f.latency_ms, 10.0);
   EXPECT_TRUE(f.none_after);
+  EXPECT_TRUE(f.in_status);
 }
 
 // 20 N on the elbow, which the per-joint thresholds alone once missed: flagged within 10 ms, with
@@ -256,6 +260,7 @@ TEST_P(OnMujoco, APressOnTheElbowIsFlaggedAndExplained) {
   EXPECT_TRUE(f.flagged);
   EXPECT_LE(f.latency_ms, 10.0);
   EXPECT_TRUE(f.none_after);
+  EXPECT_TRUE(f.in_status);
 }
 
 // 15 N on the hand, sideways: the tip force the controller estimates against the force MuJoCo

@@ -97,7 +97,7 @@ Json run_log_export(const LogOptions& options) {
     throw InputError(options.log + ": the messages on " + options.channel +
                      " are not of a type chasles reads (its own: robot_state_t, joint_torque_command_t, "
                      "arm_target_t, controller_status_t, control_mode_t, payload_t, sim_truth_t, "
-                     "joint_setpoint_t, jog_command_t, tip_setpoint_t; Drake's lcmt_iiwa_status, "
+                     "joint_setpoint_t, jog_command_t, tip_setpoint_t, contact_estimate_t; Drake's lcmt_iiwa_status, "
                      "lcmt_iiwa_command, lcmt_panda_status, lcmt_panda_command)");
   }
   const std::vector<std::string> labels =

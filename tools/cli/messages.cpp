@@ -133,6 +133,10 @@ void lay_out(const controller_status_t& m, Row& row) {
   row.add("jog_scale", m.jog_scale);
   row.add("jog_limited_by", int64_t{m.jog_limited_by});
   row.add("jog_joint", int64_t{m.jog_joint});
+  row.add("contact_link", m.contact_link);
+  row.add("contact_located_flag", int64_t{m.contact_located_flag ? 1 : 0});
+  row.components("contact_point", m.contact_point, "xyz");
+  row.components("contact_force", m.contact_force, "xyz");
 }
 
 void lay_out(const joint_setpoint_t& m, Row& row) {
@@ -147,6 +151,21 @@ void lay_out(const tip_setpoint_t& m, Row& row) {
   row.components("position", m.position, "xyz");
   row.components("quaternion", m.quaternion, "wxyz");
   row.twist("twist", m.twist);
+}
+
+void lay_out(const contact_estimate_t& m, Row& row) {
+  row.add("utime", m.utime);
+  row.add("seq", m.seq);
+  row.add("state", int64_t{m.state});
+  row.add("contact", int64_t{m.contact ? 1 : 0});
+  row.add("link", m.link);
+  row.add("body", int64_t{m.body});
+  row.components("point", m.point, "xyz");
+  row.components("normal", m.normal, "xyz");
+  row.components("force", m.force, "xyz");
+  row.add("residual", m.residual);
+  row.add("tau_ext_norm", m.tau_ext_norm);
+  row.add("compute_us", m.compute_us);
 }
 
 void lay_out(const jog_command_t& m, Row& row) {
@@ -309,6 +328,7 @@ MessageType message_type(const void* data, size_t size) {
   if (messages::starts_as<joint_setpoint_t>(data, size)) return MessageType::Setpoint;
   if (messages::starts_as<jog_command_t>(data, size)) return MessageType::Jog;
   if (messages::starts_as<tip_setpoint_t>(data, size)) return MessageType::TipSetpoint;
+  if (messages::starts_as<contact_estimate_t>(data, size)) return MessageType::Contact;
   if (messages::starts_as<drake::lcmt_iiwa_status>(data, size)) return MessageType::IiwaStatus;
   if (messages::starts_as<drake::lcmt_iiwa_command>(data, size)) return MessageType::IiwaCommand;
   if (messages::starts_as<drake::lcmt_panda_status>(data, size)) return MessageType::PandaStatus;
@@ -328,6 +348,7 @@ std::string type_name(MessageType type) {
     case MessageType::Setpoint: return std::string("chasles.") + joint_setpoint_t::getTypeName();
     case MessageType::Jog: return std::string("chasles.") + jog_command_t::getTypeName();
     case MessageType::TipSetpoint: return std::string("chasles.") + tip_setpoint_t::getTypeName();
+    case MessageType::Contact: return std::string("chasles.") + contact_estimate_t::getTypeName();
     case MessageType::IiwaStatus: return std::string("drake.") + drake::lcmt_iiwa_status::getTypeName();
     case MessageType::IiwaCommand: return std::string("drake.") + drake::lcmt_iiwa_command::getTypeName();
     case MessageType::PandaStatus: return std::string("drake.") + drake::lcmt_panda_status::getTypeName();
@@ -356,6 +377,7 @@ int joint_count(MessageType type, const void* data, size_t size) {
     case MessageType::Setpoint: return count_of<joint_setpoint_t>(data, size);
     case MessageType::Jog: return count_of<jog_command_t>(data, size);
     case MessageType::TipSetpoint: return count_of<tip_setpoint_t>(data, size);
+    case MessageType::Contact: return count_of<contact_estimate_t>(data, size);
     case MessageType::IiwaStatus: return count_of<drake::lcmt_iiwa_status>(data, size);
     case MessageType::IiwaCommand: return count_of<drake::lcmt_iiwa_command>(data, size);
     case MessageType::PandaStatus: return count_of<drake::lcmt_panda_status>(data, size);
@@ -378,6 +400,7 @@ std::string message_cells(MessageType type, const void* data, size_t size, const
     case MessageType::Setpoint: return cells_of<joint_setpoint_t>(data, size, joints, cells);
     case MessageType::Jog: return cells_of<jog_command_t>(data, size, joints, cells);
     case MessageType::TipSetpoint: return cells_of<tip_setpoint_t>(data, size, joints, cells);
+    case MessageType::Contact: return cells_of<contact_estimate_t>(data, size, joints, cells);
     case MessageType::IiwaStatus: return cells_of<drake::lcmt_iiwa_status>(data, size, joints, cells);
     case MessageType::IiwaCommand: return cells_of<drake::lcmt_iiwa_command>(data, size, joints, cells);
     case MessageType::PandaStatus: return cells_of<drake::lcmt_panda_status>(data, size, joints, cells);

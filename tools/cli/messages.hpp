@@ -17,7 +17,7 @@ using messages::decode_checked;
 
 /// chasles's types, and Drake's iiwa and Panda messages (the arm's driver may speak those).
 enum class MessageType {
-  Unknown, State, Command, Target, Status, Mode, Payload, Truth, Setpoint, Jog, TipSetpoint,
+  Unknown, State, Command, Target, Status, Mode, Payload, Truth, Setpoint, Jog, TipSetpoint, Contact,
   IiwaStatus, IiwaCommand, PandaStatus, PandaCommand
 };
 

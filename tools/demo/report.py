@@ -131,6 +131,31 @@ else:
 if faulted:
     print("  a FAULT came during the press (a stall of the machine past --stale-ms, see the controller's stderr): the")
     print("  controller then held where the arm was, which released the press; the figure above is not the press's")
+# The push, where the controller's locator put it (contact.csv, PREFIX CONTACT) against where the
+# plant says it was (truth.csv: its largest contact, MuJoCo's), state by state over the push.
+push_path, contact_path, truth_path = (os.path.join(d, n) for n in ("push.json", "contact.csv", "truth.csv"))
+if os.path.exists(push_path) and os.path.exists(contact_path) and os.path.exists(truth_path):
+    push = json.load(open(push_path))
+    inside = lambda r: push["from_utime"] <= int(r["utime"]) <= push["to_utime"]
+    truth = {r["utime"]: r for r in csv.DictReader(open(truth_path)) if inside(r) and r.get("largest_contact_link")}
+    found = [r for r in csv.DictReader(open(contact_path)) if inside(r) and r["state"] == "1"]
+    pairs = [(r, truth[r["utime"]]) for r in found if r["utime"] in truth]
+    print()
+    if pairs:
+        xyz = lambda r, key: [float(r[f"{key}[{a}]"]) for a in "xyz"]
+        off = sorted(math.dist(xyz(r, "point"), xyz(t, "largest_contact_point")) for r, t in pairs)
+        links = Counter(r["link"] for r, _ in pairs)
+        right = sum(r["link"] == t["largest_contact_link"] for r, t in pairs)
+        compute = sorted(float(r["compute_us"]) for r in found)
+        print(f"Contact anywhere on the arm: the push on {push['link']}, located from the external torque alone "
+              f"({len(found)} estimates at up to 100 Hz):")
+        print(f"  link                {right} of {len(pairs)} on the truth's ({', '.join(f'{l} {n}' for l, n in links.most_common(3))})")
+        print(f"  point               {1e3 * off[len(off) // 2]:.1f} mm from the truth's, median; "
+              f"{1e3 * off[int(0.9 * (len(off) - 1))]:.1f} mm p90")
+        print(f"  search              {compute[len(compute) // 2]:.0f} us median, {compute[-1]:.0f} us max (its own thread)")
+    else:
+        print(f"Contact anywhere on the arm: no located contact during the push on {push['link']} "
+              f"({len(found)} estimates, {len(truth)} true contacts)")
 # The waypoint trajectory, the stream and the jog, from the controller's statuses (status.csv).
 statuses = list(csv.DictReader(open(os.path.join(d, "status.csv"))))
 errors_of = lambda r: [float(v) for k, v in r.items() if k.startswith("tracking_error[")]
