@@ -108,6 +108,13 @@ class Status:
     clearance_distance: float
     clearance_slowed_by: str
     clearance_kept: float
+    #: where on the arm the locator last found a contact (contact_estimate_t on PREFIX CONTACT): the
+    #: URDF link ("": none), whether its force reaches the contact threshold, the point (m) and the
+    #: force on the arm there (N), both in the base frame
+    contact_link: str
+    contact_located_flag: bool
+    contact_point: np.ndarray
+    contact_force: np.ndarray
 
     @property
     def state_name(self) -> str:

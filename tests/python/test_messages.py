@@ -98,7 +98,7 @@ def cpp_fingerprint(name):
 
 def test_every_python_class_has_the_cpp_fingerprint():
     names = [n for n in lcmtypes.__all__ if n not in DRAKE_FINGERPRINTS]
-    assert len(names) == 12  # chasles's eleven and scene_t
+    assert len(names) == 13  # chasles's eleven, scene_t and contact_estimate_t
     for name in names:
         assert struct.unpack(">Q", getattr(lcmtypes, name)._get_packed_fingerprint())[0] == cpp_fingerprint(name), name
     for name, fingerprint in DRAKE_FINGERPRINTS.items():

@@ -134,8 +134,9 @@ if faulted:
 # The push, where the controller's locator put it (contact.csv, PREFIX CONTACT) against where the
 # plant says it was (truth.csv: its largest contact, MuJoCo's), state by state over the push.
 push_path, contact_path, truth_path = (os.path.join(d, n) for n in ("push.json", "contact.csv", "truth.csv"))
-if os.path.exists(push_path) and os.path.exists(contact_path) and os.path.exists(truth_path):
-    push = json.load(open(push_path))
+push = json.load(open(push_path)) if os.path.exists(push_path) else {"link": ""}
+# Only MuJoCo's plant names the link it pushes (chasles's pushes the tip's origin with a wrench).
+if push["link"] and os.path.exists(contact_path) and os.path.exists(truth_path):
     inside = lambda r: push["from_utime"] <= int(r["utime"]) <= push["to_utime"]
     truth = {r["utime"]: r for r in csv.DictReader(open(truth_path)) if inside(r) and r.get("largest_contact_link")}
     found = [r for r in csv.DictReader(open(contact_path)) if inside(r) and r["state"] == "1"]
