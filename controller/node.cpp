@@ -340,6 +340,7 @@ int64_t Node::locate() {
   const double norm = in.tau_ext.norm();
   const bool above = norm >= options_.locate.floor;
   if (!above && !locating_.located) return now + kIdleNs;
+  if (!above) m = contact_estimate_t{};  // NONE: every field zero
   m.utime = in.utime;
   m.seq = in.seq;
   m.tau_ext_norm = norm;
@@ -352,10 +353,6 @@ int64_t Node::locate() {
     for (int k = 0; k < 3; ++k) m.point[k] = e.point[k], m.normal[k] = e.normal[k], m.force[k] = e.force[k];
     m.residual = e.residual;
     m.contact = e.force.norm() >= options_.control.contact.contact_force;
-  } else {
-    m = contact_estimate_t{};
-    m.utime = in.utime, m.seq = in.seq, m.tau_ext_norm = norm;
-    m.state = contact_estimate_t::NONE;
   }
   locating_.located = above;
   const int64_t done = clock_.now_ns();

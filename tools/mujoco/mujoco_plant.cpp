@@ -383,7 +383,8 @@ void MujocoPlant::read_contacts() {
   truth_.contacts.clear();
   truth_.tau_ext.setZero();
   truth_.tip_wrench_ext.setZero();
-  const Vector3d p_tip = forward_kinematics(model_, data_, q_).translation();
+  bool tip_known = false;  // the tip's origin, computed for the first contact on its body
+  Vector3d p_tip = Vector3d::Zero();
   const Eigen::Matrix3d R_base_world = e.T_world_base.linear().transpose();
   for (int c = 0; c < d->ncon; ++c) {
     const mjContact& contact = d->contact[c];
@@ -409,6 +410,7 @@ void MujocoPlant::read_contacts() {
     out.force = R_base_world * force_world;
     truth_.contacts.push_back(out);
     if (e.geom_body[static_cast<size_t>(arm_geom)] == model_.dof()) {
+      if (!tip_known) p_tip = forward_kinematics(model_, data_, q_).translation(), tip_known = true;
       truth_.tip_wrench_ext.head<3>() += (out.point - p_tip).cross(out.force);
       truth_.tip_wrench_ext.tail<3>() += out.force;
     }
