@@ -3,11 +3,20 @@
 // moment thresholds. Crossing a *contact* threshold is reported; crossing a *collision* threshold
 // starts the controller's reflex. One monitor per controller, on the real-time thread:
 // everything is sized when it is built.
+//
+// Which link was hit decides what a collision means (LinkPolicy). In the tick, isolation: a force
+// on body b moves joints 1…b only, so the body is the most distal joint whose |τ̂_ext| is over its
+// isolation floor. From the locator's thread, a few milliseconds later, where on the body and how
+// hard (LocatedContact): a located force over the link's collision force is a collision even when
+// no joint's threshold is crossed — a 20 N push on the elbow reads as 4 N at the tip.
 #pragma once
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <limits>
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include "core/contact/observer.hpp"
 #include "core/model/model.hpp"
@@ -24,6 +33,22 @@ const char* to_string(Reflex reflex);
 /// "stop", "compliant" or "retract"; false for anything else.
 bool parse_reflex(const std::string& text, Reflex& reflex);
 
+/// What a contact on one link of the chain means: per link, as a person touches an elbow and a
+/// tool hits a table.
+struct LinkPolicy {
+  std::string link;  ///< a link of the chain; one fixed to a moving body stands for that body
+  /// N: a force located on the link (LocatedContact) at least this large is a collision (∞: only the
+  /// joint and tip thresholds say so).
+  double collision_force = 15.0;
+  Reflex reflex = Reflex::kStop;  ///< what a collision on the link starts
+  /// Under free drive a push on the link is a person guiding the arm: a contact, never a reflex.
+  bool guided = true;
+};
+/// The chain body `link` rides on (0: the fixed base), −1 for a link off the root → tip path.
+int body_of_link(const RobotModel& model, const std::string& link);
+/// "LINK,FORCE,REFLEX,guided|strict" (FORCE in N, inf for none): false with why for anything else.
+bool parse_link_policy(const std::string& text, LinkPolicy& policy, std::string& why);
+
 struct ContactConfig {
   /// K_O, 1/s per joint: the estimate follows the external torque with a lag of 1/K_O. Empty: 200.
   Eigen::VectorXd observer_gain;
@@ -37,11 +62,17 @@ struct ContactConfig {
   double retract_duration = 0.3;   ///< s
   /// The rate at which the compliant reflex damps the joints' velocity, 1/s (q̈ = −k q̇ unpushed).
   double compliant_damping = 10.0;
+  /// |τ̂_ext,i| under which joint i is taken to feel no contact when isolating the body hit, N·m or
+  /// N per joint. Empty: 1 % of the joint's effort limit (0.87 N·m on the Panda's shoulder).
+  Eigen::VectorXd isolation_torque;
+  /// The links with a policy of their own; every other body's is {collision_force, reflex, guided}.
+  std::vector<LinkPolicy> links;
 
   /// The empty vectors filled from the model (see above).
   void fill_defaults(const RobotModel& model);
   /// Throws ArgumentError naming what is wrong: sizes, non-positive or NaN thresholds, a contact
-  /// threshold above its collision threshold, non-positive gains or retract settings.
+  /// threshold above its collision threshold, non-positive gains or retract settings, a policy for
+  /// a link off the chain or two for one body.
   void validate(const RobotModel& model) const;
 };
 
@@ -52,7 +83,18 @@ struct ContactEstimate {
   Vector6d wrench_base = Vector6d::Zero();          ///< the same, base-aligned at the tip origin
   Vector3d tip_position = Vector3d::Zero();         ///< p_sb of the state it was computed from, m
   bool contact = false, collision = false;
+  /// The body in contact (1…n; 0: none): the locator's while its estimate is under 50 ms old, else
+  /// the most distal joint over its isolation floor. Its policy decides a collision's reflex.
+  int body = 0;
   explicit ContactEstimate(int n = 0) : tau_ext(Eigen::VectorXd::Zero(n)) {}
+};
+
+/// Where the locator (core/geometry/contact_locator.hpp) put the newest contact, as the loop hears it.
+struct LocatedContact {
+  int body = 0;          ///< the chain body, 1…n
+  std::string_view link; ///< the URDF link it is on (the locator's copy, alive as long as it is)
+  Vector3d point = Vector3d::Zero();  ///< m, base frame
+  Vector3d force = Vector3d::Zero();  ///< N, base frame, on the arm
 };
 
 class ContactMonitor {
@@ -76,6 +118,12 @@ class ContactMonitor {
   /// joint by |τ_i|, at the tip by the force and moment it makes there. Allocates nothing.
   void set_allowance(const Eigen::VectorXd& torque) { allowance_ = torque; }
 
+  /// The locator's newest contact: the next update() judges it against its link's collision force.
+  /// Allocates nothing.
+  void take_location(const LocatedContact& located);
+  /// The policy of body b (0…n).
+  const LinkPolicy& policy(int body) const { return policies_[static_cast<size_t>(body)]; }
+
   /// Estimates with `model` from now on (the same chain, another payload); the observer starts
   /// again at the next state. Keeps a reference; allocates nothing.
   void set_model(const RobotModel& model);
@@ -89,6 +137,8 @@ class ContactMonitor {
 
  private:
   void classify();
+  void isolate();
+  void judge_location();
   void remember(const Eigen::VectorXd& q);
 
   const RobotModel* model_;
@@ -103,6 +153,11 @@ class ContactMonitor {
   Eigen::MatrixXd history_q_;
   Eigen::Matrix3Xd history_tip_;
   int history_next_ = 0, history_count_ = 0;
+  std::vector<LinkPolicy> policies_;  // per body 0…n
+  LocatedContact located_;
+  bool location_pending_ = false;  // taken, not yet judged
+  double location_age_ = std::numeric_limits<double>::infinity();  // s of states since it was taken
+  std::string_view isolated_link_;  // the link named for estimate_.body
 };
 
 }  // namespace chasles::controller

@@ -504,8 +504,10 @@ void Controller::guard(int64_t now_ns) {
                   model_->joint(excess.joint).name.c_str(), to_string(excess.quantity), excess.value,
                   unit_of(excess.quantity), excess.limit, unit_of(excess.quantity));
     start_reflex(now_ns, limit_reason_, Reflex::kStop);
-  } else if (monitor_.contact().estimate().collision) {
-    start_reflex(now_ns, monitor_.contact().reason(), monitor_.contact().config().reflex);
+  } else if (const ContactEstimate& e = monitor_.contact().estimate(); e.collision) {
+    // Under free drive a person moves the arm: a push on a link they may guide it by is theirs.
+    const LinkPolicy& policy = monitor_.contact().policy(e.body);
+    if (!(law_.law() == Law::kFreeDrive && policy.guided)) start_reflex(now_ns, monitor_.contact().reason(), policy.reflex);
   } else if (clearance_.inside() >= 0) {  // pushed inside a stop distance: a contact, as the policy says
     start_reflex(now_ns, clearance_.inside_reason(clearance_.inside()), monitor_.contact().config().reflex);
   }

@@ -148,6 +148,10 @@ class Controller {
   int64_t rejected_modes() const { return counts_.rejected_modes; }
   /// What tripped the latest reflex, naming the joint or the force.
   const char* reflex_reason() const { return reflex_reason_; }
+  /// Where on the arm the locator found the newest contact (off the loop, milliseconds after the
+  /// state it was found at): at the next tick, a collision if its link's policy says so
+  /// (LinkPolicy). Allocates nothing.
+  void take_location(const LocatedContact& located) { monitor_.take_location(located); }
   /// The contact monitor's estimate at the latest state.
   const ContactEstimate& contact() const { return monitor_.contact().estimate(); }
   /// The period of the robot states, s, measured from their own clock (StateMonitor).

@@ -122,6 +122,7 @@ struct Flags {
   // Contact: per-joint lists as text until the joint count is known; empty: the defaults.
   std::string observer_gain, contact_torque, collision_torque;
   chasles::controller::ContactConfig contact;
+  std::vector<std::string> link_policies;  // LINK,FORCE,REFLEX,guided|strict each
   double retract_mm = 1e3 * kDefault.contact.retract_distance;
   std::string payload;
   std::string armature;
@@ -204,7 +205,7 @@ void apply_config(const std::string& path, Flags& flags, const CLI::App& app) {
   if (!config.is_object()) throw chasles::ArgumentError("config file " + path + ": expected a JSON object");
   static const char* const kKnown =
       "kp, kd, rate, stale_ms, torque_ramp_ms, observer_gain, contact_torque, collision_torque, contact_force, "
-      "collision_force, contact_moment, collision_moment, reflex, retract_mm";
+      "collision_force, contact_moment, collision_moment, reflex, link_policy, retract_mm";
   for (const auto& [key, value] : config.items()) {
     // A key that names no flag is no setting either: said below (App::count would throw).
     if (const CLI::Option* given = app.get_option_no_throw(flag_of(key)); given != nullptr && given->count() > 0) {
@@ -241,6 +242,12 @@ void apply_config(const std::string& path, Flags& flags, const CLI::App& app) {
     } else if (key == "reflex") {
       if (!value.is_string() || !chasles::controller::parse_reflex(value.get<std::string>(), flags.contact.reflex)) {
         throw chasles::ArgumentError(where + ": expected \"stop\", \"compliant\" or \"retract\"");
+      }
+    } else if (key == "link_policy") {
+      if (!value.is_array()) throw chasles::ArgumentError(where + ": expected a list of \"LINK,FORCE,REFLEX,guided|strict\"");
+      for (const auto& entry : value) {
+        if (!entry.is_string()) throw chasles::ArgumentError(where + ": expected strings \"LINK,FORCE,REFLEX,guided|strict\"");
+        flags.link_policies.push_back(entry.get<std::string>());
       }
     } else {
       throw chasles::ArgumentError(where + ": unknown setting (known: " + kKnown + ")");
@@ -346,6 +353,12 @@ int main(int argc, char** argv) {
           {"stop", chasles::controller::Reflex::kStop},
           {"compliant", chasles::controller::Reflex::kCompliant},
           {"retract", chasles::controller::Reflex::kRetract}}));
+  app.add_option("--link-policy", flags.link_policies,
+                 "what a contact on one link means, LINK,FORCE,REFLEX,guided|strict (repeat per link): a force of "
+                 "FORCE N (inf: none) located on LINK is a collision even under the joint thresholds; a collision "
+                 "isolated on LINK starts REFLEX; guided: under free drive a push on it is a person's, never a "
+                 "reflex; strict: a collision there too. Other links: --collision-force, --reflex, guided")
+      ->take_all();
   app.add_option("--payload", flags.payload,
                  "a known load at the tip, KG[,CX,CY,CZ] (kg; its centre in the tip frame, m): the model carries it, "
                  "so gravity, dynamics and the contact estimate account for it; a payload_t on PREFIX PAYLOAD "
@@ -568,6 +581,12 @@ int main(int argc, char** argv) {
       options.control.limits.acceleration = gains(flags.acceleration_limit, n, "--acceleration-limit");
     }
     if (!flags.jerk_limit.empty()) options.control.limits.jerk = gains(flags.jerk_limit, n, "--jerk-limit");
+    for (const std::string& text : flags.link_policies) {
+      chasles::controller::LinkPolicy policy;
+      std::string why;
+      if (!chasles::controller::parse_link_policy(text, policy, why)) throw chasles::ArgumentError("--link-policy " + why);
+      options.control.contact.links.push_back(policy);
+    }
     if (!flags.observer_gain.empty()) options.control.contact.observer_gain = gains(flags.observer_gain, n, "--observer-gain");
     if (!flags.contact_torque.empty()) {
       options.control.contact.contact_torque = gains(flags.contact_torque, n, "--contact-torque", true);

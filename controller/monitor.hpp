@@ -28,6 +28,8 @@ class StateMonitor {
   /// Estimates with `model` from the next state (the same chain, another payload).
   void set_model(const RobotModel& model) { contact_.set_model(model); }
   const ContactMonitor& contact() const { return contact_; }
+  /// The locator's newest contact, judged at the next state (ContactMonitor::take_location).
+  void take_location(const LocatedContact& located) { contact_.take_location(located); }
   /// The share of g(q) the semantics check found in the difference (its last window).
   double semantics_share() const { return semantics_.share(); }
 

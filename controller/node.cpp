@@ -146,6 +146,7 @@ Node::Node(const RobotModel& model, const DaemonOptions& options, const Clock& c
       paths_(2, JointPath(n_)),
       locate_inputs_(LocateInput{Eigen::VectorXd::Zero(n_), Eigen::VectorXd::Zero(n_)}),
       located_(contact_estimate_t{}),
+      locations_(LocatedContact{}),
       loop_(models_.front().model, options, models_.front().payload),
       planner_(model, options.control.limits),
       locating_(model),
@@ -199,6 +200,7 @@ int64_t Node::tick(int64_t scheduled) {
   }
   if (foreign_commands() > 0 && !loop_.controller.stood_down()) stand_down();
   if (worlds_.take()) loop_.controller.set_clearance_world(worlds_.front().get());  // a new scene
+  if (locations_.take()) loop_.controller.take_location(locations_.front());
   if (models_.take()) {  // a payload built by the worker, between two ticks
     loop_.controller.set_model(models_.front().model);
     loop_.payload = models_.front().payload;
@@ -353,6 +355,7 @@ int64_t Node::locate() {
     for (int k = 0; k < 3; ++k) m.point[k] = e.point[k], m.normal[k] = e.normal[k], m.force[k] = e.force[k];
     m.residual = e.residual;
     m.contact = e.force.norm() >= options_.control.contact.contact_force;
+    locations_.write(LocatedContact{e.body, e.link, e.point, e.force});
   }
   locating_.located = above;
   const int64_t done = clock_.now_ns();

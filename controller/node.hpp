@@ -203,6 +203,7 @@ class Node {
   };
   Mailbox<LocateInput> locate_inputs_;
   Mailbox<contact_estimate_t> located_;  // locator → status: the latest estimate published
+  Mailbox<LocatedContact> locations_;    // locator → loop: the latest LOCATED, for the link's policy
   bool realtime_granted_ = false;
 
   // Each thread's own state, touched by its step alone; the threads meet only in the mailboxes,

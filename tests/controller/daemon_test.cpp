@@ -474,6 +474,7 @@ TEST(daemon, RefusesAChainWithASingularMassMatrix) {
 TEST(daemon, SaysWhatIsWrongWithItsInputInOneLine) {
   const testing::TempFile not_json("not_json.json", "{\"kp\": 100,\n");
   const testing::TempFile unknown("unknown_setting.json", "{\"kq\": 100}");
+  const testing::TempFile policy("link_policy.json", "{\"link_policy\": [\"panda_elbow,20,stop,guided\"]}");
   // --seconds: a case that failed to fail ends all the same.
   const std::vector<std::string> panda_args = {"--robot", data_path("panda.urdf"), "--tip", "panda_hand",
                                                "--lcm-url", kLcmUrl, "--seconds", "1"};
@@ -481,7 +482,9 @@ TEST(daemon, SaysWhatIsWrongWithItsInputInOneLine) {
            {{"--kp", "100,x"}, "--kp: 'x' is not a finite number"},
            {{"--kd", "1,2"}, "--kd has 2 entries; give one or 7"},
            {{"--config", not_json.path}, "config file " + not_json.path + " is not valid JSON: "},
-           {{"--config", unknown.path}, "config file " + unknown.path + ": kq: unknown setting"}}) {
+           {{"--config", unknown.path}, "config file " + unknown.path + ": kq: unknown setting"},
+           {{"--link-policy", "panda_hand,10,halt,strict"}, "--link-policy 'panda_hand,10,halt,strict': the reflex 'halt'"},
+           {{"--config", policy.path, "--collision", "off"}, "the contact policy of link 'panda_elbow': no such link on the chain"}}) {
     const testing::RunResult run =
         testing::run_to_completion(concat(concat({CHASLES_CONTROLLER}, panda_args), args));
     EXPECT_EQ(run.exit_code, 1) << said;

@@ -5,12 +5,15 @@
 
 #include <cmath>
 #include <limits>
+#include <random>
+#include <utility>
 #include <string>
 #include <vector>
 
 #include "controller/contact.hpp"
 #include "controller/controller.hpp"
 #include "core/dynamics/dynamics.hpp"
+#include "core/kinematics/kinematics.hpp"
 #include "core/model/urdf.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/arm.hpp"
@@ -56,6 +59,22 @@ class Reflexes : public ::testing::Test {
     return &state_;
   }
 
+  // The joint torque of a force f at point p of body b (both in the base frame): τ_j = S_jᵀ (p × f,
+  // f) for the joints j ≤ b that move the body, nothing on the joints beyond it.
+  VectorXd torque_of_force_on(int body, const VectorXd& q, const Vector3d& p, const Vector3d& f) {
+    const Matrix6Xd& J_s = space_jacobian(model_, data_, q);
+    Vector6d F;
+    F << p.cross(f), f;
+    VectorXd tau = VectorXd::Zero(7);
+    tau.head(body) = J_s.leftCols(body).transpose() * F;
+    return tau;
+  }
+  // A point 12 cm from body b's origin, off the joint axes.
+  Vector3d point_on(int body, const VectorXd& q) {
+    compute_tick_terms(model_, data_, q, VectorXd::Zero(7));
+    return data_.T_body[static_cast<size_t>(body)] * Vector3d(0.08, 0.06, 0.07);
+  }
+
   // The terms at a state, as the controller computes them before its monitor reads them.
   const Data& terms(const JointState& s) { return compute_tick_terms(model_, data_, s.q, s.qd); }
 
@@ -89,8 +108,12 @@ TEST_F(Reflexes, ThresholdsAreCrossedWhenTheLagOfAForceStepSaysAndTheReasonNames
     EXPECT_EQ(e.contact, k >= 2) << "sample " << k;
     EXPECT_EQ(e.collision, k >= 7) << "sample " << k;
     if (k == 7) {
+      // The Panda's tip is on joint 7's axis: a force there turns joint 7 not at all, so isolation
+      // by the joints names the body before it.
+      ASSERT_NEAR(tau_ext(6), 0.0, 1e-12);
       char expected_reason[160];
-      std::snprintf(expected_reason, sizeof(expected_reason), "collision: tip force %.3g N over 15", expected);
+      std::snprintf(expected_reason, sizeof(expected_reason), "collision: tip force %.3g N over 15, on panda_link6",
+                    expected);
       EXPECT_STREQ(monitor.reason(), expected_reason);
     }
   }
@@ -151,7 +174,7 @@ TEST_F(Reflexes, ACollisionStopsTheArmUntilANewTarget) {
   EXPECT_EQ(controller.mode(), Mode::kReflex);
   EXPECT_EQ(controller.reflexes(), 1);
   EXPECT_EQ(controller.contacts(), 1);
-  EXPECT_EQ(std::string(controller.reflex_reason()).rfind("collision: tip force 15.1 N over 15; reflex stop", 0), 0u)
+  EXPECT_EQ(std::string(controller.reflex_reason()).rfind("collision: tip force 15.1 N over 15, on panda_link6; reflex stop", 0), 0u)
       << controller.reflex_reason();
   EXPECT_TRUE(matrices_near(controller.reference().q, q0_, 0.0));
   // Still pushed: still REFLEX, once.
@@ -167,6 +190,177 @@ TEST_F(Reflexes, ACollisionStopsTheArmUntilANewTarget) {
   hold.mode = Target::kHold;
   ASSERT_TRUE(controller.set_target(hold, 80 * kMs));
   EXPECT_EQ(controller.mode(), Mode::kHolding);
+}
+
+// Isolation: for a force on each body of the arm in turn, the body the estimate names once it has
+// converged is that body (the force's point off the axes, so that the body's own joint turns).
+TEST_F(Reflexes, IsolationNamesTheBodyAForceActsOn) {
+  std::mt19937 random(7);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (int body = 1; body <= 7; ++body) {
+    int checked = 0;
+    for (int draw = 0; draw < 10; ++draw) {
+      // Toward a_b = v_b + ω_b × p, what the body's own joint feels of a force at p, and askew.
+      const Vector3d p = point_on(body, q0_);
+      const Matrix6Xd& J_s = space_jacobian(model_, data_, q0_);
+      const Vector3d a = J_s.col(body - 1).tail<3>() + J_s.col(body - 1).head<3>().cross(p);
+      const Vector3d f =
+          40.0 * (a.normalized() + 0.7 * Vector3d(unit(random), unit(random), unit(random)).normalized()).normalized();
+      const VectorXd tau_ext = torque_of_force_on(body, q0_, p, f);
+      ContactMonitor monitor(model_, ContactConfig(), VectorXd(), 1e-3);
+      if (std::abs(tau_ext(body - 1)) < 2.0 * monitor.config().isolation_torque(body - 1)) continue;
+      for (int k = 0; k <= 60; ++k) {
+        const JointState* s = still(k, q0_, k == 0 ? VectorXd::Zero(7) : tau_ext);
+        monitor.update(terms(*s), s->q, s->qd, s->effort, k == 0 ? 0.0 : 1e-3);
+      }
+      EXPECT_EQ(monitor.estimate().body, body) << "draw " << draw << ", τ_ext " << tau_ext.transpose();
+      ++checked;
+    }
+    EXPECT_GE(checked, 8) << "body " << body << ": draws too weak to turn its own joint";
+  }
+  // The floor: 1 % of each joint's effort limit.
+  ContactMonitor monitor(model_, ContactConfig(), VectorXd(), 1e-3);
+  EXPECT_DOUBLE_EQ(monitor.config().isolation_torque(0), 0.01 * model_.joint(0).limits.effort);
+  EXPECT_EQ(monitor.policy(4).link, "panda_link4");
+  EXPECT_EQ(monitor.policy(7).link, "panda_link7");
+}
+
+// The policy of the link hit decides: under free drive a push on a guided link is a person's (the
+// collision is flagged, the arm is not stopped); on a strict link it starts that link's reflex.
+TEST_F(Reflexes, UnderFreeDriveAGuidedLinkIsAPersonAndAStrictLinkStartsItsReflex) {
+  const Vector3d p = point_on(4, q0_);
+  const VectorXd tau_ext = torque_of_force_on(4, q0_, p, Vector3d(0.0, 0.0, 80.0));
+  ASSERT_GT(std::abs(tau_ext(1)), 0.15 * model_.joint(1).limits.effort) << "the push must cross joint 2's threshold";
+  for (bool strict : {false, true}) {
+    Config config = config_;
+    if (strict) config.contact.links.push_back(LinkPolicy{"panda_link4", kInf, Reflex::kCompliant, false});
+    Controller controller(model_, config);
+    ASSERT_TRUE(controller.tick(0, still(0, q0_, VectorXd::Zero(7))));
+    LawSettings free_drive(7);
+    free_drive.law = Law::kFreeDrive;
+    ASSERT_TRUE(controller.set_law(free_drive, 0)) << controller.mode_rejection();
+    bool flagged = false;
+    for (int k = 1; k <= 40; ++k) {
+      ASSERT_TRUE(controller.tick(k * kMs, still(k, q0_, tau_ext)));
+      flagged = flagged || controller.contact().collision;
+    }
+    EXPECT_TRUE(flagged);
+    EXPECT_EQ(controller.contact().body, 4);
+    if (strict) {
+      EXPECT_EQ(controller.mode(), Mode::kReflex);
+      EXPECT_NE(std::string(controller.reflex_reason()).find(", on panda_link4; reflex compliant"), std::string::npos)
+          << controller.reflex_reason();
+    } else {
+      EXPECT_EQ(controller.mode(), Mode::kHolding);
+      EXPECT_EQ(controller.reflexes(), 0) << controller.reflex_reason();
+    }
+  }
+}
+
+// A 20 N push on the elbow crosses no joint threshold (joint 4's is 13 N·m); located by the locator
+// it is a collision by its link's force, judged at the next state, once. Under that force, or on a
+// link whose force is ∞, it is not.
+TEST_F(Reflexes, ALocatedForceOverItsLinksCollisionForceIsACollision) {
+  const Vector3d p = point_on(4, q0_), f(0.0, 20.0, 0.0);
+  const VectorXd tau_ext = torque_of_force_on(4, q0_, p, f);
+  struct Case {
+    double located_newtons;
+    double link_force;
+    bool reflex;
+  } cases[] = {{20.0, 15.0, true}, {12.0, 15.0, false}, {20.0, kInf, false}};
+  for (const Case& c : cases) {
+    Config config = config_;
+    config.contact.links.push_back(LinkPolicy{"panda_link4", c.link_force, Reflex::kStop, true});
+    Controller controller(model_, config);
+    ASSERT_TRUE(controller.tick(0, still(0, q0_, VectorXd::Zero(7))));
+    for (int k = 1; k <= 40; ++k) ASSERT_TRUE(controller.tick(k * kMs, still(k, q0_, tau_ext)));
+    ASSERT_EQ(controller.mode(), Mode::kHolding) << "the joint thresholds alone: " << controller.reflex_reason();
+    EXPECT_FALSE(controller.contact().collision);
+    controller.take_location(LocatedContact{4, "panda_link4", p, c.located_newtons / 20.0 * f});
+    ASSERT_TRUE(controller.tick(41 * kMs, still(41, q0_, tau_ext)));
+    EXPECT_EQ(controller.mode(), c.reflex ? Mode::kReflex : Mode::kHolding) << c.located_newtons << " N";
+    if (c.reflex) {
+      char expected[192];
+      std::snprintf(expected, sizeof(expected),
+                    "collision: 20 N located on panda_link4 at (%.3f, %.3f, %.3f) m, over 15; reflex stop", p.x(),
+                    p.y(), p.z());
+      EXPECT_STREQ(controller.reflex_reason(), expected);
+      EXPECT_EQ(controller.contact().body, 4);
+    }
+    ASSERT_TRUE(controller.tick(42 * kMs, still(42, q0_, tau_ext)));
+    EXPECT_FALSE(controller.contact().collision) << "a location is judged once";
+    EXPECT_EQ(controller.reflexes(), c.reflex ? 1 : 0);
+  }
+}
+
+// A push on the tool's centre leaves joint 7 still, so the joints alone name panda_link6; the
+// locator, which saw the hand's shape, names the hand, and while its estimate is fresh (50 ms) the
+// collision is the hand's, with the hand's reflex. Older, the joints decide again.
+TEST_F(Reflexes, TheLocatorsLinkChoosesTheReflexWhileItsEstimateIsFresh) {
+  Config config = config_;
+  config.contact.links.push_back(LinkPolicy{"panda_hand", 15.0, Reflex::kCompliant, true});
+  Vector6d F = Vector6d::Zero();
+  F(5) = -30.0;
+  const VectorXd tau_ext = torque_of(q0_, F);
+  for (int64_t located_at : {int64_t{1}, int64_t{-100}}) {
+    Controller controller(model_, config);
+    ASSERT_TRUE(controller.tick(0, still(0, q0_, VectorXd::Zero(7))));
+    if (located_at > 0) {
+      controller.take_location(LocatedContact{7, "panda_hand", Vector3d::Zero(), Vector3d(0.0, 0.0, -5.0)});
+    }
+    int k = 1;
+    for (; controller.mode() != Mode::kReflex && k < 40; ++k) ASSERT_TRUE(controller.tick(k * kMs, still(k, q0_, tau_ext)));
+    ASSERT_EQ(controller.mode(), Mode::kReflex);
+    const std::string reason = controller.reflex_reason();
+    if (located_at > 0) {
+      EXPECT_NE(reason.find(", on panda_hand; reflex compliant"), std::string::npos) << reason;
+    } else {
+      EXPECT_NE(reason.find(", on panda_link6; reflex stop"), std::string::npos) << reason;
+    }
+  }
+}
+
+TEST_F(Reflexes, LinkPoliciesAreParsedAndCheckedWithTheirReason) {
+  LinkPolicy policy;
+  std::string why;
+  ASSERT_TRUE(parse_link_policy("panda_hand,10,retract,strict", policy, why)) << why;
+  EXPECT_EQ(policy.link, "panda_hand");
+  EXPECT_EQ(policy.collision_force, 10.0);
+  EXPECT_EQ(policy.reflex, Reflex::kRetract);
+  EXPECT_FALSE(policy.guided);
+  ASSERT_TRUE(parse_link_policy("panda_link4,inf,stop,guided", policy, why)) << why;
+  EXPECT_EQ(policy.collision_force, kInf);
+  EXPECT_TRUE(policy.guided);
+  const std::pair<const char*, const char*> bad[] = {
+      {"panda_hand,10,retract", "4 fields, found 3"},
+      {",10,stop,guided", "the link is empty"},
+      {"panda_hand,-1,stop,guided", "the collision force '-1' must be a positive number"},
+      {"panda_hand,10N,stop,guided", "the collision force '10N'"},
+      {"panda_hand,10,halt,guided", "the reflex 'halt' is none of stop, compliant, retract"},
+      {"panda_hand,10,stop,gentle", "'gentle' is neither guided"},
+  };
+  for (const auto& [text, expected] : bad) {
+    EXPECT_FALSE(parse_link_policy(text, policy, why)) << text;
+    EXPECT_NE(why.find(expected), std::string::npos) << text << ": " << why;
+  }
+  auto refused = [&](std::vector<LinkPolicy> links) {
+    ContactConfig config;
+    config.links = std::move(links);
+    try {
+      ContactMonitor monitor(model_, config, VectorXd(), 1e-3);
+    } catch (const ArgumentError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(refused({{"panda_leftfinger", 10.0, Reflex::kStop, true}}).find("'panda_leftfinger': no such link on the chain"),
+            std::string::npos);
+  EXPECT_NE(refused({{"panda_link8", 10.0, Reflex::kStop, true}, {"panda_hand", 10.0, Reflex::kStop, true}})
+                .find("'panda_link8' and 'panda_hand': both ride on one body"),
+            std::string::npos);
+  EXPECT_NE(refused({{"panda_hand", 0.0, Reflex::kStop, true}}).find("the collision force must be positive"),
+            std::string::npos);
+  EXPECT_EQ(refused({{"panda_hand", 10.0, Reflex::kStop, false}}), "");
 }
 
 // The stop reflex from speed: a joint measured past its velocity limit trips it, and the reference

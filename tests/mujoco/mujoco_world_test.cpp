@@ -263,6 +263,76 @@ TEST_P(OnMujoco, APressOnTheElbowIsFlaggedAndExplained) {
   EXPECT_TRUE(f.in_status);
 }
 
+// What a push means is its link's policy (controller/contact.hpp, LinkPolicy), with the locator
+// running: the press ramps to `press.force` over 50 ms from 0.2 s; returns when the controller
+// entered REFLEX after the press reached `newtons` (ms; NaN: never, within 0.6 s).
+double reflex_after(const plant::Press& press, const VectorXd& q0, DaemonOptions o, bool free_drive,
+                    double newtons, OnMujoco& rig, World& world) {
+  plant::MujocoScene scene;
+  scene.presses = {press};
+  o.arm = panda_geometry();
+  rig.start_with(world, q0, o, scene);
+  if (free_drive) world.recorder().publish("MODE", mode_message(controller::Law::kFreeDrive, 7));
+  const bool tripped = world.run_until(
+      [&] { return world.controller().controller().mode() == controller::Mode::kReflex; },
+      press.start + 0.6 - 1e-9 * static_cast<double>(world.now()));
+  if (!tripped) return std::nan("");
+  return 1e3 * (1e-9 * static_cast<double>(world.now()) - (press.start + press.ramp * newtons / press.force));
+}
+
+// Holding, 20 N on the elbow: under every joint's threshold (its τ̂ is 4 N at the tip), but located
+// on the forearm with 20 N, over the link's 15 N — a collision of the elbow, with its reflex, within
+// 25 ms of the press reaching 15 N: the observer's lag (1/K_O = 5 ms on a ramp of 0.4 N/ms), the
+// locator's period (10 ms) and at 200 Hz a state's 5 ms.
+TEST_P(OnMujoco, APushOnTheElbowWhileHoldingIsACollisionOfTheElbow) {
+  World world(panda(), GetParam().protocol);
+  const plant::Press press{"panda_link4", Vector3d(-0.05, 0.0, 0.0), Vector3d::UnitY(), 20.0, 0.2, 1.0, 0.05};
+  const double ms = reflex_after(press, elbow_pose(), controller_on(GetParam()), false, 15.0, *this, world);
+  const std::string reason = world.controller().controller().reflex_reason();
+  std::printf("[ mujoco ] %s at %g Hz: the elbow's 20 N while holding: REFLEX %.1f ms after 15 N: %s\n",
+              controller::to_string(GetParam().protocol), GetParam().rate_hz, ms, reason.c_str());
+  ASSERT_FALSE(std::isnan(ms)) << "no reflex";
+  EXPECT_GE(ms, 0.0);
+  EXPECT_LE(ms, 25.0);
+  EXPECT_NE(reason.find(" N located on panda_link"), std::string::npos) << reason;
+  EXPECT_NE(reason.find("; reflex stop"), std::string::npos) << reason;
+}
+
+// Under free drive a push on a guided link is a person's: 40 N on the elbow, over joint 2's and 4's
+// collision thresholds and the link's 15 N, flags a contact and moves the arm, but starts no reflex.
+// The hand, made strict, is a collision under free drive too, with its own reflex.
+TEST_P(OnMujoco, UnderFreeDriveAPushOnAGuidedLinkMovesTheArmAndOnAStrictOneStartsItsReflex) {
+  {
+    World world(panda(), GetParam().protocol);
+    const plant::Press press{"panda_link4", Vector3d(-0.05, 0.0, 0.0), Vector3d::UnitY(), 40.0, 0.2, 0.3, 0.05};
+    const double ms = reflex_after(press, elbow_pose(), controller_on(GetParam()), true, 15.0, *this, world);
+    const VectorXd moved = world.plant()->plant().q() - elbow_pose();
+    std::printf("[ mujoco ] %s at %g Hz: under free drive the elbow's 40 N moved the arm %.3f rad, %lld contacts, "
+                "%lld reflexes\n",
+                controller::to_string(GetParam().protocol), GetParam().rate_hz, moved.norm(),
+                static_cast<long long>(world.controller().controller().contacts()),
+                static_cast<long long>(world.controller().controller().reflexes()));
+    EXPECT_TRUE(std::isnan(ms)) << world.controller().controller().reflex_reason();
+    EXPECT_EQ(world.controller().controller().reflexes(), 0);
+    EXPECT_GE(world.controller().controller().contacts(), 1);
+    EXPECT_GT(moved.norm(), 0.05);
+  }
+  {
+    World world(panda(), GetParam().protocol);
+    DaemonOptions o = controller_on(GetParam());
+    o.control.contact.links = {{"panda_hand", 10.0, controller::Reflex::kCompliant, false}};
+    const plant::Press press{"panda_hand", Vector3d::Zero(), -Vector3d::UnitY(), 20.0, 0.2, 0.3, 0.05};
+    const double ms = reflex_after(press, bent_pose(), o, true, 10.0, *this, world);
+    const std::string reason = world.controller().controller().reflex_reason();
+    std::printf("[ mujoco ] %s at %g Hz: under free drive the strict hand's 20 N: REFLEX %.1f ms after 10 N: %s\n",
+                controller::to_string(GetParam().protocol), GetParam().rate_hz, ms, reason.c_str());
+    ASSERT_FALSE(std::isnan(ms)) << "no reflex";
+    EXPECT_LE(ms, 25.0);
+    EXPECT_NE(reason.find("panda_hand"), std::string::npos) << reason;
+    EXPECT_NE(reason.find("; reflex compliant"), std::string::npos) << reason;
+  }
+}
+
 // 15 N on the hand, sideways: the tip force the controller estimates against the force MuJoCo
 // applied, within 0.5 N.
 TEST_P(OnMujoco, APressOnTheHandIsEstimatedWithinHalfANewton) {
