@@ -130,11 +130,14 @@ void sample_surface(const Shape& shape, double spacing, std::vector<Vector3d>& p
 
 ContactLocator::ContactLocator(const RobotModel& model, const CollisionModel& collision,
                                const ContactLocatorOptions& options)
-    : friction_(options.friction) {
+    : friction_(options.friction), tolerance_share_(options.tolerance_share), tolerance_(options.tolerance) {
   if (!(options.friction >= 0.0) || !std::isfinite(options.friction))
     throw ArgumentError("contact locator: the friction coefficient must be a finite number >= 0");
   if (!(options.spacing > 0.0) || !std::isfinite(options.spacing))
     throw ArgumentError("contact locator: the spacing must be a finite length > 0");
+  if (!(options.tolerance_share >= 0.0) || !std::isfinite(options.tolerance_share) || !(options.tolerance >= 0.0) ||
+      !std::isfinite(options.tolerance))
+    throw ArgumentError("contact locator: the fit's tolerances must be finite and >= 0");
   std::vector<Vector3d> points, normals;
   for (size_t o = 0; o < collision.objects.size(); ++o) {
     const CollisionObject& object = collision.objects[o];
@@ -149,6 +152,7 @@ ContactLocator::ContactLocator(const RobotModel& model, const CollisionModel& co
   std::stable_sort(samples_.begin(), samples_.end(), [](const Sample& a, const Sample& b) { return a.body > b.body; });
   const size_t n = static_cast<size_t>(model.dof()) + 1;
   tail_.assign(n, 0.0);
+  fits_.assign(n, Fit{});
   V_.assign(n, Matrix3d::Zero()), X_.assign(n, Matrix3d::Zero()), W_.assign(n, Matrix3d::Zero());
   gv_.assign(n, Vector3d::Zero()), gw_.assign(n, Vector3d::Zero());
 }
@@ -167,14 +171,22 @@ const ContactEstimate& ContactLocator::locate(const Data& data, const Eigen::Ref
   best_ = ContactEstimate{};
   best_.residual = std::sqrt(tau2);
   if (tau2 == 0.0) return best_;
-  // A point of body b leaves at least the torque of the joints beyond b unexplained: samples come
-  // ordered from the tip's body to the base's, and a body whose bound already exceeds the best fit
-  // is skipped with all before it: the same least cost as the exhaustive search (a tie may go to
-  // another candidate).
+  // Each body's best fit, then the most proximal body whose fit is as good as the best within the
+  // tolerance: a push on body b turns joints 1…b only, and a fit on a body beyond it needs a force
+  // that happens to leave the joints between at zero — where torques alone cannot tell, the
+  // coincidence is the less likely reading (a push on a UR5's shoulder, 0.26 N·m on joint 1 alone,
+  // is also 0.5 N somewhere on its wrist). A point of body b leaves at least the torque of the
+  // joints beyond b unexplained: samples come ordered from the tip's body to the base's, and once
+  // that bound exceeds the best fit by more than the tolerance no body before it can be chosen.
   for (int b = n; b-- > 0;) tail_[b] = tail_[b + 1] + tau_ext[b] * tau_ext[b];
+  const double tolerance = tolerance_share_ * std::sqrt(tau2) + tolerance_;  // N·m, on the residual
+  for (Fit& fit : fits_) fit.cost = std::numeric_limits<double>::infinity();
   double best_cost = std::numeric_limits<double>::infinity();
+  auto within = [&](double cost) {
+    return std::sqrt(std::max(0.0, cost)) <= std::sqrt(std::max(0.0, best_cost)) + tolerance;
+  };
   for (const Sample& s : samples_) {
-    if (tail_[s.body] >= best_cost) break;
+    if (!within(tail_[s.body])) break;
     const Transform& T = data.T_body[static_cast<size_t>(s.body)];
     const Vector3d p = T * s.point, normal = T.linear() * s.normal;
     // a_j = v_j − [p] ω_j: H = Σ a aᵀ and g = Σ a τ from the prefix sums.
@@ -199,14 +211,20 @@ const ContactEstimate& ContactLocator::locate(const Data& data, const Eigen::Ref
       }
     }
     const double cost = tau2 - 2.0 * f.dot(g) + f.dot(H * f);
-    if (cost < best_cost) {
-      best_cost = cost;
-      best_.object = s.object;
-      best_.body = s.body;
-      best_.point = p;
-      best_.normal = normal;
-      best_.force = f;
-    }
+    best_cost = std::min(best_cost, cost);
+    Fit& fit = fits_[static_cast<size_t>(s.body)];
+    if (cost < fit.cost) fit = {cost, s.object, p, normal, f};
+  }
+  for (int b = 1; b <= n; ++b) {
+    const Fit& fit = fits_[static_cast<size_t>(b)];
+    if (fit.object < 0 || !within(fit.cost)) continue;
+    best_.object = fit.object;
+    best_.body = b;
+    best_.point = fit.point;
+    best_.normal = fit.normal;
+    best_.force = fit.force;
+    best_cost = fit.cost;
+    break;
   }
   if (best_.object < 0) return best_;  // an arm with no collision object off its base
   best_.link = links_[static_cast<size_t>(best_.object)];
