@@ -27,6 +27,11 @@
 #include "core/kinematics/kinematics.hpp"
 #include "wires.hpp"
 #include "world.hpp"
+#ifdef CHASLES_FAULTS_ON_MUJOCO
+#include "core/geometry/collision_model.hpp"
+#include "tests/support/reference.hpp"
+#include "tools/mujoco/mujoco_plant.hpp"
+#endif
 
 namespace chasles::faults {
 namespace {
@@ -123,6 +128,22 @@ LastState after_the_last_state(int64_t stale_ns, int64_t P) {
 
 class Faults : public ::testing::TestWithParam<Wire> {};
 
+// The plant every row runs on: chasles's own, or with CHASLES_FAULTS_ON_MUJOCO MuJoCo's Panda
+// (tests/mujoco's mujoco_fault_test: the same rows, the same oracle, on the other engine). The
+// faults are the Simulation's, whatever it steps; the damping is 0.5 on every joint on both.
+plant::Simulation& start_plant(World& world, const VectorXd& q0, const plant::SimulationOptions& options) {
+#ifdef CHASLES_FAULTS_ON_MUJOCO
+  static const geometry::CollisionModel geometry = geometry::load_collision_model(
+      chasles::testing::data_path("panda.urdf"), panda(), {{chasles::testing::data_path("packages")}, ""});
+  return world.start_plant(std::make_unique<plant::MujocoPlant>(panda(), chasles::testing::data_path("panda.urdf"),
+                                                                geometry, plant::MujocoScene{}, q0,
+                                                                VectorXd::Constant(7, 0.5), 1.0 / options.rate_hz),
+                           options);
+#else
+  return world.start_plant(q0, options);
+#endif
+}
+
 // A plant at the bent pose on the wire and one controller holding it, ticking half a period after
 // the plant's steps.
 struct Rig {
@@ -134,7 +155,7 @@ struct Rig {
   explicit Rig(const Wire& w, const plant::SimulationOptions& plant, int64_t stale = 0,
                TickSource t = TickSource::kState)
       : wire(w), world(panda(), w.protocol), tick(t), stale_ns(stale > 0 ? stale : w.stale_ns()) {
-    world.start_plant(bent_pose(), plant);
+    start_plant(world, bent_pose(), plant);
     world.add_controller(controller_on(wire, stale_ns, tick), P() / 2);
     first_tick = world.now() + P() + P() / 2;
   }
@@ -284,7 +305,7 @@ TEST_P(Faults, PlantKilledMidMotionAndRestarted) {
             last.answers);
   EXPECT_EQ(commands.back().message.state_seq, last_seq) << "a command after the FAULT";
 
-  rig.world.start_plant(q_at_kill, plant_on(GetParam()));
+  start_plant(rig.world, q_at_kill, plant_on(GetParam()));
   ASSERT_TRUE(rig.holding());
   EXPECT_LT(distance(vector_of(rig.bus().state()->position), q_at_kill), 1e-3) << "held where the plant restarted";
   EXPECT_LT(rig.move(goal_a(), 1.0), 1e-3);
@@ -483,7 +504,7 @@ TEST_P(Faults, TwoControllersRunningAtOnceOnlyOneDrives) {
   world.add_controller(controller_on(wire), wire.period_ns() / 2);
   const int second = world.add_controller(controller_on(wire), wire.period_ns() * 7 / 10);
   world.run_for(0.1);
-  world.start_plant(bent_pose(), plant_on(wire));
+  start_plant(world, bent_pose(), plant_on(wire));
   ASSERT_TRUE(world.run_until([&] { return world.controller(0).controller().mode() == controller::Mode::kHolding; }, 1.0));
   world.send_joint_target(goal_a(), 1.0);
   world.run_for(1.5);
