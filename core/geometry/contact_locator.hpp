@@ -36,9 +36,9 @@ struct ContactLocatorOptions {
   double friction = 1.0;   ///< μ of the friction cone the force is kept in
   double spacing = 0.01;   ///< m between neighbouring candidate points, about
   /// How much worse than the best a more proximal body's fit may be and still be chosen: this share
-  /// of |τ_ext| plus `tolerance` N·m on the residual. Measured on the push campaign
-  /// (tests/mujoco/push_campaign_test.cpp): none, 63 % of the links right at rest; 0.1 % + 0.005,
-  /// 90 %; 1 % + 0.02, 80 %; 3 % + 0.05, 62 %.
+  /// of |τ_ext| plus `tolerance` N·m on the residual. Measured on a draw of the push campaign
+  /// (docs/simulation.md), links right at rest: none, 63 %; 0.1 % + 0.005, 90 %; 1 % + 0.02, 80 %;
+  /// 3 % + 0.05, 62 %.
   double tolerance_share = 0.001;
   double tolerance = 0.005;
 };
