@@ -12,7 +12,9 @@
 #                                 processes are the Release stage's (the fuzz stage sanitizes their
 #                                 readers of untrusted input)
 #   tools/test.sh -R lie          extra arguments go to ctest; the fuzz stage is skipped
-#   tools/test.sh -L long         the long runs alone (label long), which the default leaves out
+#   tools/test.sh --long          the long runs alone (ctest label long: the push campaign, ten
+#                                 minutes without a false alarm), built and run in build/; every
+#                                 other run leaves them out
 #
 # Every build also replays the fuzz seed corpus and the crashers kept in it (fuzz_replay.*).
 set -euo pipefail
@@ -37,6 +39,13 @@ if [ "${1:-}" = "--sanitize" ]; then
   options=(-DCHASLES_WERROR=OFF -DCHASLES_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo
            "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-Og -g1 -DNDEBUG" -DCHASLES_BUILD_TOOLS=OFF)
 fi
+long=OFF
+if [ "${1:-}" = "--long" ]; then
+  shift
+  long=ON
+  set -- -L long "$@"
+fi
+options+=("-DCHASLES_LONG_TESTS=$long")
 [ $# -eq 0 ] || fuzz=0
 # The MuJoCo plant and its tests, in both stages: MuJoCo's library at the version tools/mujoco.sh pins.
 options+=("-DCHASLES_MUJOCO_PREFIX=$("$root/tools/mujoco.sh")")
@@ -56,8 +65,7 @@ stage() {
 }
 stage "configure ($build)" cmake -S "$root" -B "$build" -G Ninja "${options[@]}" >/dev/null
 stage "build ($build)" cmake --build "$build" -j 2
-# The long runs (label long: ten minutes without a false alarm, the push campaigns) only when asked
-# for (tools/test.sh -L long): CI keeps to its 20 minutes.
+# The long runs only when asked for (--long): CI keeps to its 20 minutes.
 [ $# -gt 0 ] || set -- -LE long
 stage "ctest ($build)" ctest --test-dir "$build" --output-on-failure -j 2 "$@"
 if [ $fuzz -eq 1 ]; then
