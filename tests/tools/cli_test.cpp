@@ -299,6 +299,23 @@ TEST(cli, HelpAndVersion) {
   EXPECT_EQ(version.out.rfind("chasles ", 0), 0u) << version.out;
 }
 
+// `chasles view` becomes the interpreter running chasles.view with every argument after it, --help
+// and the global flags' look-alikes included: /bin/echo standing in for the interpreter prints the
+// command line it was given. An interpreter that is not there is said in one line.
+TEST(cli, ViewHandsEveryArgumentToThePythonModule) {
+  const testing::RunResult echoed = testing::run_to_completion(
+      {CHASLES_CLI, "view", "run.lcmlog", "--urdf", "ur5.urdf", "--pretty", "--help"}, "/dev/null",
+      {"CHASLES_PYTHON=/bin/echo"});
+  EXPECT_EQ(echoed.exit_code, 0) << echoed.err;
+  EXPECT_EQ(echoed.out, "-m chasles.view run.lcmlog --urdf ur5.urdf --pretty --help\n");
+  const testing::RunResult missing =
+      testing::run_to_completion({CHASLES_CLI, "view"}, "/dev/null", {"CHASLES_PYTHON=/nonexistent/python"});
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_EQ(missing.err.rfind("chasles: cannot run /nonexistent/python -m chasles.view: No such file or directory", 0),
+            0u)
+      << missing.err;
+}
+
 // --- errors (suite names start with "cli" so that `ctest -R cli` selects them all)
 // --------------------------------------------------------------------------------
 

@@ -8,6 +8,7 @@
 #include <CLI/CLI.hpp>
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "core/model/model.hpp"
 #include "tools/cli/json_io.hpp"
@@ -58,5 +59,8 @@ Command register_jog(CLI::App& app);     ///< jogs the arm: jog_command_t at a s
 Command register_stream(CLI::App& app);  ///< plays joint or tip setpoints (a stream) at their times
 Command register_monitor(CLI::App& app); ///< a live view of the controller's status, in the terminal
 Command register_log(CLI::App& app);     ///< LCM logs of a run: export a channel as CSV, plot
+Command register_view(CLI::App& app);    ///< the 3D view in the browser (python -m chasles.view)
+/// Becomes the interpreter running chasles.view with `arguments`; throws InputError if it cannot.
+void run_view(const std::vector<std::string>& arguments);
 
 }  // namespace chasles::cli

@@ -39,13 +39,21 @@ int main(int argc, char** argv) {
       "  chasles payload --mass 1.5 --com 0,0,0.05\n"
       "  chasles monitor --urdf ur5.urdf --tip tool0\n"
       "  chasles log plot run.lcmlog --out plots/ --urdf ur5.urdf --tip tool0\n"
+      "  chasles view --urdf ur5.urdf --tip tool0\n"
       "Run 'chasles COMMAND --help' for a command's input and output.");
 
   const std::vector<Command> commands = {register_inspect(app), register_eval(app), register_rnea(app),
                                          register_fd(app), register_ik(app), register_target(app),
                                          register_mode(app), register_payload(app), register_jog(app), register_stream(app), register_monitor(app),
-                                         register_log(app)};
+                                         register_log(app), register_view(app)};
 
+  // chasles view: every argument after it is the Python module's, its --help included.
+  if (argc >= 2 && std::string(argv[1]) == "view") {
+    return chasles::tools::run_main("chasles", [&] {
+      run_view(std::vector<std::string>(argv + 2, argv + argc));
+      return 1;
+    });
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& e) {  // --help, --version
