@@ -1,0 +1,94 @@
+"""python -m chasles.view: the arm live in a browser (docs/view.md).
+
+  python -m chasles.view --urdf tests/data/panda.urdf --tip panda_hand_tcp \\
+      --package-dir tests/data/packages --url 'udpm://239.255.76.67:7667?ttl=0'
+
+then open the address it prints (chasles view: http://127.0.0.1:8080).
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import sys
+import threading
+
+
+def _triple(text: str) -> tuple:
+    values = [float(v) for v in text.split(",")]
+    if len(values) != 6:
+        raise argparse.ArgumentTypeError(f"'{text}': six numbers EYE_X,EYE_Y,EYE_Z,TARGET_X,TARGET_Y,TARGET_Z")
+    return (values[:3], values[3:])
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="python -m chasles.view",
+        description="The arm live in a browser: drawn from its URDF where the bus's robot_state_t puts "
+                    "it, the controller's reference as a ghost, the estimated (magenta) and true "
+                    "(green) contact forces as arrows, the controller's status in the panel.",
+        epilog="example: python -m chasles.view --urdf tests/data/panda.urdf --tip panda_hand_tcp "
+               "--package-dir tests/data/packages --url 'udpm://239.255.76.67:7667?ttl=0'",
+    )
+    p.add_argument("--urdf", required=True, help="the arm's URDF (the one the controller runs)")
+    p.add_argument("--tip", help="the chain's tip link (needed when the tree has several leaves)")
+    p.add_argument("--prefix", default="CHASLES_", help="the channels' prefix (default CHASLES_)")
+    p.add_argument("--url", help="LCM's provider URL (default: $LCM_DEFAULT_URL, else LCM's)")
+    p.add_argument("--package-dir", action="append", default=[], metavar="DIR",
+                   help="where package://NAME/... meshes are looked for (repeatable; then $ROS_PACKAGE_PATH's folders)")
+    p.add_argument("--host", default="127.0.0.1", help="the address to serve on (default 127.0.0.1: this machine only)")
+    p.add_argument("--port", type=int, default=8080, help="the port to serve on (default 8080)")
+    p.add_argument("--rate", type=float, default=30.0, help="draws per second at most (default 30)")
+    p.add_argument("--force-scale", type=float, default=0.01, help="arrow length per newton, m/N (default 0.01)")
+    p.add_argument("--camera", type=_triple, metavar="EX,EY,EZ,TX,TY,TZ",
+                   help="the camera's eye and the point it looks at, m, base frame (default: the arm in view)")
+    return p
+
+
+def main(argv=None) -> int:
+    args = parser().parse_args(argv)
+    if not 1.0 <= args.rate <= 120.0:
+        print(f"chasles view: --rate {args.rate}: between 1 and 120 draws per second", file=sys.stderr)
+        return 2
+    import lcm
+    import viser
+
+    import chasles
+    from .app import View
+    from .shapes import load_parts
+
+    try:
+        model = chasles.Model.from_urdf(args.urdf, tip=args.tip)
+    except chasles.Error as e:
+        print(f"chasles view: {e}", file=sys.stderr)
+        return 1
+    package_dirs = list(args.package_dir)
+    package_dirs += [d for d in os.environ.get("ROS_PACKAGE_PATH", "").split(":") if d]
+    parts, notes = load_parts(args.urdf, model.link_names, package_dirs)
+    try:
+        lc = lcm.LCM(args.url) if args.url else lcm.LCM()
+    except (RuntimeError, OSError) as e:
+        print(f"chasles view: cannot start LCM{' on ' + args.url if args.url else ''} ({e})", file=sys.stderr)
+        return 1
+    try:
+        server = viser.ViserServer(host=args.host, port=args.port, label="chasles view", verbose=False)
+    except OSError as e:
+        print(f"chasles view: cannot serve on {args.host}:{args.port} ({e})", file=sys.stderr)
+        return 1
+    server.gui.configure_theme(dark_mode=False, show_logo=False, show_share_button=False)
+    view = View(server, model, parts, notes, prefix=args.prefix, rate=args.rate,
+                force_scale=args.force_scale, camera=args.camera)
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
+    # viser may have moved to the next free port when the one asked for was taken.
+    print(f"chasles view: http://{args.host}:{server.get_port()}", flush=True)
+    try:
+        view.run(lc, stop)
+    finally:
+        server.stop()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
