@@ -8,6 +8,8 @@ then open the address it prints (chasles view: http://127.0.0.1:8080).
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
 import os
 import signal
 import sys
@@ -71,7 +73,9 @@ def main(argv=None) -> int:
         print(f"chasles view: cannot start LCM{' on ' + args.url if args.url else ''} ({e})", file=sys.stderr)
         return 1
     try:
-        server = viser.ViserServer(host=args.host, port=args.port, label="chasles view", verbose=False)
+        # viser prints a banner of its own on stdout; the one line below is this tool's.
+        with contextlib.redirect_stdout(io.StringIO()):
+            server = viser.ViserServer(host=args.host, port=args.port, label="chasles view", verbose=False)
     except OSError as e:
         print(f"chasles view: cannot serve on {args.host}:{args.port} ({e})", file=sys.stderr)
         return 1

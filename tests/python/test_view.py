@@ -1,0 +1,338 @@
+"""chasles.view as a person sees it: the view runs as a process (python -m chasles.view) on the
+Panda, this test publishes real robot_state_t, controller_status_t and sim_truth_t messages on the
+namespace's bus, and headless Chromium loads the page and takes screenshots.
+
+Where things should be drawn is worked out here, independently of the view: chasles's FK places
+the links (the reference), and a pinhole camera with the view's eye, target and field of view
+(view_browser.project) puts them on the screen. Each wait is on the page's own text (the panel
+names the state seq and the status ticks it has drawn), never a fixed sleep.
+
+Needs the test's network namespace (NETNS) for the bus, and Chromium (tools/deps.sh).
+"""
+from __future__ import annotations
+
+import math
+import os
+import re
+import subprocess
+import sys
+import threading
+import time
+
+import lcm
+import numpy as np
+import pytest
+
+import chasles
+from chasles.lcmtypes import controller_status_t, robot_state_t, sim_truth_t
+from chasles.view.app import CAMERA_FOV_DEG
+from view_browser import Browser, chromium_path, project
+
+LCM_URL = "udpm://239.255.76.67:7667?ttl=0"
+DATA = os.environ["CHASLES_TEST_DATA"]
+URDF, TIP = os.path.join(DATA, "panda.urdf"), "panda_hand"
+W, H = 960, 720
+EYE, TARGET = (1.6, 1.1, 0.9), (0.2, 0.0, 0.45)
+# Two poses whose hands are far apart on the screen, each in open background in the other.
+Q1 = np.array([0.3, -0.4, 0.0, -2.0, 0.0, 1.6, 0.8])
+Q2 = np.array([-0.9, -0.4, 0.0, -2.0, 0.0, 1.6, 0.8])
+# What the page lays over the 3D canvas: Chromium's software-WebGL notice (top left) and the panel.
+OVERLAYS = [(0, 0, 320, 200), (615, 0, W, 200)]
+
+MODEL = chasles.Model.from_urdf(URDF, tip=TIP)
+
+
+def screen(points) -> np.ndarray:
+    return project(points, EYE, TARGET, CAMERA_FOV_DEG, W, H)
+
+
+def disc(image: np.ndarray, uv, radius: int = 4) -> np.ndarray:
+    """The pixels within `radius` of uv, (N, 3) int."""
+    u, v = uv
+    assert radius <= u < W - radius and radius <= v < H - radius, f"{uv} is off the screen"
+    for x0, y0, x1, y1 in OVERLAYS:
+        assert not (x0 <= u <= x1 and y0 <= v <= y1), f"{uv} is under the page's overlay {(x0, y0, x1, y1)}"
+    ys, xs = np.mgrid[-radius:radius + 1, -radius:radius + 1]
+    keep = xs**2 + ys**2 <= radius**2
+    return image[int(round(v)) + ys[keep], int(round(u)) + xs[keep]].astype(int)
+
+
+# The colours of chasles.view.shapes.ARM_COLOR (orange, hue 28°), app.GHOST_COLOR (blue, 222°, at
+# 35 % opacity over a light background), ESTIMATE_COLOR (magenta, 303°) and TRUTH_COLOR (green,
+# 141°), told apart by hue and saturation: the lighting changes their brightness, from a lit face
+# to one in shade, but hardly their hue. The background, the grid and the panel are greys.
+def hue_saturation(p):
+    p = p.astype(float)
+    high, low = p.max(axis=1), p.min(axis=1)
+    span = np.maximum(high - low, 1e-9)
+    r, g, b = p.T
+    hue = np.where(high == r, (g - b) / span % 6, np.where(high == g, (b - r) / span + 2, (r - g) / span + 4)) * 60
+    return hue, (high - low) / np.maximum(high, 1e-9), high
+
+
+def arm(p):
+    hue, saturation, value = hue_saturation(p)
+    return (hue >= 8) & (hue <= 45) & (saturation > 0.45) & (value > 25)
+
+
+def ghost(p):
+    hue, saturation, _ = hue_saturation(p)
+    return (hue >= 200) & (hue <= 240) & (saturation > 0.15)
+
+
+def magenta(p):
+    hue, saturation, _ = hue_saturation(p)
+    return (hue >= 280) & (hue <= 325) & (saturation > 0.5)
+
+
+def green(p):
+    hue, saturation, _ = hue_saturation(p)
+    return (hue >= 120) & (hue <= 165) & (saturation > 0.5)
+
+
+def share(image, uv, colour, radius: int = 4) -> float:
+    return float(np.mean(colour(disc(image, uv, radius))))
+
+
+@pytest.fixture(scope="module")
+def view():
+    argv = [sys.executable, "-m", "chasles.view", "--urdf", URDF, "--tip", TIP,
+            "--package-dir", os.path.join(DATA, "packages"), "--url", LCM_URL, "--port", "0",
+            "--camera", ",".join(str(v) for v in EYE + TARGET)]
+    process = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    ready = {}
+
+    def read():
+        for line in process.stdout:
+            match = re.fullmatch(r"chasles view: (http://127\.0\.0\.1:\d+)\s*", line)
+            if match:
+                ready["url"] = match.group(1)
+                break
+
+    reader = threading.Thread(target=read, daemon=True)
+    reader.start()
+    reader.join(timeout=30)
+    if "url" not in ready:
+        process.kill()
+        pytest.fail(f"the view printed no address within 30 s; stderr:\n{process.communicate()[1]}")
+    process.url = ready["url"]
+    yield process
+    process.terminate()
+    _, stderr = process.communicate(timeout=10)
+    process.stderr_text = stderr
+    assert process.returncode == 0, f"the view ended with {process.returncode}; stderr:\n{stderr}"
+
+
+@pytest.fixture(scope="module")
+def page(view):
+    assert chromium_path(), "chromium not found (tools/deps.sh installs chasles_packages_view)"
+    browser = Browser(W, H)
+    try:
+        browser.open(view.url)
+        browser.wait_text(r"chasles view|no status", timeout=20)
+        yield browser
+    finally:
+        browser.close()
+
+
+@pytest.fixture(scope="module")
+def bus():
+    return lcm.LCM(LCM_URL)
+
+
+def state(q, seq: int) -> robot_state_t:
+    m = robot_state_t()
+    m.utime, m.seq, m.num_joints = int(time.time() * 1e6), seq, len(q)
+    m.position, m.velocity, m.effort = list(map(float, q)), [0.0] * len(q), [0.0] * len(q)
+    return m
+
+
+def status(q, q_desired, ticks: int, force=None) -> controller_status_t:
+    """A controller_status_t as the controller fills the fields the view reads (the rest zero)."""
+    n = len(q)
+    m = controller_status_t()
+    m.utime, m.state, m.message, m.num_joints = int(time.time() * 1e6), controller_status_t.RUNNING, "", n
+    m.q, m.q_desired = list(map(float, q)), list(map(float, q_desired))
+    m.tracking_error = list(np.subtract(q_desired, q))
+    m.tip_position = list(MODEL.fk(q)[:3, 3])
+    m.tip_quaternion = [1.0, 0.0, 0.0, 0.0]
+    for name in ("torque", "tau_ext", "generator_velocity_limit", "generator_acceleration_limit",
+                 "generator_jerk_limit"):
+        setattr(m, name, [0.0] * n)
+    m.tip_wrench_ext = [0.0, 0.0, 0.0, *(force if force is not None else (0.0, 0.0, 0.0))]
+    m.contact = force is not None
+    m.ticks = ticks
+    m.trajectory_time_scale = m.jog_scale = m.clearance_kept = 1.0
+    m.jog_joint = -1
+    return m
+
+
+def publish_until(page, bus, messages: dict, pattern: str, timeout: float = 15.0) -> str:
+    """Publishes {channel: message or bytes} every 20 ms until the page's text matches `pattern`
+    (the view has drawn them), then renders a few frames; returns the page's text."""
+    done = threading.Event()
+
+    def send():
+        while not done.is_set():
+            for channel, message in messages.items():
+                bus.publish(channel, message if isinstance(message, bytes) else message.encode())
+            done.wait(0.02)
+
+    sender = threading.Thread(target=send)
+    sender.start()
+    try:
+        text = page.wait_text(pattern, timeout)
+    finally:
+        done.set()
+        sender.join()
+    page.frames(3)
+    return text
+
+
+def shot(page, name: str) -> np.ndarray:
+    """A screenshot; kept as NAME.png in $CHASLES_VIEW_SHOTS when it is set, to look at."""
+    image = page.screenshot()
+    folder = os.environ.get("CHASLES_VIEW_SHOTS")
+    if folder:
+        from PIL import Image
+        os.makedirs(folder, exist_ok=True)
+        Image.fromarray(image).save(os.path.join(folder, name + ".png"))
+    return image
+
+
+def tip(q) -> np.ndarray:
+    return MODEL.fk(q)[:3, 3]
+
+
+def test_the_arm_is_drawn_where_fk_puts_it(page, bus):
+    publish_until(page, bus, {"CHASLES_STATE": state(Q1, 11)}, r"state seq 11,")
+    at_q1 = shot(page, "at_q1")
+    publish_until(page, bus, {"CHASLES_STATE": state(Q2, 12)}, r"state seq 12,")
+    at_q2 = shot(page, "at_q2")
+    hand1, hand2 = screen([tip(Q1), tip(Q2)])
+    assert np.linalg.norm(hand1 - hand2) > 100, "the two poses' hands are too near on the screen"
+    # The hand is where FK puts it, in each pose, and background where the other pose had it.
+    assert share(at_q1, hand1, arm) > 0.8, at_q1[int(hand1[1]), int(hand1[0])]
+    assert share(at_q2, hand2, arm) > 0.8, at_q2[int(hand2[1]), int(hand2[0])]
+    assert share(at_q1, hand2, arm) == 0.0
+    assert share(at_q2, hand1, arm) == 0.0
+    # Every link origin of the chain above the base, in both poses.
+    for q, image in ((Q1, at_q1), (Q2, at_q2)):
+        for name, uv in zip(MODEL.link_names[1:], screen(MODEL.link_poses(q)[1:, :3, 3])):
+            assert share(image, uv, arm, radius=3) > 0.5, f"{name} at {uv.round()}: {image[int(uv[1]), int(uv[0])]}"
+    # The background far from the arm: the screen's lower corners and middle, its left and right.
+    for uv in [(40, H - 40), (W - 40, H - 40), (W / 2, H - 40), (100, H / 2), (W - 100, H / 2)]:
+        assert share(at_q1, uv, arm) == 0.0 and share(at_q2, uv, arm) == 0.0, uv
+
+
+def test_the_reference_is_a_ghost_while_it_is_away_from_the_arm(page, bus):
+    hand2 = screen([tip(Q2)])[0]
+    away = publish_until(page, bus, {"CHASLES_STATE": state(Q1, 21), "CHASLES_STATUS": status(Q1, Q2, 2001)},
+                         r"ticks 2001")
+    assert "RUNNING" in away
+    with_ghost = shot(page, "with_ghost")
+    publish_until(page, bus, {"CHASLES_STATE": state(Q1, 22), "CHASLES_STATUS": status(Q1, Q1, 2002)},
+                  r"ticks 2002")
+    without = shot(page, "without_ghost")
+    assert share(with_ghost, hand2, ghost) > 0.8, with_ghost[int(hand2[1]), int(hand2[0])]
+    assert share(without, hand2, ghost) == 0.0
+    assert share(without, hand2, arm) == 0.0
+    # The arm itself stays where its state puts it.
+    hand1 = screen([tip(Q1)])[0]
+    assert share(with_ghost, hand1, arm) > 0.8 and share(without, hand1, arm) > 0.8
+
+
+def test_contact_forces_are_arrows_into_the_arm(page, bus):
+    force = np.array([0.0, 0.0, -40.0])  # N, pressing down on the hand
+    scale = 0.01  # m/N, the view's default --force-scale
+    # The arrow ends at the point, along the force: its middle is half its length up, against it.
+    middle = screen([tip(Q1) - 0.5 * scale * force])[0]
+    below = screen([tip(Q1) + 0.5 * scale * force])[0]
+    pressed = publish_until(page, bus, {"CHASLES_STATE": state(Q1, 31),
+                                        "CHASLES_STATUS": status(Q1, Q1, 3001, force=force)}, r"ticks 3001")
+    assert "contact yes" in pressed and "tip force estimate 40.0 N" in pressed
+    with_arrow = shot(page, "with_arrow")
+    publish_until(page, bus, {"CHASLES_STATE": state(Q1, 32), "CHASLES_STATUS": status(Q1, Q1, 3002)},
+                  r"ticks 3002")
+    without = shot(page, "without_arrow")
+    assert share(with_arrow, middle, magenta, radius=2) > 0.8, with_arrow[int(middle[1]), int(middle[0])]
+    assert share(without, middle, magenta, radius=2) == 0.0
+    assert share(with_arrow, below, magenta) == 0.0
+
+    # The plant's truth: one contact on link 4's origin (the elbow), pressed down.
+    point = MODEL.link_poses(Q1)[4, :3, 3]
+    push = np.array([0.0, 0.0, -30.0])
+    truth = sim_truth_t()
+    truth.utime, truth.seq, truth.num_joints, truth.tau_ext = int(time.time() * 1e6), 41, 7, [0.0] * 7
+    truth.tip_wrench_ext, truth.contact, truth.num_contacts = [0.0] * 6, True, 1
+    truth.contact_link, truth.contact_other = ["panda_link4"], ["pusher"]
+    truth.contact_point, truth.contact_normal, truth.contact_force = [list(point)], [[0.0, -1.0, 0.0]], [list(push)]
+    true_middle = screen([point - 0.5 * scale * push])[0]
+    publish_until(page, bus, {"CHASLES_STATE": state(Q1, 33), "CHASLES_TRUTH": truth}, r"truth seq 41")
+    with_truth = shot(page, "with_truth")
+    truth.seq, truth.contact, truth.num_contacts = 42, False, 0
+    truth.contact_link = truth.contact_other = truth.contact_point = truth.contact_normal = truth.contact_force = []
+    publish_until(page, bus, {"CHASLES_STATE": state(Q1, 34), "CHASLES_TRUTH": truth}, r"truth seq 42")
+    without_truth = shot(page, "without_truth")
+    assert share(with_truth, true_middle, green, radius=2) > 0.8, with_truth[int(true_middle[1]), int(true_middle[0])]
+    assert share(without_truth, true_middle, green, radius=2) == 0.0
+
+
+def test_bad_messages_are_said_and_skipped(view, page, bus):
+    hand1, hand2 = screen([tip(Q1), tip(Q2)])
+    publish_until(page, bus, {"CHASLES_STATE": state(Q1, 51)}, r"state seq 51,")
+    cases = [(state(Q2[:6], 52), r"CHASLES_STATE: position has 6 entries, the model has 7 joints"),
+             (state(np.where(np.arange(7) == 2, math.nan, Q2), 53), r"CHASLES_STATE: position\[2\] is nan"),
+             (b"not a message", r"CHASLES_STATE: a message that is no robot_state_t")]
+    for message, said in cases:
+        text = publish_until(page, bus, {"CHASLES_STATE": message}, said)
+        assert "state seq 51," in text  # the last good state is still the one drawn
+    # And the view goes on: the next good state is drawn.
+    publish_until(page, bus, {"CHASLES_STATE": state(Q2, 54)}, r"state seq 54,")
+    image = shot(page, "after_bad")
+    assert share(image, hand2, arm) > 0.8 and share(image, hand1, arm) == 0.0
+    assert view.poll() is None
+
+
+def cpu_seconds(pid: int) -> float:
+    with open(f"/proc/{pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")  # utime + stime
+
+
+def test_a_1khz_bus_is_drawn_at_30hz_for_little_cpu(view, page, bus):
+    """States at 1 kHz for 5 s: the view hears them all, draws 30 a second (the newest), and takes
+    at most 10 % of a core (its own process: the browser renders in another)."""
+    seconds, period = 5.0, 1e-3
+    sent = [0]
+    done = threading.Event()
+
+    def send():
+        start = time.monotonic()
+        k = 0
+        while not done.is_set():
+            q = Q1 + 0.3 * math.sin(2 * math.pi * 0.5 * k * period)
+            bus.publish("CHASLES_STATE", state(q, 1000 + k).encode())
+            k += 1
+            delay = start + k * period - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+        sent[0] = k
+
+    sender = threading.Thread(target=send)
+    sender.start()
+    try:
+        page.wait_text(r"state seq \d{4,}, [1-9]\d\d+ Hz heard", timeout=10)  # the stream is heard
+        cpu0, t0 = cpu_seconds(view.pid), time.monotonic()
+        done.wait(seconds)
+        cpu = (cpu_seconds(view.pid) - cpu0) / (time.monotonic() - t0)
+        text = page.text()
+    finally:
+        done.set()
+        sender.join()
+    heard, drawn = (float(v) for v in re.search(r"(\d+) Hz heard, (\d+) Hz drawn", text).groups())
+    print(f"1 kHz bus: published {sent[0]} states, the view heard {heard:.0f} Hz, drew {drawn:.0f} Hz, "
+          f"CPU {100 * cpu:.1f} % of a core")
+    assert heard > 800
+    assert 25 <= drawn <= 31
+    assert cpu <= 0.10, f"the view took {100 * cpu:.1f} % of a core"
