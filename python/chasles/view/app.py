@@ -33,25 +33,29 @@ LAW_NAMES = {value: name for name, value in LAWS.items()}
 
 
 def quaternion_wxyz(R: np.ndarray) -> np.ndarray:
-    """The unit quaternion (w, x, y, z) of a rotation matrix (Shepperd's method: the largest of
-    the four squares first, so that no branch divides by a small number)."""
-    t = np.trace(R)
-    squares = [t, R[0, 0], R[1, 1], R[2, 2]]
-    i = int(np.argmax(squares))
-    if i == 0:
-        w = math.sqrt(1.0 + t) / 2
-        q = [w, (R[2, 1] - R[1, 2]) / (4 * w), (R[0, 2] - R[2, 0]) / (4 * w), (R[1, 0] - R[0, 1]) / (4 * w)]
-    elif i == 1:
-        x = math.sqrt(1.0 + 2 * R[0, 0] - t) / 2
-        q = [(R[2, 1] - R[1, 2]) / (4 * x), x, (R[0, 1] + R[1, 0]) / (4 * x), (R[0, 2] + R[2, 0]) / (4 * x)]
-    elif i == 2:
-        y = math.sqrt(1.0 + 2 * R[1, 1] - t) / 2
-        q = [(R[0, 2] - R[2, 0]) / (4 * y), (R[0, 1] + R[1, 0]) / (4 * y), y, (R[1, 2] + R[2, 1]) / (4 * y)]
-    else:
-        z = math.sqrt(1.0 + 2 * R[2, 2] - t) / 2
-        q = [(R[1, 0] - R[0, 1]) / (4 * z), (R[0, 2] + R[2, 0]) / (4 * z), (R[1, 2] + R[2, 1]) / (4 * z), z]
-    q = np.array(q)
-    return q / np.linalg.norm(q)
+    """The unit quaternions (w, x, y, z) of rotation matrices (..., 3, 3), by Shepperd's method:
+    from the largest of 1 + trace, 1 + 2 R_ii - trace, so that no branch divides by a small
+    number. Vectorised: one draw converts every link at once."""
+    R = np.asarray(R, float)
+    shape = R.shape[:-2]
+    R = R.reshape(-1, 3, 3)
+    t = np.trace(R, axis1=1, axis2=2)
+    d = np.stack([t, R[:, 0, 0], R[:, 1, 1], R[:, 2, 2]], axis=1)
+    big = np.argmax(d, axis=1)
+    s = np.stack([1 + t, 1 + 2 * R[:, 0, 0] - t, 1 + 2 * R[:, 1, 1] - t, 1 + 2 * R[:, 2, 2] - t], axis=1)
+    # Each row of `pairs` is 4 q_i q_j for the quaternion's four entries i, given j = big.
+    a = R[:, 2, 1] - R[:, 1, 2]
+    b = R[:, 0, 2] - R[:, 2, 0]
+    c = R[:, 1, 0] - R[:, 0, 1]
+    e = R[:, 0, 1] + R[:, 1, 0]
+    f = R[:, 0, 2] + R[:, 2, 0]
+    g = R[:, 1, 2] + R[:, 2, 1]
+    pairs = np.stack([np.stack([s[:, 0], a, b, c], axis=1), np.stack([a, s[:, 1], e, f], axis=1),
+                      np.stack([b, e, s[:, 2], g], axis=1), np.stack([c, f, g, s[:, 3]], axis=1)], axis=1)
+    rows = pairs[np.arange(len(R)), big]  # 4 q_big q
+    q = rows / np.linalg.norm(rows, axis=1, keepdims=True)
+    q *= np.where(q[:, :1] < 0, -1.0, 1.0)  # w >= 0: one of the two for each rotation
+    return q.reshape(*shape, 4)
 
 
 def default_camera(model) -> tuple[np.ndarray, np.ndarray]:
@@ -155,20 +159,26 @@ class View:
 
     def _pose(self, nodes: dict, q: np.ndarray) -> None:
         T = self.model.link_poses(q)
+        wxyz = quaternion_wxyz(T[:, :3, :3])
         for i, node in nodes.items():
             node.position = T[i, :3, 3]
-            node.wxyz = quaternion_wxyz(T[i, :3, :3])
+            node.wxyz = wxyz[i]
+
+    @staticmethod
+    def _show(handle, visible: bool) -> None:
+        if handle.visible != visible:  # viser sends every assignment; most draws change nothing here
+            handle.visible = visible
 
     def _arrows(self, handle, points: Sequence, forces: Sequence) -> None:
         """Arrows ending at each point, along the force on the arm there (a push points into it),
         force_scale m per N; hidden when there are none."""
         if len(points) == 0:
-            handle.visible = False
+            self._show(handle, False)
             return
         p = np.asarray(points, float).reshape(-1, 3)
         f = np.asarray(forces, float).reshape(-1, 3)
         handle.points = np.stack([p - self.force_scale * f, p], axis=1)
-        handle.visible = True
+        self._show(handle, True)
 
     # -- the bus --
 
@@ -241,9 +251,9 @@ class View:
                 self._pose(self.arm, self.q)
             if s is not None and np.max(np.abs(s.q_desired - s.q)) > GHOST_THRESHOLD:
                 self._pose(self.ghost, s.q_desired)
-                self.ghost_root.visible = True
+                self._show(self.ghost_root, True)
             else:
-                self.ghost_root.visible = False
+                self._show(self.ghost_root, False)
             if s is not None and s.contact:
                 if s.contact_link:
                     self._arrows(self.estimate_arrow, [s.contact_point], [s.contact_force])
