@@ -336,3 +336,108 @@ def test_a_1khz_bus_is_drawn_at_30hz_for_little_cpu(view, page, bus):
     assert heard > 800
     assert 25 <= drawn <= 31
     assert cpu <= 0.10, f"the view took {100 * cpu:.1f} % of a core"
+
+
+# -- what is drawn, without a browser: chasles.view.shapes on chasles's own small arm --------------
+
+def rz(angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def transform(R=np.eye(3), p=(0.0, 0.0, 0.0)) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R, p
+    return T
+
+
+def test_shapes_ride_on_their_chain_links_with_their_origins_and_fall_back_to_collisions(tmp_path):
+    import xml.etree.ElementTree as ET
+
+    import trimesh
+
+    from chasles.view.shapes import ARM_COLOR, load_parts
+
+    box = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+    box.visual.face_colors = [200, 0, 0, 255]
+    (tmp_path / "meshes").mkdir()
+    (tmp_path / "meshes" / "box.dae").write_bytes(trimesh.exchange.dae.export_collada(box))
+    robot = ET.parse(os.path.join(DATA, "arm.urdf")).getroot()
+    ET.SubElement(robot, "material", name="blue").append(ET.Element("color", rgba="0 0 1 1"))
+    links = {link.get("name"): link for link in robot.findall("link")}
+    # finger: off the chain (a prismatic joint at (0, 0.05, 0) on l2), a box turned 0.3 rad about z.
+    links["finger"].append(ET.fromstring(
+        '<visual><origin xyz="0.01 0 0" rpy="0 0 0.3"/><geometry><box size="0.02 0.04 0.06"/></geometry>'
+        '<material name="blue"/></visual>'))
+    # l1b: its visual's package is nowhere; its collision cylinder is drawn instead.
+    links["l1b"].append(ET.fromstring('<visual><geometry><mesh filename="package://nopkg/x.stl"/></geometry></visual>'))
+    links["l1b"].append(ET.fromstring(
+        '<collision><origin xyz="0 0 0.1"/><geometry><cylinder radius="0.03" length="0.1"/></geometry></collision>'))
+    # tip: a Collada file of its own, relative to the URDF, scaled.
+    links["tip"].append(ET.fromstring(
+        '<visual><geometry><mesh filename="meshes/box.dae" scale="0.1 0.2 0.3"/></geometry></visual>'))
+    # base: a file that holds no mesh, and no collision.
+    (tmp_path / "meshes" / "broken.stl").write_text("not a mesh")
+    links["base"].append(ET.fromstring('<visual><geometry><mesh filename="meshes/broken.stl"/></geometry></visual>'))
+    urdf = tmp_path / "arm.urdf"
+    ET.ElementTree(robot).write(urdf)
+    model = chasles.Model.from_urdf(str(urdf), tip="tip")
+
+    parts, notes = load_parts(str(urdf), model.link_names, [])
+    by_source = {p.source: p for p in parts}
+    assert set(by_source) == {"link 'finger' <visual> 0", "link 'l1b' <collision> 0", "link 'tip' <visual> 0"}
+
+    finger = by_source["link 'finger' <visual> 0"]
+    assert finger.link == "l2" and finger.color == (0, 0, 255) and finger.glb is None
+    np.testing.assert_allclose(finger.T_lp, transform(p=(0, 0.05, 0)) @ transform(rz(0.3), (0.01, 0, 0)), atol=1e-15)
+    np.testing.assert_allclose(finger.vertices.min(axis=0), [-0.01, -0.02, -0.03], atol=1e-7)
+    np.testing.assert_allclose(finger.vertices.max(axis=0), [0.01, 0.02, 0.03], atol=1e-7)
+
+    cylinder = by_source["link 'l1b' <collision> 0"]
+    assert cylinder.link == "l1b" and cylinder.color == ARM_COLOR
+    np.testing.assert_allclose(cylinder.T_lp, transform(p=(0, 0, 0.1)))
+    np.testing.assert_allclose(cylinder.vertices.min(axis=0), [-0.03, -0.03, -0.05], atol=1e-3)
+
+    dae = by_source["link 'tip' <visual> 0"]
+    assert dae.link == "tip" and dae.glb is not None and dae.glb[:4] == b"glTF"
+    np.testing.assert_allclose(dae.vertices.min(axis=0), [-0.05, -0.1, -0.15], atol=1e-7)
+    np.testing.assert_allclose(dae.vertices.max(axis=0), [0.05, 0.1, 0.15], atol=1e-7)
+
+    assert len(notes) == 3, notes
+    assert notes[0].startswith("link 'base' <visual> 0: ") and notes[1] == "link 'base': nothing drawn"
+    assert notes[2] == ("link 'l1b' <visual> 0: package 'nopkg' is in none of the package dirs (none given); "
+                        "drawing its collision shapes")
+
+
+def test_package_uris_resolve_as_the_loader_resolves_them(tmp_path):
+    from chasles.view.shapes import resolve_uri
+
+    (tmp_path / "b" / "pkg" / "m").mkdir(parents=True)
+    (tmp_path / "b" / "pkg" / "m" / "x.stl").write_text("solid x\nendsolid x\n")
+    dirs = [str(tmp_path / "a"), str(tmp_path / "b")]
+    assert resolve_uri("package://pkg/m/x.stl", "/", dirs) == str(tmp_path / "b" / "pkg" / "m" / "x.stl")
+    assert resolve_uri("m/x.stl", str(tmp_path / "b" / "pkg"), []) == str(tmp_path / "b" / "pkg" / "m" / "x.stl")
+    assert resolve_uri(f"file://{tmp_path}/b/pkg/m/x.stl", "/", []) == str(tmp_path / "b" / "pkg" / "m" / "x.stl")
+    with pytest.raises(FileNotFoundError, match="no such file in package 'pkg'"):
+        resolve_uri("package://pkg/m/y.stl", "/", dirs)
+    with pytest.raises(FileNotFoundError, match=r"package 'other' is in none of the package dirs \('.*/a', '.*/b'\)"):
+        resolve_uri("package://other/m/x.stl", "/", dirs)
+
+
+def test_quaternions_give_back_their_rotations():
+    from chasles._command_checks import rotation_from_quaternion
+    from chasles.view.app import quaternion_wxyz
+
+    rng = np.random.default_rng(7)
+    axes = rng.normal(size=(200, 3))
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    angles = np.concatenate([rng.uniform(0, math.pi, 190), [0, 1e-8, math.pi - 1e-8, *[math.pi] * 7]])
+    rotations = []
+    for axis, angle in zip(axes, angles):
+        K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+        rotations.append(np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K)  # Rodrigues
+    rotations += [np.diag([1.0, -1, -1]), np.diag([-1.0, 1, -1]), np.diag([-1.0, -1, 1])]
+    q = quaternion_wxyz(np.array(rotations))
+    for R, wxyz in zip(rotations, q):
+        np.testing.assert_allclose(rotation_from_quaternion(wxyz), R, atol=1e-14)
+    np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0, atol=1e-15)
