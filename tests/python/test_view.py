@@ -115,12 +115,13 @@ def view():
     if "url" not in ready:
         process.kill()
         pytest.fail(f"the view printed no address within 30 s; stderr:\n{process.communicate()[1]}")
-    process.url = ready["url"]
+    process.url, process.expected_notes = ready["url"], []
     yield process
     process.terminate()
     _, stderr = process.communicate(timeout=10)
-    process.stderr_text = stderr
     assert process.returncode == 0, f"the view ended with {process.returncode}; stderr:\n{stderr}"
+    for note in process.expected_notes:
+        assert stderr.count(note) == 1, f"'{note}' is not said once on stderr:\n{stderr}"
 
 
 @pytest.fixture(scope="module")
@@ -154,7 +155,7 @@ def status(q, q_desired, ticks: int, force=None) -> controller_status_t:
     m.utime, m.state, m.message, m.num_joints = int(time.time() * 1e6), controller_status_t.RUNNING, "", n
     m.q, m.q_desired = list(map(float, q)), list(map(float, q_desired))
     m.tracking_error = list(np.subtract(q_desired, q))
-    m.tip_position = list(MODEL.fk(q)[:3, 3])
+    m.tip_position = list(MODEL.fk(q)[:3, 3]) if n == MODEL.nq else [0.0, 0.0, 0.0]
     m.tip_quaternion = [1.0, 0.0, 0.0, 0.0]
     for name in ("torque", "tau_ext", "generator_velocity_limit", "generator_acceleration_limit",
                  "generator_jerk_limit"):
@@ -287,11 +288,16 @@ def test_bad_messages_are_said_and_skipped(view, page, bus):
     for message, said in cases:
         text = publish_until(page, bus, {"CHASLES_STATE": message}, said)
         assert "state seq 51," in text  # the last good state is still the one drawn
+    text = publish_until(page, bus, {"CHASLES_STATUS": status(Q2[:6], Q2[:6], 5001)},
+                         r"CHASLES_STATUS: q has 6 entries, the model has 7 joints")
+    assert "ticks 5001" not in text
     # And the view goes on: the next good state is drawn.
     publish_until(page, bus, {"CHASLES_STATE": state(Q2, 54)}, r"state seq 54,")
     image = shot(page, "after_bad")
     assert share(image, hand2, arm) > 0.8 and share(image, hand1, arm) == 0.0
     assert view.poll() is None
+    for _, said in cases:  # each said once on stderr too (read when the view ends)
+        view.expected_notes.append(said.replace("\\", ""))
 
 
 def cpu_seconds(pid: int) -> float:
