@@ -296,6 +296,7 @@ def test_bad_messages_are_said_and_skipped(view, page, bus):
     image = shot(page, "after_bad")
     assert share(image, hand2, arm) > 0.8 and share(image, hand1, arm) == 0.0
     assert view.poll() is None
+    page.wait_text(r"silent: no state for [1-9]\d* s", timeout=5)  # and says when the bus falls quiet
     for _, said in cases:  # each said once on stderr too (read when the view ends)
         view.expected_notes.append(said.replace("\\", ""))
 

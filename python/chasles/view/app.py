@@ -28,6 +28,7 @@ TRUTH_COLOR = (0, 170, 60)
 CAMERA_FOV_DEG = 50.0  # vertical field of view of the view's camera
 GHOST_THRESHOLD = 1e-3  # rad or m: a reference nearer than this to q hides inside the arm anyway
 TRUTH_STALE_S = 0.5  # a TRUTH channel silent this long no longer draws its arrows
+SILENT_S = 1.0  # a channel heard before and silent this long is said so in the panel
 PANEL_PERIOD_S = 0.1  # the panel's text is rewritten at most this often (the browser lays it out)
 LAW_NAMES = {value: name for name, value in LAWS.items()}
 
@@ -254,7 +255,7 @@ class View:
                 self._show(self.ghost_root, True)
             else:
                 self._show(self.ghost_root, False)
-            if s is not None and s.contact:
+            if s is not None and (s.contact or s.contact_located_flag):
                 if s.contact_link:
                     self._arrows(self.estimate_arrow, [s.contact_point], [s.contact_force])
                 else:
@@ -301,6 +302,10 @@ class View:
                          f"{np.linalg.norm(t.tip_wrench_ext[3:]):.1f} N, truth seq {t.seq}")
         seq = "none yet" if self.state_seq is None else f"seq {self.state_seq}"
         lines.append(f"state {seq}, {self.rates[0]:.0f} Hz heard, {self.rates[1]:.0f} Hz drawn")
+        silent = [f"no {name} for {now - latest.when:.0f} s" for name, latest in
+                  (("state", self.state), ("status", self.status)) if latest.count and now - latest.when >= SILENT_S]
+        if silent:
+            lines.append("**silent**: " + ", ".join(silent))
         if self.notes:
             lines.append(f"{len(self.notes)} problem(s), the latest: {self.notes[-1]}")
         text = "  \n".join(lines)
