@@ -345,6 +345,86 @@ def test_a_1khz_bus_is_drawn_at_30hz_for_little_cpu(view, page, bus):
     assert cpu <= 0.10, f"the view took {100 * cpu:.1f} % of a core"
 
 
+
+# -- a log replayed: python -m chasles.view LOG --------------------------------------------------
+
+def write_log(path: str) -> None:
+    """3 s as lcm-logger would have written them: states at 100 Hz (Q1 until 1.5 s, then Q2) and
+    statuses at 10 Hz, feeling 40 N down on the hand from 2 s on."""
+    log = lcm.EventLog(path, "w", overwrite=True)
+    t0 = 1_700_000_000_000_000
+    for k in range(300):
+        t = k * 0.01
+        q = Q1 if t < 1.5 else Q2
+        m = state(q, k)
+        m.utime, m.effort = t0 + k * 10_000, list(np.sin(t + np.arange(7)))
+        log.write_event(m.utime, "CHASLES_STATE", m.encode())
+        if k % 10 == 5:
+            m = status(q, q, 9000 + k, force=(0.0, 0.0, -40.0) if t >= 2.0 else None)
+            m.utime = t0 + k * 10_000
+            log.write_event(m.utime + 100, "CHASLES_STATUS", m.encode())
+    log.close()
+
+
+def test_a_log_replays_on_its_own_clock_with_its_controls(tmp_path):
+    path = str(tmp_path / "run.lcmlog")
+    write_log(path)
+    argv = [sys.executable, "-m", "chasles.view", path, "--urdf", URDF, "--tip", TIP,
+            "--package-dir", os.path.join(DATA, "packages"), "--port", "0", "--paused", "--speed", "4",
+            "--camera", ",".join(str(v) for v in EYE + TARGET)]
+    process = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    browser = None
+    try:
+        line = process.stdout.readline()
+        url = re.fullmatch(r"chasles view: (http://127\.0\.0\.1:\d+)\s*", line)
+        assert url, f"no address: {line!r}"
+        browser = Browser(W, H)
+        browser.open(url.group(1))
+        text = browser.wait_text(r"log 0\.000 s of 2\.990 s, paused")
+        assert "state seq 0" in text
+        for title in ("joints (rad or m)", "torques applied (N·m or N)", "tip force |f| (N)"):
+            assert title in text
+        browser.frames(3)
+        hand1, hand2 = screen([tip(Q1), tip(Q2)])
+        start = browser.screenshot()
+        assert share(start, hand1, arm) > 0.8 and share(start, hand2, arm) == 0.0
+
+        # Play at ×4: the log's time never runs ahead of 4 × the wall's since the click (the page
+        # may show it late, never early), its 2.99 s take less than 2.99 s of wall time (at ×1 they
+        # could not), and the replay stops at its end.
+        clicked = time.monotonic()
+        browser.evaluate("[...document.querySelectorAll('button')].find(b => b.innerText === 'Play').click()")
+        while True:
+            text = browser.text()
+            shown = float(re.search(r"log (\d+\.\d+) s of", text).group(1))
+            elapsed = time.monotonic() - clicked
+            assert shown <= 4 * elapsed + 0.01, f"log time {shown} s after {elapsed:.3f} s of wall time at ×4"
+            if re.search(r"log 2\.990 s of 2\.990 s, paused", text):
+                break
+            assert elapsed < 2.99, f"2.99 s of log at ×4 not played within 2.99 s: {text}"
+            time.sleep(0.02)
+        assert "state seq 299" in text and "ticks 9295" in text and "contact yes" in text
+        browser.frames(3)
+        end = browser.screenshot()
+        middle = screen([tip(Q2) + [0.0, 0.0, 0.2]])[0]  # the 40 N arrow's middle, 0.01 m/N
+        assert share(end, hand2, arm) > 0.8 and share(end, hand1, arm) == 0.0
+        assert share(end, middle, magenta, radius=2) > 0.8
+
+        # The slider, from the keyboard as a person may: Home goes back to the start.
+        browser.evaluate("document.querySelector('[role=slider]').focus()")
+        for kind in ("keyDown", "keyUp"):
+            browser.call("Input.dispatchKeyEvent", type=kind, key="Home", code="Home", windowsVirtualKeyCode=36)
+        text = browser.wait_text(r"log 0\.000 s of 2\.990 s, paused")
+        assert "state seq 0" in text
+        browser.frames(3)
+        back = browser.screenshot()
+        assert share(back, hand1, arm) > 0.8 and share(back, hand2, arm) == 0.0
+    finally:
+        if browser is not None:
+            browser.close()
+        process.terminate()
+        assert process.wait(timeout=10) == 0
+
 # -- what is drawn, without a browser: chasles.view.shapes on chasles's own small arm --------------
 
 def rz(angle: float) -> np.ndarray:

@@ -72,14 +72,16 @@ def default_camera(model) -> tuple[np.ndarray, np.ndarray]:
 class Latest:
     """The newest message of one channel, as bytes, and how many came."""
 
-    def __init__(self):
+    def __init__(self, clock: Callable[[], float]):
+        self.clock = clock
         self.data: Optional[bytes] = None
         self.count = 0
         self.taken = 0  # count when data was last drawn
-        self.when = 0.0  # time.monotonic() of the newest
+        self.when = 0.0  # the clock's time of the newest
 
-    def __call__(self, channel: str, data: bytes) -> None:
-        self.data, self.count, self.when = data, self.count + 1, time.monotonic()
+    def __call__(self, channel: str, data: bytes, when: Optional[float] = None) -> None:
+        self.data, self.count = data, self.count + 1
+        self.when = self.clock() if when is None else when
 
     def fresh(self) -> Optional[bytes]:
         """The newest bytes if they came since the last call, else None."""
@@ -103,10 +105,16 @@ def check_joints(channel: str, values: dict, nq: int) -> Optional[str]:
 class View:
     def __init__(self, server, model, parts: Sequence[Part], notes: Sequence[str], *, prefix: str = "CHASLES_",
                  rate: float = 30.0, force_scale: float = 0.01, camera: Optional[tuple] = None,
-                 say: Callable[[str], None] = lambda text: print(text, file=sys.stderr, flush=True)):
+                 say: Callable[[str], None] = lambda text: print(text, file=sys.stderr, flush=True),
+                 clock: Optional[Callable[[], float]] = None):
+        """clock: the time messages are judged fresh or silent by, s (default the wall's,
+        time.monotonic; a replay gives the log's)."""
         self.server, self.model, self.prefix = server, model, prefix
         self.period, self.force_scale, self.say = 1.0 / rate, force_scale, say
-        self.state, self.status, self.truth = Latest(), Latest(), Latest()
+        self.live = clock is None
+        self.clock = clock or time.monotonic
+        self.state, self.status, self.truth = Latest(self.clock), Latest(self.clock), Latest(self.clock)
+        self.caption = ""  # a line of the panel's own, above the rest (the replay's time)
         self.notes: list[str] = []
         self.q: Optional[np.ndarray] = None
         self.state_seq: Optional[int] = None
@@ -189,10 +197,13 @@ class View:
             self.notes.append(text)
             self.say(f"chasles view: {text}")
 
+    def handlers(self) -> dict:
+        """{channel: the handler that keeps its newest bytes}."""
+        return {self.prefix + "STATE": self.state, self.prefix + "STATUS": self.status, self.prefix + "TRUTH": self.truth}
+
     def subscribe(self, lc) -> None:
-        lc.subscribe(self.prefix + "STATE", self.state)
-        lc.subscribe(self.prefix + "STATUS", self.status)
-        lc.subscribe(self.prefix + "TRUTH", self.truth)
+        for channel, handler in self.handlers().items():
+            lc.subscribe(channel, handler)
 
     def _decode(self, kind, data: bytes, channel: str):
         try:
@@ -242,7 +253,7 @@ class View:
 
     def draw(self) -> None:
         """Draws the newest messages, if any came since the last draw."""
-        truth_stale = self.last_truth is not None and time.monotonic() - self.truth.when > TRUTH_STALE_S
+        truth_stale = self.last_truth is not None and self.clock() - self.truth.when > TRUTH_STALE_S
         if not self._take() and not (truth_stale and self.truth_arrow.visible):
             self._panel()
             return
@@ -282,7 +293,7 @@ class View:
             self._rate_mark = (now, self.state.count, self.draws)
         if now - self._panel_sent < PANEL_PERIOD_S:
             return
-        lines = []
+        lines = [self.caption] if self.caption else []
         s = self.last_status
         if s is None:
             lines.append(f"**no status** on {self.prefix}STATUS yet")
@@ -301,11 +312,14 @@ class View:
             lines.append(f"true contact {'yes' if t.contact else 'no'}, tip force "
                          f"{np.linalg.norm(t.tip_wrench_ext[3:]):.1f} N, truth seq {t.seq}")
         seq = "none yet" if self.state_seq is None else f"seq {self.state_seq}"
-        lines.append(f"state {seq}, {self.rates[0]:.0f} Hz heard, {self.rates[1]:.0f} Hz drawn")
-        silent = [f"no {name} for {now - latest.when:.0f} s" for name, latest in
-                  (("state", self.state), ("status", self.status)) if latest.count and now - latest.when >= SILENT_S]
-        if silent:
-            lines.append("**silent**: " + ", ".join(silent))
+        if self.live:
+            lines.append(f"state {seq}, {self.rates[0]:.0f} Hz heard, {self.rates[1]:.0f} Hz drawn")
+            silent = [f"no {name} for {now - latest.when:.0f} s" for name, latest in
+                      (("state", self.state), ("status", self.status)) if latest.count and now - latest.when >= SILENT_S]
+            if silent:
+                lines.append("**silent**: " + ", ".join(silent))
+        else:
+            lines.append(f"state {seq}")
         if self.notes:
             lines.append(f"{len(self.notes)} problem(s), the latest: {self.notes[-1]}")
         text = "  \n".join(lines)
