@@ -454,6 +454,16 @@ def test_a_log_replays_on_its_own_clock_with_its_controls(tmp_path):
         process.terminate()
         assert process.wait(timeout=10) == 0
 
+
+def test_a_damaged_log_is_refused_with_where(tmp_path):
+    path = tmp_path / "damaged.lcmlog"
+    write_log(str(path))
+    path.write_bytes(path.read_bytes()[:1000])  # cut inside an event, as a killed logger leaves it
+    run = subprocess.run([sys.executable, "-m", "chasles.view", str(path), "--urdf", URDF, "--tip", TIP, "--port", "0"],
+                         capture_output=True, text=True, timeout=60)
+    assert run.returncode == 1 and run.stdout == ""
+    assert re.search(r"chasles view: .*damaged\.lcmlog: byte \d+: event #\d+ is cut short", run.stderr), run.stderr
+
 # -- what is drawn, without a browser: chasles.view.shapes on chasles's own small arm --------------
 
 def rz(angle: float) -> np.ndarray:

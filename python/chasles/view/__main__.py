@@ -24,6 +24,12 @@ def _triple(text: str) -> tuple:
     return (values[:3], values[3:])
 
 
+def stop_quietly(server) -> None:
+    """viser says "Server stopped" on stdout, where this tool's only line is its address."""
+    with contextlib.redirect_stdout(io.StringIO()):
+        server.stop()
+
+
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="python -m chasles.view",
@@ -103,7 +109,7 @@ def main(argv=None) -> int:
             replay = Replay(view, args.log, speed=args.speed, playing=not args.paused)
         except (LogError, OSError) as e:
             print(f"chasles view: {e}", file=sys.stderr)
-            server.stop()
+            stop_quietly(server)
             return 1
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
@@ -116,7 +122,7 @@ def main(argv=None) -> int:
         else:
             view.run(lc, stop)
     finally:
-        server.stop()
+        stop_quietly(server)
     return 0
 
 

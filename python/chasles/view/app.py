@@ -2,9 +2,10 @@
 controller_status_t as a ghost, the estimated and the true contact force as arrows, the
 controller's state in the panel; served by viser (docs/view.md says why viser).
 
-One thread hears the bus and draws. Each handler keeps only its channel's newest message, as bytes:
-at 1 kHz decoding every state would cost more than drawing, and a view that queued would fall
-behind. At most `rate` times a second the newest ones are decoded, checked and drawn.
+One thread hears the bus and draws. It wakes once a frame and takes what LCM queued meanwhile; each
+handler keeps only its channel's newest message, as bytes: at 1 kHz decoding every state would
+cost more than drawing, and a view that queued would fall behind. At most `rate` times a second
+the newest ones are decoded, checked and drawn.
 """
 from __future__ import annotations
 
@@ -29,8 +30,8 @@ CAMERA_FOV_DEG = 50.0  # vertical field of view of the view's camera
 GHOST_THRESHOLD = 1e-3  # rad or m: a reference nearer than this to q hides inside the arm anyway
 TRUTH_STALE_S = 0.5  # a TRUTH channel silent this long no longer draws its arrows
 SILENT_S = 1.0  # a channel heard before and silent this long is said so in the panel
-PANEL_PERIOD_S = 0.1
-QUEUE_CAPACITY = 2000  # messages LCM keeps per channel between two draws (1 s at 1 kHz, at 1 Hz)  # the panel's text is rewritten at most this often (the browser lays it out)
+PANEL_PERIOD_S = 0.1  # the panel's text is rewritten at most this often (the browser lays it out)
+QUEUE_CAPACITY = 2000  # messages LCM keeps per channel between two draws (1 s at 1 kHz)
 LAW_NAMES = {value: name for name, value in LAWS.items()}
 
 
@@ -103,14 +104,11 @@ def check_joints(channel: str, values: dict, nq: int) -> Optional[str]:
 class View:
     def __init__(self, server, model, parts: Sequence[Part], notes: Sequence[str], *, prefix: str = "CHASLES_",
                  rate: float = 30.0, force_scale: float = 0.01, camera: Optional[tuple] = None,
-                 say: Callable[[str], None] = lambda text: print(text, file=sys.stderr, flush=True),
-                 clock: Optional[Callable[[], float]] = None):
-        """clock: the time messages are judged fresh or silent by, s (default the wall's,
-        time.monotonic; a replay gives the log's)."""
+                 say: Callable[[str], None] = lambda text: print(text, file=sys.stderr, flush=True)):
         self.server, self.model, self.prefix = server, model, prefix
         self.period, self.force_scale, self.say = 1.0 / rate, force_scale, say
-        self.live = clock is None
-        self.clock = clock or time.monotonic
+        # The time messages are judged fresh or silent by, s: the wall's; a replay sets the log's.
+        self.live, self.clock = True, time.monotonic
         self.state, self.status, self.truth = Latest(self.clock), Latest(self.clock), Latest(self.clock)
         self.caption = ""  # a line of the panel's own, above the rest (the replay's time)
         self.notes: list[str] = []
@@ -221,10 +219,6 @@ class View:
     def handlers(self) -> dict:
         """{channel: the handler that keeps its newest bytes}."""
         return {self.prefix + "STATE": self.state, self.prefix + "STATUS": self.status, self.prefix + "TRUTH": self.truth}
-
-    def subscribe(self, lc) -> None:
-        for channel, handler in self.handlers().items():
-            lc.subscribe(channel, handler)
 
     def _decode(self, kind, data: bytes, channel: str):
         try:
