@@ -20,6 +20,10 @@ chasles_packages_python=(python3-dev python3-venv)
 # `chasles log plot` (the demo's figures): gnuplot with its pngcairo terminal, and a font.
 chasles_packages_plots=(gnuplot-nox fonts-dejavu-core)
 
+# The 3D view's browser test (tests/python/test_view.py): headless Chromium loads the page and
+# takes a screenshot (its software WebGL, SwiftShader, comes with the package).
+chasles_packages_view=(chromium)
+
 # Monitoring and its tests: the plots; tools/chasles-spy's chart library (liblcm-java does not pull
 # it in) and a Java runtime with AWT; Xvfb, ImageMagick, tesseract and xdotool for the test that
 # reads lcm-spy's window back from a virtual screen.

@@ -21,7 +21,8 @@ set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 source "$root/tools/deps.sh"
 start=$SECONDS
-chasles_install_missing "${chasles_packages_build[@]}" "${chasles_packages_monitor[@]}" "${chasles_packages_python[@]}"
+chasles_install_missing "${chasles_packages_build[@]}" "${chasles_packages_monitor[@]}" "${chasles_packages_python[@]}" \
+  "${chasles_packages_view[@]}"
 echo "test.sh: packages took $((SECONDS - start)) s" >&2
 
 build="$root/build"
