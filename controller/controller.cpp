@@ -499,17 +499,20 @@ bool Controller::take_state(int64_t now_ns, const JointState& state) {
 
 void Controller::guard(int64_t now_ns) {
   if (mode_ != Mode::kRunning && mode_ != Mode::kHolding) return;
+  // Under free drive a person moves the arm: a collision on a link they may guide it by is theirs,
+  // no reflex — and no reason to skip the checks after it.
+  const ContactMonitor& contact = monitor_.contact();
+  const LinkPolicy& policy = contact.policy(contact.estimate().body);
+  const bool collided = contact.estimate().collision && !(law_.law() == Law::kFreeDrive && policy.guided);
   if (const motion::LimitExcess excess = measured_excess(limits_, q_guarded_, q_, qd_)) {
     std::snprintf(limit_reason_, sizeof(limit_reason_), "joint %s: %s %g %s past its limit %g %s",
                   model_->joint(excess.joint).name.c_str(), to_string(excess.quantity), excess.value,
                   unit_of(excess.quantity), excess.limit, unit_of(excess.quantity));
     start_reflex(now_ns, limit_reason_, Reflex::kStop);
-  } else if (const ContactEstimate& e = monitor_.contact().estimate(); e.collision) {
-    // Under free drive a person moves the arm: a push on a link they may guide it by is theirs.
-    const LinkPolicy& policy = monitor_.contact().policy(e.body);
-    if (!(law_.law() == Law::kFreeDrive && policy.guided)) start_reflex(now_ns, monitor_.contact().reason(), policy.reflex);
+  } else if (collided) {
+    start_reflex(now_ns, contact.reason(), policy.reflex);
   } else if (clearance_.inside() >= 0) {  // pushed inside a stop distance: a contact, as the policy says
-    start_reflex(now_ns, clearance_.inside_reason(clearance_.inside()), monitor_.contact().config().reflex);
+    start_reflex(now_ns, clearance_.inside_reason(clearance_.inside()), contact.config().reflex);
   }
 }
 
