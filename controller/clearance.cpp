@@ -48,7 +48,10 @@ int Clearance::observe(const Data& at_state) {
   geometry::compute_distances(proximity, at_state.T_body, distances);
   status_.closest = distances.closest;
   if (distances.closest < 0) return -1;
-  status_.closest_distance = distances.distance[static_cast<size_t>(distances.closest)].distance;
+  const geometry::PairDistance& closest = distances.distance[static_cast<size_t>(distances.closest)];
+  status_.closest_distance = closest.distance;
+  status_.closest_arm = closest.p_arm;
+  status_.closest_other = closest.p_other;
   proximity.name_pair(distances.closest, status_.closest_name, sizeof(status_.closest_name));
   int inside = -1;
   double deepest = 0.0;

@@ -66,6 +66,8 @@ struct ClearanceStatus {
   int closest = -1;               ///< the closest pair at the state, −1 without a world
   double closest_distance = 0.0;  ///< its signed distance, m
   char closest_name[128] = {};    ///< "<arm object> and <other>"
+  /// Its witness points, base frame, m: on the arm's object and on the other.
+  Eigen::Vector3d closest_arm = Eigen::Vector3d::Zero(), closest_other = Eigen::Vector3d::Zero();
   /// The pair that cut the reference the most at the latest tick that cut it, within the last
   /// kSlowingHold ticks (−1: none did), and the share of the source's joint-velocity step the
   /// reference kept then (1: uncut). A reference held against a wall is cut at most ticks, not

@@ -602,6 +602,10 @@ void Node::fill_status() {
   status.jog_joint = s.jog.joint;
   status.clearance_pair = s.clearance.closest >= 0 ? s.clearance.closest_name : "";
   status.clearance_distance = s.clearance.closest >= 0 ? s.clearance.closest_distance : 0.0;
+  for (int k = 0; k < 3; ++k) {
+    status.clearance_points[0][k] = s.clearance.closest >= 0 ? s.clearance.closest_arm[k] : 0.0;
+    status.clearance_points[1][k] = s.clearance.closest >= 0 ? s.clearance.closest_other[k] : 0.0;
+  }
   status.clearance_slowed_by = s.clearance.slowing >= 0 ? s.clearance.slowing_name : "";
   status.clearance_kept = s.clearance.kept;
   located_.read(reporter_.located);

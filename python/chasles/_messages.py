@@ -106,6 +106,9 @@ class Status:
     #: the last 0.1 s ("": none) and the share of the motion asked that was kept then
     clearance_pair: str
     clearance_distance: float
+    #: the closest pair's witness points, base frame, m: row 0 on the arm's object, row 1 on the
+    #: other (zeros without a pair)
+    clearance_points: np.ndarray
     clearance_slowed_by: str
     clearance_kept: float
     #: where on the arm the locator last found a contact (contact_estimate_t on PREFIX CONTACT): the

@@ -116,6 +116,7 @@ controller_status_t make_status() {
   status.generator_jerk_limit = values(kJoints, 3000.0);
   status.clearance_pair = "panda_hand/0 and table";
   status.clearance_distance = 0.0125;
+  for (int k = 0; k < 3; ++k) status.clearance_points[0][k] = 0.5 + k, status.clearance_points[1][k] = -0.25 * k;
   status.clearance_slowed_by = "panda_link7/0 and wall";
   status.clearance_kept = 0.25;
   status.contact_link = "panda_link4";
@@ -340,6 +341,10 @@ TEST(lcmtypes, ControllerStatusRoundTrips) {
   EXPECT_EQ(back.generator_jerk_limit, status.generator_jerk_limit);
   EXPECT_EQ(back.clearance_pair, status.clearance_pair);
   EXPECT_EQ(back.clearance_distance, status.clearance_distance);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(back.clearance_points[0][k], status.clearance_points[0][k]);
+    EXPECT_EQ(back.clearance_points[1][k], status.clearance_points[1][k]);
+  }
   EXPECT_EQ(back.clearance_slowed_by, status.clearance_slowed_by);
   EXPECT_EQ(back.clearance_kept, status.clearance_kept);
   EXPECT_EQ(back.contact_link, status.contact_link);

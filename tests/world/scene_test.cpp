@@ -84,6 +84,11 @@ TEST(SceneOverTheBus, AReceivedSceneTakesEffectAndAJogStopsShortOfItsWall) {
   const controller_status_t& status = *world.recorder().status();
   EXPECT_GE(least, 0.01) << "below the wall's stop distance";
   EXPECT_LE(status.clearance_distance, 0.01 + 0.005);
+  // The witnesses: the other on the wall, the gap between them the pair's distance.
+  const Vector3d on_arm(status.clearance_points[0]), on_wall(status.clearance_points[1]);
+  EXPECT_NEAR(on_wall.y(), front + 0.12, 1e-9);
+  EXPECT_NEAR((on_wall - on_arm).norm(), status.clearance_distance, 1e-9);
+  EXPECT_NEAR(on_wall.y() - on_arm.y(), status.clearance_distance, 1e-9) << "the gap is along the wall's normal";
   EXPECT_NE(status.clearance_slowed_by.find(" and side wall"), std::string::npos) << status.clearance_slowed_by;
   EXPECT_LT(status.clearance_kept, 1.0);
   EXPECT_EQ(status.faults, 0);
