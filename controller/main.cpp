@@ -150,13 +150,7 @@ void load_clearance(const chasles::RobotModel& model, const Flags& flags, Daemon
   chasles::controller::WorldOptions world;
   chasles::controller::parse_collision_mode(flags.collision, world.mode);  // checked by CLI11
   world.urdf = flags.robot;
-  world.geometry.package_dirs = flags.package_dirs;
-  if (const char* path = std::getenv("ROS_PACKAGE_PATH")) {
-    std::stringstream folders(path);
-    for (std::string folder; std::getline(folders, folder, ':');) {
-      if (!folder.empty()) world.geometry.package_dirs.push_back(folder);
-    }
-  }
+  world.geometry.package_dirs = chasles::geometry::with_ros_package_path(flags.package_dirs);
   world.geometry.srdf_path = flags.srdf;
   world.proximity.self = {flags.self_stop_mm * 1e-3, flags.self_influence_mm * 1e-3};
   std::vector<std::string> notes;

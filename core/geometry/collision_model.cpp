@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <map>
 #include <set>
+#include <string_view>
 
 #include "core/lie/se3.hpp"
 
@@ -268,6 +269,17 @@ Shape convex_hull(const std::vector<Vector3d>& points, const std::string& what) 
     shape.neighbours[static_cast<size_t>(b)].push_back(a);
   }
   return shape;
+}
+
+std::vector<std::string> with_ros_package_path(std::vector<std::string> dirs) {
+  const char* path = std::getenv("ROS_PACKAGE_PATH");
+  for (std::string_view rest = path != nullptr ? path : ""; !rest.empty();) {
+    const size_t colon = rest.find(':');
+    const std::string_view folder = rest.substr(0, colon);
+    if (!folder.empty()) dirs.emplace_back(folder);
+    rest = colon == std::string_view::npos ? std::string_view() : rest.substr(colon + 1);
+  }
+  return dirs;
 }
 
 std::string resolve_mesh_uri(const std::string& uri, const std::string& base_dir,

@@ -54,6 +54,10 @@ CollisionModel load_collision_model(const std::string& urdf_path, const RobotMod
 /// span no volume (fewer than four, all on a plane, or not finite).
 Shape convex_hull(const std::vector<Vector3d>& points, const std::string& what);
 
+/// `dirs`, then the folders of $ROS_PACKAGE_PATH (colon-separated, empty ones skipped): where every
+/// tool looks for `package://` meshes, so that a package found by one is found by all.
+std::vector<std::string> with_ros_package_path(std::vector<std::string> dirs);
+
 /// The file a mesh reference names, as the URDF loader resolves its <mesh filename>:
 /// `package://NAME/rest` (in the first of `package_dirs` that holds it), `file:///absolute`, an
 /// absolute path, or a path relative to `base_dir`. Throws ModelError, `what` first, when no such

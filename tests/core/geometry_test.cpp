@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <functional>
 #include <random>
@@ -172,6 +173,22 @@ std::set<std::pair<std::string, std::string>> disabled_in(const std::string& srd
     out.emplace((*it)[2], (*it)[1]);
   }
   return out;
+}
+
+// Every tool's package dirs: its own first, then $ROS_PACKAGE_PATH's folders in order, empty ones
+// skipped; and a package found only through the environment loads.
+TEST(CollisionModel, PackageDirsAreTheGivenThenRosPackagePaths) {
+  const char* saved = std::getenv("ROS_PACKAGE_PATH");
+  const std::string before = saved != nullptr ? saved : "";
+  ::unsetenv("ROS_PACKAGE_PATH");
+  EXPECT_EQ(with_ros_package_path({"/given"}), (std::vector<std::string>{"/given"}));
+  ::setenv("ROS_PACKAGE_PATH", ":/a::/b/c:", 1);
+  EXPECT_EQ(with_ros_package_path({"/given"}), (std::vector<std::string>{"/given", "/a", "/b/c"}));
+  ::setenv("ROS_PACKAGE_PATH", ("/nonexistent:" + kPackages).c_str(), 1);
+  const RobotModel panda = load("panda.urdf", "panda_hand");
+  EXPECT_FALSE(load_collision_model(data_path("panda.urdf"), panda, {with_ros_package_path({}), ""}).objects.empty());
+  if (saved != nullptr) ::setenv("ROS_PACKAGE_PATH", before.c_str(), 1);
+  else ::unsetenv("ROS_PACKAGE_PATH");
 }
 
 TEST(CollisionModel, PandaObjectsInDocumentOrder) {

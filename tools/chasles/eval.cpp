@@ -87,7 +87,8 @@ Command register_eval(CLI::App& app) {
   command->add_flag("--collision", options->collision,
                     "Also each collision object's bounding box in the base frame (\"collision_boxes\")");
   command->add_option("--package-dir", options->package_dirs,
-                      "--collision: where package://NAME/... meshes are looked for, as DIR/NAME/... (repeatable)")
+                      "--collision: where package://NAME/... meshes are looked for, as DIR/NAME/... (repeatable; then "
+                      "$ROS_PACKAGE_PATH's folders)")
       ->type_name("DIR");
   command->footer(
       "Output: {\"cases\": [{\"T\": tip pose 4x4 rows, \"J_s\": space Jacobian 6 rows,\n"
@@ -104,7 +105,7 @@ Command register_eval(CLI::App& app) {
             const RobotModel model = load_model(options->model);
             if (!options->collision) return eval_json(model, options->cases, nullptr);
             const geometry::CollisionModel geometry =
-                geometry::load_collision_model(options->model.urdf, model, {options->package_dirs, ""});
+                geometry::load_collision_model(options->model.urdf, model, {geometry::with_ros_package_path(options->package_dirs), ""});
             return eval_json(model, options->cases, &geometry);
           }};
 }

@@ -21,7 +21,6 @@
 #include <map>
 #include <csignal>
 #include <cstdlib>
-#include <sstream>
 #include <cstdio>
 #include <iostream>
 #include <limits>
@@ -144,18 +143,6 @@ EnvironmentOptions environment(const RobotModel& model, const Options& o) {
   return env;
 }
 
-// Where package:// meshes are looked for: --package-dir, then $ROS_PACKAGE_PATH's folders (as
-// chasles_controller looks).
-std::vector<std::string> package_dirs(const Options& o) {
-  std::vector<std::string> dirs = o.package_dirs;
-  if (const char* path = std::getenv("ROS_PACKAGE_PATH")) {
-    std::stringstream folders(path);
-    for (std::string folder; std::getline(folders, folder, ':');)
-      if (!folder.empty()) dirs.push_back(folder);
-  }
-  return dirs;
-}
-
 // --engine mujoco: MuJoCo's plant, its scene from --scene (the objects; planes and workspace boxes
 // are the controller's safety zones, not things) and --press; chasles's plant's environment and
 // substeps are refused by name. Without MuJoCo built in, says how to build it.
@@ -171,7 +158,7 @@ std::unique_ptr<Physics> mujoco_engine(const RobotModel& model, const Options& o
     }
   }
 #ifdef CHASLES_WITH_MUJOCO
-  const std::vector<std::string> dirs = package_dirs(o);
+  const std::vector<std::string> dirs = geometry::with_ros_package_path(o.package_dirs);
   const geometry::CollisionModel geometry = geometry::load_collision_model(o.robot, model, {dirs, ""});
   if (geometry.objects.empty()) throw ArgumentError(o.robot + ": --engine mujoco needs the arm's collision geometry, and it has none");
   MujocoScene scene;
