@@ -236,6 +236,7 @@ class View:
         self.last_truth = None
         # The goal drawn as the target frame: (T_sb, what it is, when it came, "target" or "setpoint").
         self.goal: Optional[tuple] = None
+        self.goal_ended = False  # a status answered the goal with the arm no longer running toward it
         self.stiffness_law: Optional[int] = None  # the latest control mode's law
         self.T_tip_stiffness: Optional[np.ndarray] = None  # the latest Cartesian mode's frame c in the tip's
         self.scene_summary, self.scene_problem = "none", ""
@@ -282,14 +283,16 @@ class View:
         arrow = dict(shaft_radius=0.01, head_radius=0.025, head_length=0.05, visible=False)
         self.estimate_arrow = scene.add_arrows(f"{root}/force/estimate", np.zeros((1, 2, 3)), ESTIMATE_COLOR, **arrow)
         self.truth_arrow = scene.add_arrows(f"{root}/force/truth", np.zeros((1, 2, 3)), TRUTH_COLOR, **arrow)
-        # The target: RGB axes (x red, y green, z blue) with a yellow origin; the stiffness frame:
-        # shorter, thicker axes with a dark origin, so that the two are told apart where they meet.
-        self.target_frame = scene.add_frame(f"{root}/target", axes_length=0.12, axes_radius=0.006,
-                                            origin_radius=0.012, visible=False)
+        # The target: RGB axes (x red, y green, z blue); the stiffness frame: shorter, thicker axes
+        # with a dark origin, so that the two are told apart where they meet.
+        self.target_frame = scene.add_frame(f"{root}/target", axes_length=0.15, axes_radius=0.008, visible=False)
         self.stiffness_frame = scene.add_frame(f"{root}/stiffness", axes_length=0.08, axes_radius=0.01,
                                                origin_radius=0.016, origin_color=(40, 40, 40), visible=False)
-        self.clearance_line = scene.add_line_segments(f"{root}/clearance", np.zeros((1, 2, 3)), CLEARANCE_COLOR,
-                                                      thickness=0.01, visible=False)
+        # The gap, from the arm's witness to the other's: a thin rod (an arrow with no head to speak
+        # of, whose points and colour viser updates in place; a line segment's do not redraw).
+        self.clearance_line = scene.add_arrows(f"{root}/clearance", np.zeros((1, 2, 3)), CLEARANCE_COLOR,
+                                               shaft_radius=0.01, head_radius=0.01, head_length=1e-4,
+                                               visible=False)
         if title is None:
             self.panel = self.server.gui.add_markdown("waiting for the arm's state")
         else:
@@ -323,7 +326,8 @@ class View:
             self._scene_handles.append(add.add_line_segments(f"{root}/workspace", edges, WORKSPACE_COLOR,
                                                              thickness=0.004))
         counts = [(len(scene["objects"]), "object"), (len(scene["planes"]), "plane"), (len(scene["boxes"]), "workspace box")]
-        self.scene_summary = ", ".join(f"{n} {word}{'s' if n != 1 else ''}" for n, word in counts) + f" ({source})"
+        self.scene_summary = ", ".join(f"{n} {word}{'' if n == 1 else 'es' if word.endswith('x') else 's'}"
+                                       for n, word in counts) + f" ({source})"
         self.scene_problem = ""
 
     def _pose(self, nodes: list, q: np.ndarray) -> None:
@@ -477,7 +481,7 @@ class View:
             if problem:
                 self.note(problem)
             else:
-                self.goal, changed = (T, f"target {TARGET_MODES[m.mode]}", self.target.when, "target"), True
+                self.goal, self.goal_ended, changed = (T, f"target {TARGET_MODES[m.mode]}", self.target.when, "target"), False, True
         channel = self.prefix + "TIP_SETPOINT"
         data = self.tip_setpoint.fresh()
         m = None if data is None else self._decode(tip_setpoint_t, data, channel)
@@ -487,7 +491,7 @@ class View:
                 self.note(f"{channel}: {problem}: messages like it skipped")
             elif self.goal is None or self.tip_setpoint.when >= self.goal[2]:
                 self.goal = (transform(m.position, m.quaternion), "tip setpoint", self.tip_setpoint.when, "setpoint")
-                changed = True
+                self.goal_ended, changed = False, True
         return changed
 
     def _take_mode(self) -> bool:
@@ -522,17 +526,18 @@ class View:
     # -- drawing --
 
     def goal_shown(self) -> bool:
-        """Whether the target frame is drawn: a goal other than HOLD, which no status has answered
-        yet (within GOAL_ANSWER_S) or which the latest status says the arm runs toward (RUNNING
-        for a target, streaming for a tip setpoint)."""
-        if self.goal is None or self.goal[0] is None:
+        """(Latches goal_ended.) Whether the target frame is drawn: a goal other than HOLD, from when it is heard until a
+        status that came GOAL_ANSWER_S or more after it says the arm no longer runs toward it (not
+        RUNNING for a target; not streaming for a tip setpoint): the move ended (HOLDING), was
+        refused, or a REFLEX or FAULT stopped it. That goal stays hidden; the next one is drawn."""
+        if self.goal is None or self.goal[0] is None or self.goal_ended:
             return False
         s = self.last_status
         if s is None or self.status_when < self.goal[2] + GOAL_ANSWER_S:
             return True
-        if self.goal[3] == "setpoint":
-            return bool(s.streaming) and s.state == controller_status_t.RUNNING
-        return s.state == controller_status_t.RUNNING
+        running = s.state == controller_status_t.RUNNING and (self.goal[3] == "target" or bool(s.streaming))
+        self.goal_ended = not running
+        return running
 
     def law(self) -> Optional[int]:
         """The law in force: the status's, else the latest control mode's."""
@@ -594,7 +599,7 @@ class View:
         if sent is None or not np.array_equal(sent[0], points):
             self.clearance_line.points = points
         if sent is None or sent[1] != colour:
-            self.clearance_line.colors = np.array([[colour, colour]], np.uint8)
+            self.clearance_line.colors = np.array([colour], np.uint8)
         self._clearance_sent = (points, colour)
         self._show(self.clearance_line, True)
 
