@@ -386,3 +386,121 @@ def test_bad_messages_on_the_new_channels_are_said_and_skipped(view, page, bus):
     assert share(image, right_tip2, arm) > 0.8
     assert view.poll() is None
     view.expected_notes += [said for _, _, said in cases]
+
+
+# -- without a browser: a View in this process, fed bytes through its handlers ---------------------
+
+@pytest.fixture(scope="module")
+def server():
+    import contextlib
+    import io
+
+    import viser
+
+    with contextlib.redirect_stdout(io.StringIO()):
+        s = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    yield s
+    with contextlib.redirect_stdout(io.StringIO()):
+        s.stop()
+
+
+def test_a_drake_panda_status_places_the_arm_and_its_desired_position_is_the_ghost(server):
+    from chasles.view.app import View
+
+    said = []
+    view = View(server, LEFT_MODEL, [], [], name="panda", prefix="P_", protocol="drake-panda", say=said.append)
+    assert set(view.handlers()) == {"PANDA_STATUS", "P_STATUS", "P_TRUTH", "P_TARGET", "P_TIP_SETPOINT", "P_MODE",
+                                    "P_SCENE"}
+    m = lcmt_panda_status()
+    m.utime, m.num_joints = 1234, 7
+    m.joint_position, m.joint_position_desired = list(Q_LEFT), list(Q_LEFT2)
+    for name in ("joint_velocity", "joint_velocity_desired", "joint_acceleration_desired", "joint_torque",
+                 "joint_torque_desired", "joint_torque_external"):
+        setattr(m, name, [0.0] * 7)
+    view.handlers()["PANDA_STATUS"]("PANDA_STATUS", m.encode())
+    view.draw()
+    np.testing.assert_array_equal(view.q, Q_LEFT)
+    assert view.ghost_root.visible and np.array_equal(view._posed[id(view.ghost)], Q_LEFT2)
+    assert view.state_seq == 1234 and said == []
+    # The desired position back on q: no ghost. A controller status, once heard, is the ghost's source.
+    m.utime, m.joint_position_desired = 1235, list(Q_LEFT)
+    view.handlers()["PANDA_STATUS"]("PANDA_STATUS", m.encode())
+    view.draw()
+    assert not view.ghost_root.visible
+    view.handlers()["P_STATUS"]("P_STATUS", left_status(Q_LEFT, 1).encode())
+    m.utime, m.joint_position_desired = 1236, list(Q_LEFT2)
+    view.handlers()["PANDA_STATUS"]("PANDA_STATUS", m.encode())
+    view.draw()
+    assert not view.ghost_root.visible and view.state_seq == 1236
+    # Its desired position not finite: the status is skipped, as the controller refuses it.
+    m.utime, m.joint_position_desired = 1237, [math.nan] * 7
+    view.handlers()["PANDA_STATUS"]("PANDA_STATUS", m.encode())
+    view.draw()
+    assert view.state_seq == 1236
+    assert said == ["chasles view: PANDA_STATUS: joint_position_desired[0] is nan: messages like it skipped"]
+
+
+def test_a_target_is_drawn_until_a_status_after_it_says_the_arm_no_longer_runs_toward_it(server):
+    from chasles.lcmtypes import tip_setpoint_t
+    from chasles.view.app import GOAL_ANSWER_S, View
+
+    view = View(server, LEFT_MODEL, [], [], name="goals", prefix="G_", say=lambda text: None)
+    feed = view.handlers()
+
+    def hear(channel, message, when):
+        feed[channel](channel, message.encode(), when)
+        view.draw()
+
+    hear("G_STATE", state(Q_LEFT, 1), 0.0)
+    hold = arm_target_t()
+    hold.mode, hold.num_joints, hold.joint_position = arm_target_t.HOLD, 0, []
+    hear("G_TARGET", hold, 1.0)
+    assert not view.goal_shown() and not view.target_frame.visible
+    joint = arm_target_t()
+    joint.mode, joint.num_joints, joint.joint_position, joint.duration = arm_target_t.JOINT, 7, list(Q_LEFT2), 1.0
+    hear("G_TARGET", joint, 2.0)
+    assert view.target_frame.visible
+    np.testing.assert_allclose(view._pointed[id(view.target_frame)][0], LEFT_MODEL.fk(Q_LEFT2)[:3, 3], atol=1e-12)
+    # A status too soon after it to have answered it, HOLDING: still drawn.
+    hear("G_STATUS", left_status(Q_LEFT, 2, controller_status_t.HOLDING), 2.0 + GOAL_ANSWER_S / 2)
+    assert view.target_frame.visible
+    hear("G_STATUS", left_status(Q_LEFT, 3, controller_status_t.RUNNING), 2.0 + 2 * GOAL_ANSWER_S)
+    assert view.target_frame.visible
+    # The move over: hidden, and it stays hidden when the arm runs again (toward something else).
+    hear("G_STATUS", left_status(Q_LEFT2, 4, controller_status_t.HOLDING), 3.5)
+    assert not view.target_frame.visible
+    hear("G_STATUS", left_status(Q_LEFT2, 5, controller_status_t.RUNNING), 3.6)
+    assert not view.target_frame.visible
+    # A tip setpoint: drawn while the status streams, hidden when the stream ends.
+    setpoint = tip_setpoint_t()
+    setpoint.position, setpoint.quaternion, setpoint.twist = [0.4, 0.1, 0.5], [1.0, 0.0, 0.0, 0.0], [0.0] * 6
+    hear("G_TIP_SETPOINT", setpoint, 4.0)
+    assert view.target_frame.visible and view._pointed[id(view.target_frame)][0] == (0.4, 0.1, 0.5)
+    streaming = left_status(Q_LEFT2, 6)
+    streaming.streaming = True
+    hear("G_STATUS", streaming, 4.5)
+    assert view.target_frame.visible
+    hear("G_STATUS", left_status(Q_LEFT2, 7), 4.6)  # RUNNING but no longer streaming
+    assert not view.target_frame.visible
+
+
+def test_the_command_line_gives_each_arm_its_options_over_the_shared_ones():
+    from chasles.view.__main__ import parse
+
+    args, arms = parse(["--urdf", "a.urdf", "--port", "0"])
+    assert args.port == 0 and [a.name for a in arms] == ["arm"]
+    assert (arms[0].urdf, arms[0].prefix, arms[0].protocol, arms[0].base) == ("a.urdf", "CHASLES_", "chasles", None)
+    args, arms = parse(["--urdf", "a.urdf", "--tip", "hand", "--url", "udpm://x", "--arm", "left", "--prefix", "LEFT_",
+                        "--base", "0,0.5,0", "--arm=right", "--urdf", "b.urdf", "--protocol", "drake-iiwa",
+                        "--base", "1,2,3,0,0,1.5707963267948966", "--scene", "s.json"])
+    left_arm, right_arm = arms
+    assert (left_arm.name, left_arm.urdf, left_arm.tip, left_arm.prefix, left_arm.url) == ("left", "a.urdf", "hand",
+                                                                                           "LEFT_", "udpm://x")
+    np.testing.assert_array_equal(left_arm.base[:3, 3], [0, 0.5, 0])
+    assert (right_arm.urdf, right_arm.tip, right_arm.prefix, right_arm.protocol, right_arm.scene) == (
+        "b.urdf", "hand", "CHASLES_", "drake-iiwa", "s.json")
+    np.testing.assert_allclose(right_arm.base, [[0, -1, 0, 1], [1, 0, 0, 2], [0, 0, 1, 3], [0, 0, 0, 1]], atol=1e-15)
+    for argv in (["--arm", "a", "--urdf", "x", "--arm", "a"], ["--arm"], ["--arm", "a b"],
+                 ["--arm", "a", "--port", "1"], ["--arm", "a", "--base", "1,2"]):
+        with pytest.raises(SystemExit):
+            parse(argv)

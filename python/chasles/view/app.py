@@ -288,8 +288,9 @@ class View:
         self.target_frame = scene.add_frame(f"{root}/target", axes_length=0.15, axes_radius=0.008, visible=False)
         self.stiffness_frame = scene.add_frame(f"{root}/stiffness", axes_length=0.08, axes_radius=0.01,
                                                origin_radius=0.016, origin_color=(40, 40, 40), visible=False)
-        # The gap, from the arm's witness to the other's: a thin rod (an arrow with no head to speak
-        # of, whose points and colour viser updates in place; a line segment's do not redraw).
+        # The gap, from the arm's witness to the other's: a thin rod, an arrow with no head to speak
+        # of (a line segment whose points were changed in place was not redrawn in headless Chromium
+        # here; an arrow's points and colour are, as the force arrows show).
         self.clearance_line = scene.add_arrows(f"{root}/clearance", np.zeros((1, 2, 3)), CLEARANCE_COLOR,
                                                shaft_radius=0.01, head_radius=0.01, head_length=1e-4,
                                                visible=False)
