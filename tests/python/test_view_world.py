@@ -324,7 +324,11 @@ def test_the_scene_is_drawn_from_its_file_and_its_message_and_a_refused_one_is_s
     # The left arm's scene_t: a 0.2 m box obstacle, where the controller's reader puts it.
     text = bus.send_until(page, {"LEFT_SCENE": box_scene("table", (0.5, -0.35, 0.12), (0.2, 0.2, 0.2))},
                           r"scene: 1 object, 0 planes, 0 workspace boxes \(LEFT_SCENE\)")
-    drawn = shot(page, "scene_message")
+    # A new mesh takes the page a few frames more than the panel's text (viser's client builds it):
+    # screenshots until it shows, for at most 5 s.
+    deadline = time.monotonic() + 5
+    while share(drawn := shot(page, "scene_message"), table, grey) <= 0.8 and time.monotonic() < deadline:
+        page.frames(3)
     assert share(drawn, table, grey) > 0.8, drawn[int(table[1]), int(table[0])]
     # Refused by the controller's rules: said with its reason; the scene drawn stays.
     said = "LEFT_SCENE: refused (version 2; this receiver reads version 1); the scene drawn is kept"

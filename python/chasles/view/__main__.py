@@ -3,6 +3,8 @@
   python -m chasles.view --urdf tests/data/panda.urdf --tip panda_hand_tcp \\
       --package-dir tests/data/packages --url 'udpm://239.255.76.67:7667?ttl=0'
   python -m chasles.view run.lcmlog --urdf tests/data/panda.urdf --tip panda_hand_tcp
+  python -m chasles.view --urdf tests/data/panda.urdf --tip panda_hand \
+      --arm left --prefix LEFT_ --base 0,0.4,0 --arm right --prefix RIGHT_ --base 0,-0.4,0
 
 then open the address it prints (chasles view: http://127.0.0.1:8080).
 """

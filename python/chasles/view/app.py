@@ -291,7 +291,7 @@ class View:
         # The gap, from the arm's witness to the other's: a thin rod, an arrow with no head to speak
         # of (a line segment whose points were changed in place was not redrawn in headless Chromium
         # here; an arrow's points and colour are, as the force arrows show).
-        self.clearance_line = scene.add_arrows(f"{root}/clearance", np.zeros((1, 2, 3)), CLEARANCE_COLOR,
+        self.clearance_rod = scene.add_arrows(f"{root}/clearance", np.zeros((1, 2, 3)), CLEARANCE_COLOR,
                                                shaft_radius=0.01, head_radius=0.01, head_length=1e-4,
                                                visible=False)
         if title is None:
@@ -592,17 +592,17 @@ class View:
     def _clearance(self, s: Optional[Status]) -> None:
         """The closest pair's gap, witness to witness: red while that pair slows the motion."""
         if s is None or not s.clearance_pair:
-            self._show(self.clearance_line, False)
+            self._show(self.clearance_rod, False)
             return
         colour = SLOWING_COLOR if s.clearance_slowed_by == s.clearance_pair else CLEARANCE_COLOR
         points = s.clearance_points.reshape(1, 2, 3)
         sent = self._clearance_sent
         if sent is None or not np.array_equal(sent[0], points):
-            self.clearance_line.points = points
+            self.clearance_rod.points = points
         if sent is None or sent[1] != colour:
-            self.clearance_line.colors = np.array([colour], np.uint8)
+            self.clearance_rod.colors = np.array([colour], np.uint8)
         self._clearance_sent = (points, colour)
-        self._show(self.clearance_line, True)
+        self._show(self.clearance_rod, True)
 
     def _panel(self) -> None:
         now = time.monotonic()
