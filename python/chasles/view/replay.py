@@ -43,6 +43,7 @@ class Replay:
         self.playing = playing
         self._lock = threading.Lock()
         self._asked: Optional[float] = None  # a time the slider asked for, taken by the next frame
+        self._played_from = 0.0  # when Play was last clicked (time.monotonic)
         # Fresh and silent by the log's clock, not the wall's: a paused replay is not a silent bus.
         view.live = False
         view.clock = view.state.clock = view.status.clock = view.truth.clock = lambda: self.t
@@ -155,6 +156,9 @@ class Replay:
     def _on_button(self, event) -> None:
         with self._lock:
             self.playing = not self.playing
+            # The log's time runs from the click, not from the frame before it (which would start
+            # the play up to a period × the speed ahead).
+            self._played_from = time.monotonic()
             if self.playing and self.t >= self.duration:
                 self._asked = 0.0  # play again from the start
         self.button.label = "Pause" if self.playing else "Play"
@@ -176,7 +180,7 @@ class Replay:
             now = time.monotonic()
             with self._lock:
                 asked, self._asked = self._asked, None
-                t = self.t + (now - last) * self.speed if self.playing else self.t
+                t = self.t + (now - max(last, self._played_from)) * self.speed if self.playing else self.t
                 if asked is not None:
                     t = asked
                 if t >= self.duration and self.playing:
