@@ -288,7 +288,7 @@ start_view() {
     --urdf "$DEMO_URDF" ${DEMO_TIP:+--tip "$DEMO_TIP"} --protocol "$DEMO_PROTOCOL" \
     --package-dir "$root/tests/data/packages" --url "$lcm_url" --host 127.0.0.1 --port 0 ${1:+--scene "$1"}
   deadline=$(awk -v n="$(now)" 'BEGIN { printf "%.6f", n + 60 }')
-  until grep -q '^chasles view: http://' "$DEMO_DIR/chasles_view.out"; do
+  until grep -qs '^chasles view: http://' "$DEMO_DIR/chasles_view.out"; do
     check_alive
     if awk -v d="$deadline" -v n="$(now)" 'BEGIN { exit !(n > d) }'; then
       echo "demo.sh: the view did not serve within 60 s; the end of its stderr:" >&2
@@ -299,7 +299,7 @@ start_view() {
   done
   start view_relay python3 "$root/tools/demo/relay.py" "unix:$DEMO_DIR/view.sock" \
     "tcp:$(sed -n 's|^chasles view: http://||p' "$DEMO_DIR/chasles_view.out")"
-  until grep -q '^relay: listening' "$DEMO_DIR/view_relay.out"; do
+  until grep -qs '^relay: listening' "$DEMO_DIR/view_relay.out"; do
     check_alive
     sleep 0.05
   done
@@ -824,7 +824,7 @@ if [ $view = 1 ]; then
     2>"$dir/host_relay.err" &
   relay=$!
   trap '[ -n "$relay" ] && kill "$relay" 2>/dev/null; wait' EXIT
-  until grep -q '^relay: listening' "$dir/host_relay.out"; do
+  until grep -qs '^relay: listening' "$dir/host_relay.out"; do
     kill -0 "$relay" 2>/dev/null || { echo "demo.sh: the view's relay: $(cat "$dir/host_relay.err")" >&2; exit 1; }
     sleep 0.05
   done
