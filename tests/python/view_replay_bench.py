@@ -13,8 +13,8 @@ at 100 Hz while the arm is pushed, a target every 2 s) until it holds --mb megab
 1. `python -m chasles.view LOG` as a process: the time from its start to its line
    `chasles view: http://...`, and to the page in headless Chromium showing the first state
    drawn (the panel's `state seq`, then one animation frame);
-2. a seek in the browser, as a person makes it: End or Home on the time slider, timed until the
-   panel shows the new log time;
+2. a seek in the browser, as a person makes it: End or Home on the time slider, timed by the
+   page's own clock from the key's event to the panel showing the new log time;
 3. a seek in-process (the view built in this process on its own viser server): Replay.show(t) at
    random times, what a frame does after the slider's change, from the seek to the draw sent.
 """
@@ -28,7 +28,6 @@ import statistics
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
