@@ -5,7 +5,7 @@
 #
 #   tools/demo.sh [--seconds N] [--robot ur5|panda|iiwa|FILE.urdf] [--tip LINK] [--summary FILE]
 #                 [--tick state|clock] [--protocol chasles|drake-iiwa|drake-panda]
-#                 [--engine chasles|mujoco]
+#                 [--engine chasles|mujoco] [--no-view] [--view-host HOST] [--view-port PORT]
 #
 #   --seconds N      length of the programme of targets (default 16, at least 10); the waypoint
 #                    trajectory, a stream of setpoints and the jogs follow it (about 12 s; on the
@@ -23,6 +23,11 @@
 #   --engine E       who simulates the arm: chasles's own plant (default: RK4, the push and the
 #                    table act on the tip) or MuJoCo (tools/mujoco.sh installs it: the table is a
 #                    box under the hand, the push a ball pressing the elbow; docs/simulation.md)
+#   --no-view        no 3D view; by default `python -m chasles.view` draws the run live (docs/view.md)
+#                    and the demo prints its address first, `view: http://127.0.0.1:8080`
+#   --view-host H    where a browser reaches the view (default 127.0.0.1: this machine only; 0.0.0.0
+#                    lets other machines in, unauthenticated)
+#   --view-port P    its port (default 8080; 0 picks a free one, and the address printed says which)
 #
 # In a private network namespace (tools/netns.sh) it starts lcm-logger, chasles_plant (real time,
 # 1 kHz, damped, with a table under the arm) and chasles_controller --realtime, sends a programme
@@ -271,6 +276,34 @@ json.dump({"scene": scene,
            "fold": {"stop": float(sys.argv[7]) / 1e3, "from_utime": us(fold_from), "to_utime": us(fold_to), "end": fold_end}},
           open(path, "w"), indent=1)
 PY
+}
+
+# start_view [SCENE]: the 3D view on the demo's bus, served on this namespace's loopback, and the
+# relay that hands it the connections the outside relay takes on the host's port (through the Unix
+# socket $DEMO_DIR/view.sock, a file both sides see: a network namespace's loopback is its own, and
+# the bus's multicast must stay in it). Prints the view's address once it serves.
+start_view() {
+  local deadline
+  start chasles_view env PYTHONPATH="$DEMO_BUILD/python" "$DEMO_BUILD/venv/bin/python" -m chasles.view \
+    --urdf "$DEMO_URDF" ${DEMO_TIP:+--tip "$DEMO_TIP"} --protocol "$DEMO_PROTOCOL" \
+    --package-dir "$root/tests/data/packages" --url "$lcm_url" --host 127.0.0.1 --port 0 ${1:+--scene "$1"}
+  deadline=$(awk -v n="$(now)" 'BEGIN { printf "%.6f", n + 60 }')
+  until grep -qs '^chasles view: http://' "$DEMO_DIR/chasles_view.out"; do
+    check_alive
+    if awk -v d="$deadline" -v n="$(now)" 'BEGIN { exit !(n > d) }'; then
+      echo "demo.sh: the view did not serve within 60 s; the end of its stderr:" >&2
+      stderr_tail chasles_view
+      exit 1
+    fi
+    sleep 0.05
+  done
+  start view_relay python3 "$root/tools/demo/relay.py" "unix:$DEMO_DIR/view.sock" \
+    "tcp:$(sed -n 's|^chasles view: http://||p' "$DEMO_DIR/chasles_view.out")"
+  until grep -qs '^relay: listening' "$DEMO_DIR/view_relay.out"; do
+    check_alive
+    sleep 0.05
+  done
+  echo "view: $DEMO_VIEW  (the arm live in a browser; docs/view.md)"
 }
 
 inside() {
@@ -563,6 +596,10 @@ PY
     --protocol "$DEMO_PROTOCOL" \
     "${limits[@]}" "${clearance[@]}" --lcm-url "$lcm_url" \
     --tick "$DEMO_TICK" --summary "$dir/summary.json"
+  if [ -n "$DEMO_VIEW" ]; then
+    # The scene the controller keeps the arm out of, drawn as it has it (the Panda's).
+    if [ ${#clearance[@]} -gt 0 ]; then start_view "$scene"; else start_view; fi
+  fi
   run_start=$(now)
   # Where the report reads the press: the window in which the arm rests on the table, as utimes.
   # On MuJoCo the table is no spring of a known stiffness: the report holds the force against the
@@ -685,7 +722,7 @@ fi
 # ---------------------------------------------------------------------------------------------
 # Outside: arguments, packages, build, then the run in a fresh network namespace.
 # ---------------------------------------------------------------------------------------------
-usage() { sed -n '6,25s/^# \{0,1\}//p' "$0"; }
+usage() { sed -n '6,30s/^# \{0,1\}//p' "$0"; }
 seconds=16
 robot=
 tip=
@@ -693,9 +730,12 @@ summary=
 tick=state
 protocol=chasles
 engine=chasles
+view=1
+view_host=127.0.0.1
+view_port=8080
 while [ $# -gt 0 ]; do
   case "$1" in
-    --seconds | --robot | --tip | --summary | --tick | --protocol | --engine)
+    --seconds | --robot | --tip | --summary | --tick | --protocol | --engine | --view-host | --view-port)
       [ $# -ge 2 ] || { echo "demo.sh: $1 needs a value (try --help)" >&2; exit 2; }
       case "$1" in
         --seconds) seconds=$2 ;;
@@ -705,9 +745,12 @@ while [ $# -gt 0 ]; do
         --tick) tick=$2 ;;
         --protocol) protocol=$2 ;;
         --engine) engine=$2 ;;
+        --view-host) view_host=$2 ;;
+        --view-port) view_port=$2 ;;
       esac
       shift 2
       ;;
+    --no-view) view=0; shift ;;
     -h | --help) usage; exit 0 ;;
     *) echo "demo.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
@@ -750,19 +793,45 @@ if [ -n "$summary" ]; then
   touch "$summary" 2>/dev/null || { echo "demo.sh: --summary $summary: cannot write there" >&2; exit 2; }
 fi
 
+[[ "$view_port" =~ ^[0-9]+$ ]] || { echo "demo.sh: --view-port must be a port number (got '$view_port')" >&2; exit 2; }
+
 source "$root/tools/deps.sh"
-chasles_install_missing "${chasles_packages_build[@]}" "${chasles_packages_plots[@]}"
+packages=("${chasles_packages_build[@]}" "${chasles_packages_plots[@]}")
+[ $view = 0 ] || packages+=("${chasles_packages_python[@]}")  # the venv's interpreter and headers
+chasles_install_missing "${packages[@]}"
 
 build=${CHASLES_BUILD_DIR:-$root/build}
 echo "Building chasles, chasles_plant, chasles_controller, chasles_loop_bench and chasles_tick_bench in $build ..."
 # MuJoCo's library at the version tools/mujoco.sh pins, for chasles_plant --engine mujoco.
 [ "$engine" = mujoco ] && chasles_cmake_options=("-DCHASLES_MUJOCO_PREFIX=$("$root/tools/mujoco.sh")")
-chasles_build demo "$build" chasles chasles_plant chasles_controller_daemon chasles_loop_bench chasles_tick_bench || exit 1
+view_targets=()
+if [ $view = 1 ]; then
+  # The view: the Python package (CHASLES_PYTHON=ON) in the project's venv, which pins viser.
+  chasles_cmake_options+=(-DCHASLES_PYTHON=ON "-DPython_EXECUTABLE=$("$root/tools/python.sh" "$build/venv")")
+  view_targets=(_core chasles_python_sources)
+fi
+chasles_build demo "$build" chasles chasles_plant chasles_controller_daemon chasles_loop_bench chasles_tick_bench \
+  "${view_targets[@]}" || exit 1
 
 dir="$build/demo/$(date +%Y%m%d-%H%M%S)"
 mkdir -p "$dir"
+DEMO_VIEW=
+relay=
+if [ $view = 1 ]; then
+  # The host's side of the view's relay (start_view says why); it listens before the run starts, so
+  # that a port already taken is said now.
+  python3 "$root/tools/demo/relay.py" "tcp:$view_host:$view_port" "unix:$dir/view.sock" >"$dir/host_relay.out" \
+    2>"$dir/host_relay.err" &
+  relay=$!
+  trap '[ -n "$relay" ] && kill "$relay" 2>/dev/null; wait' EXIT
+  until grep -qs '^relay: listening' "$dir/host_relay.out"; do
+    kill -0 "$relay" 2>/dev/null || { echo "demo.sh: the view's relay: $(cat "$dir/host_relay.err")" >&2; exit 1; }
+    sleep 0.05
+  done
+  DEMO_VIEW="http://$(sed -n 's/^relay: listening on //p' "$dir/host_relay.out")"
+fi
 export DEMO_INSIDE=1 DEMO_DIR="$dir" DEMO_BUILD="$build" DEMO_SECONDS="$seconds" DEMO_URDF="$urdf" \
-  DEMO_TIP="$tip" DEMO_TICK="$tick" DEMO_PROTOCOL="$protocol" DEMO_ENGINE="$engine"
+  DEMO_TIP="$tip" DEMO_TICK="$tick" DEMO_PROTOCOL="$protocol" DEMO_ENGINE="$engine" DEMO_VIEW="$DEMO_VIEW"
 "$root/tools/netns.sh" bash "$root/tools/demo.sh"
 
 # The figures of the run, from its LCM log (before the report, which reads the clearance from them).

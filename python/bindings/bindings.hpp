@@ -23,4 +23,7 @@ struct Model {
 /// the calibration.
 void bind_solvers(nb::module_& m);
 
+/// chasles.read_scene_file and decode_scene (scene.cpp): scenes read by the controller's readers.
+void bind_scene(nb::module_& m);
+
 }  // namespace chasles::python

@@ -512,5 +512,6 @@ NB_MODULE(_core, m) {
   bind_model(m);
   bind_observer(m);
   bind_solvers(m);
+  bind_scene(m);
   bind_limits(m);
 }

@@ -27,7 +27,7 @@ def chromium_path():
 
 
 class Browser:
-    def __init__(self, width: int, height: int, timeout: float = 20.0):
+    def __init__(self, width: int, height: int, timeout: float = 60.0):
         self.width, self.height = width, height
         self._profile = tempfile.mkdtemp(prefix="chasles-view-chromium-")
         self.process = subprocess.Popen(
@@ -59,7 +59,7 @@ class Browser:
         self.call("Emulation.setDeviceMetricsOverride", width=width, height=height, deviceScaleFactor=1,
                   mobile=False)
 
-    def _call(self, method: str, session=None, timeout: float = 30.0, **params):
+    def _call(self, method: str, session=None, timeout: float = 60.0, **params):
         id = next(self._ids)
         message = {"id": id, "method": method, "params": params}
         if session:
@@ -88,7 +88,7 @@ class Browser:
     def text(self) -> str:
         return self.evaluate("document.body ? document.body.innerText : ''") or ""
 
-    def wait_text(self, pattern: str, timeout: float = 15.0) -> str:
+    def wait_text(self, pattern: str, timeout: float = 30.0) -> str:
         """Waits until the page's text matches the regular expression; returns the text."""
         deadline = time.monotonic() + timeout
         while True:

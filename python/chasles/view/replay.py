@@ -43,11 +43,13 @@ class Replay:
         self.playing = playing
         self._lock = threading.Lock()
         self._asked: Optional[float] = None  # a time the slider asked for, taken by the next frame
+        self._played_from = 0.0  # when Play was last clicked (time.monotonic)
         # Fresh and silent by the log's clock, not the wall's: a paused replay is not a silent bus.
         view.live = False
         view.clock = view.state.clock = view.status.clock = view.truth.clock = lambda: self.t
         self._series = self._read_series(view.prefix)
-        self._plots_drawn = (None, 0.0)
+        self._plotted_t, self._plots_drawn = None, 0.0  # the t the plots show, and when they were sent
+        self._slider_t = 0.0  # the t the slider was last set to here
         self._build()
         self.seek(0.0)
 
@@ -141,7 +143,11 @@ class Replay:
                 self.plots[title] = gui.add_uplot(self._plot_data(title), series, title=title, aspect=1.6,
                                                   scales={"x": {"time": False}})
 
-    def _on_slider(self, event) -> None:
+    async def _on_slider(self, event) -> None:
+        # A coroutine, run on viser's event loop right after it stores the browser's value: a plain
+        # callback runs later in viser's thread pool, and the frame's own assignment of the slider
+        # (as t advances) could come between and be read instead, losing the browser's seek (seen:
+        # Home on a paused replay's slider ignored under load).
         if event.client is None:  # our own assignment, as t advances
             return
         with self._lock:
@@ -150,6 +156,9 @@ class Replay:
     def _on_button(self, event) -> None:
         with self._lock:
             self.playing = not self.playing
+            # The log's time runs from the click, not from the frame before it (which would start
+            # the play up to a period × the speed ahead).
+            self._played_from = time.monotonic()
             if self.playing and self.t >= self.duration:
                 self._asked = 0.0  # play again from the start
         self.button.label = "Pause" if self.playing else "Play"
@@ -171,23 +180,32 @@ class Replay:
             now = time.monotonic()
             with self._lock:
                 asked, self._asked = self._asked, None
-                t = self.t + (now - last) * self.speed if self.playing else self.t
+                t = self.t + (now - max(last, self._played_from)) * self.speed if self.playing else self.t
                 if asked is not None:
                     t = asked
                 if t >= self.duration and self.playing:
                     t, self.playing = self.duration, False
                     self.button.label = "Play"
             last = now
-            self.seek(t)
-            self.caption_time()
-            self.view.draw()
-            self.slider.value = round(self.t, 3)
-            self._update_plots(now)
+            # The plots cost the browser more than the rest of a frame (three uPlot charts: a seek
+            # showed in 108 to 156 ms with them, 27 to 97 without, headless Chromium): a seek's
+            # frame goes without them, so that the arm and the panel show the new time first, and
+            # they follow in a later frame; at most every PLOT_PERIOD_S (3 × while dragging).
+            since = now - self._plots_drawn
+            self.show(t, plots=since >= PLOT_PERIOD_S and (asked is None or since >= 3 * PLOT_PERIOD_S))
 
-    def _update_plots(self, now: float) -> None:
-        drawn_t, drawn_when = self._plots_drawn
-        if drawn_t == self.t or now - drawn_when < PLOT_PERIOD_S:
-            return
-        for title, plot in self.plots.items():
-            plot.data = self._plot_data(title)
-        self._plots_drawn = (self.t, now)
+    def show(self, t: float, plots: bool = True) -> None:
+        """Draws the log at time t: its messages, the panel's time, the slider and, if `plots`,
+        the plots."""
+        self.seek(t)
+        self.caption_time()
+        self.view.draw()
+        # Only as t moves: the slider has two writers, this and the browser, and a paused replay
+        # leaves it to the browser alone.
+        if self.t != self._slider_t:
+            self.slider.value = round(self.t, 3)
+            self._slider_t = self.t
+        if plots and self.t != self._plotted_t:
+            for title, plot in self.plots.items():
+                plot.data = self._plot_data(title)
+            self._plotted_t, self._plots_drawn = self.t, time.monotonic()
