@@ -75,7 +75,8 @@ inline constexpr size_t kTrajectoryCounts = 8 + 8 + 8;       // utime, id: then 
 // fixed-size fields, counted from the end of num_joints.
 inline constexpr size_t kStatusTrajectoryStringAfterCount = 301;
 // Its clearance_pair follows the trajectory_message, 55 bytes of the stream's and the jog's fields
-// and the generator's three joint arrays; clearance_slowed_by follows it and one double.
+// and the generator's three joint arrays; clearance_slowed_by follows it, a double and the two
+// witness points.
 inline constexpr size_t kStatusClearanceAfterTrajectory = 55;
 // control_mode_t's num_posture follows its two joint arrays and 8 + 36 + 3 + 4 doubles.
 inline constexpr size_t kModePostureAfterJoints = 8 * (1 + 36 + 3 + 4);
@@ -137,16 +138,24 @@ inline std::string prepare(const void* data, size_t size, controller_status_t& m
   }
   m.trajectory_message.assign(size_t(trajectory_length - 1), ' ');
   size_t at = trajectory_at + 4 + size_t(trajectory_length) + kStatusClearanceAfterTrajectory + 24 * size_t(m.num_joints);
-  // Each string is followed by a double, but the last (contact_link), whose followers need no walk.
-  for (auto [text, name] : {std::pair{&m.clearance_pair, "clearance_pair"}, std::pair{&m.clearance_slowed_by, "clearance_slowed_by"},
-                            std::pair{&m.contact_link, "contact_link"}}) {
+  // Each string, then the fixed-size fields up to the next: clearance_distance and
+  // clearance_points after the pair, clearance_kept after slowed_by; contact_link's followers
+  // need no walk.
+  struct Walked {
+    std::string* text;
+    const char* name;
+    size_t after;
+  };
+  for (auto [text, name, after] : {Walked{&m.clearance_pair, "clearance_pair", 8 + 6 * 8},
+                                   Walked{&m.clearance_slowed_by, "clearance_slowed_by", 8},
+                                   Walked{&m.contact_link, "contact_link", 0}}) {
     int32_t length_of = 0;
     if (!read_int32(data, size, at, length_of)) return truncated(size);
     if (length_of < 1 || uint64_t(length_of) > size) {
       return std::string(name) + " string of " + std::to_string(length_of) + " bytes in a message of " + std::to_string(size) + " bytes";
     }
     text->assign(size_t(length_of - 1), ' ');
-    at += 4 + size_t(length_of) + 8;  // the string, then the double after it
+    at += 4 + size_t(length_of) + after;
   }
   return {};
 }

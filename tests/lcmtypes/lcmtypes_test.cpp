@@ -299,13 +299,13 @@ TEST(lcmtypes, ControllerStatusRoundTrips) {
   // tau_ext, the tip wrench, contact and collision, two counters, the law (int8), the payload's
   // mass and the state period (doubles), the trajectory's id, outcome, three doubles, waypoint
   // and message, the stream's and the jog's fields, the generator's three limits per joint, the
-  // clearance's two strings and two doubles
+  // clearance's two strings, two doubles and the two witness points
   const size_t trajectory_string = 4 + status.trajectory_message.size() + 1;
   const size_t clearance_strings = 4 + status.clearance_pair.size() + 1 + 4 + status.clearance_slowed_by.size() + 1;
   EXPECT_EQ(buffer.size(), kHash + 8 + 1 + string_size + 4 + 3 * 8 * kJoints + 8 * 3 + 8 * 4 + 8 * kJoints +
                                (4 + 8 + 1) + 9 * 8 + 5 * 8 + 8 * kJoints + 6 * 8 + 2 + 2 * 8 + 1 + 8 + 8 +
                                (8 + 1 + 3 * 8 + 4) + trajectory_string + (1 + 8 + 8) + (1 + 8 + 8 + 8 + 8 + 1 + 4) +
-                               3 * 8 * kJoints + clearance_strings + 2 * 8 +
+                               3 * 8 * kJoints + clearance_strings + 2 * 8 + 6 * 8 +
                                (4 + status.contact_link.size() + 1) + 1 + 6 * 8);
   const auto back = decode<controller_status_t>(buffer);
   EXPECT_EQ(back.utime, status.utime);
@@ -706,7 +706,7 @@ TEST(lcmtypes, FingerprintsArePinned) {
   // mass, then the state period ([M]), then the trajectory's progress, the stream's and the jog's ([N]), then the
   // clearance ([T]), then the located contact ([U]) at its end; no field changed meaning, and a
   // reader built on an older contract refuses the new one by its fingerprint.
-  EXPECT_EQ(static_cast<uint64_t>(controller_status_t::getHash()), 0x6f32b1ab2db30f6cu);
+  EXPECT_EQ(static_cast<uint64_t>(controller_status_t::getHash()), 0xb133d685a5d937abu);
   // sim_truth_t gained every contact at its end ([U]); contact_estimate_t is [U]'s.
   EXPECT_EQ(static_cast<uint64_t>(sim_truth_t::getHash()), 0xed86a42eaf5c1d82u);
   EXPECT_EQ(static_cast<uint64_t>(contact_estimate_t::getHash()), 0xe51ead88b77a4293u);
