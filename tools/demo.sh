@@ -77,6 +77,14 @@ start() {
 
 alive() { kill -0 "$1" 2>/dev/null; }
 
+# index_of NAME: where the process started as NAME is in names and pids.
+index_of() {
+  local i
+  for i in "${!names[@]}"; do [ "${names[$i]}" = "$1" ] && { echo "$i"; return; }; done
+  echo "demo.sh: no process named $1" >&2
+  return 1
+}
+
 # The last lines a process wrote to stderr, indented.
 stderr_tail() { tail -n 15 "$DEMO_DIR/$1.err" | sed 's/^/    /' >&2; }
 
@@ -575,6 +583,12 @@ PY
     push="$press_link,$t_push,$push_s,0.01,$press_aim,1,0,0,30"
     environment=(--engine mujoco --package-dir "$root/tests/data/packages" --scene "$mujoco_scene" --press "$push")
   fi
+  if [ -n "$DEMO_VIEW" ]; then
+    # Before the plant: the view takes seconds to serve, and MuJoCo's press is timed from the
+    # plant's start, the programme from just after the controller's. The scene drawn is the one
+    # the controller keeps the arm out of (the Panda's).
+    if [ "$(basename "$DEMO_URDF")" = panda.urdf ]; then start_view "$scene"; else start_view; fi
+  fi
   start chasles_plant "$DEMO_BUILD/tools/chasles_plant" "${model[@]}" --realtime --protocol "$DEMO_PROTOCOL" \
     --damping 0.5 --q0 "$home" "${environment[@]}" --lcm-url "$lcm_url"
   # The controller knows the plant's joint damping and feeds it forward (--damping). On the Panda
@@ -596,10 +610,6 @@ PY
     --protocol "$DEMO_PROTOCOL" \
     "${limits[@]}" "${clearance[@]}" --lcm-url "$lcm_url" \
     --tick "$DEMO_TICK" --summary "$dir/summary.json"
-  if [ -n "$DEMO_VIEW" ]; then
-    # The scene the controller keeps the arm out of, drawn as it has it (the Panda's).
-    if [ ${#clearance[@]} -gt 0 ]; then start_view "$scene"; else start_view; fi
-  fi
   run_start=$(now)
   # Where the report reads the press: the window in which the arm rests on the table, as utimes.
   # On MuJoCo the table is no spring of a known stiffness: the report holds the force against the
@@ -675,7 +685,10 @@ PY
   fi
 
   # The controller first: its summary covers a run in which the plant never stopped answering.
-  for i in 2 1 0; do
+  # (The view, if any, is stopped with the rest when the run exits.)
+  local name
+  for name in chasles_controller chasles_plant lcm-logger; do
+    i=$(index_of "$name")
     if ! stop_process "$i"; then
       echo "demo.sh: ${names[$i]} did not exit cleanly. The end of its stderr ($dir/${names[$i]}.err):" >&2
       stderr_tail "${names[$i]}"
