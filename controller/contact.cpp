@@ -303,13 +303,17 @@ void ContactMonitor::classify() {
   if (e.what == nullptr) return;
   const char* level = estimate_.collision ? "collision" : "contact";
   const char* on = estimate_.body > 0 ? ", on " : "";
+  // Isolated by the torques alone, the link is where the contact begins: the most distal joint
+  // that feels it moves that link, and a push on a later one may leave the joints between at zero.
+  const char* beyond = estimate_.body > 0 && location_age_ > kLocationFresh ? " or beyond" : "";
   if (e.joint >= 0) {
-    std::snprintf(reason_, sizeof(reason_), "%s: joint %s external torque %.3g over %.3g%s%.*s", level,
+    std::snprintf(reason_, sizeof(reason_), "%s: joint %s external torque %.3g over %.3g%s%.*s%s", level,
                   model_->joint(e.joint).name.c_str(), e.value, e.limit, on, link_length(isolated_link_),
-                  isolated_link_.data());
+                  isolated_link_.data(), beyond);
   } else {
-    std::snprintf(reason_, sizeof(reason_), "%s: tip %s %.3g %s over %.3g%s%.*s", level, e.what, e.value,
-                  e.what[0] == 'f' ? "N" : "N*m", e.limit, on, link_length(isolated_link_), isolated_link_.data());
+    std::snprintf(reason_, sizeof(reason_), "%s: tip %s %.3g %s over %.3g%s%.*s%s", level, e.what, e.value,
+                  e.what[0] == 'f' ? "N" : "N*m", e.limit, on, link_length(isolated_link_), isolated_link_.data(),
+                  beyond);
   }
 }
 
