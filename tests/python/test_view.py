@@ -26,7 +26,7 @@ import pytest
 import chasles
 from chasles.lcmtypes import controller_status_t, robot_state_t, sim_truth_t
 from chasles.view.app import CAMERA_FOV_DEG
-from view_browser import Browser, chromium_path, project
+from view_browser import Browser, chromium_path, project, served_view
 
 LCM_URL = "udpm://239.255.76.67:7667?ttl=0"
 DATA = os.environ["CHASLES_TEST_DATA"]
@@ -96,32 +96,9 @@ def share(image, uv, colour, radius: int = 4) -> float:
 
 @pytest.fixture(scope="module")
 def view():
-    argv = [sys.executable, "-m", "chasles.view", "--urdf", URDF, "--tip", TIP,
-            "--package-dir", os.path.join(DATA, "packages"), "--url", LCM_URL, "--port", "0",
-            "--camera", ",".join(str(v) for v in EYE + TARGET)]
-    process = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    ready = {}
-
-    def read():
-        for line in process.stdout:
-            match = re.fullmatch(r"chasles view: (http://127\.0\.0\.1:\d+)\s*", line)
-            if match:
-                ready["url"] = match.group(1)
-                break
-
-    reader = threading.Thread(target=read, daemon=True)
-    reader.start()
-    reader.join(timeout=60)
-    if "url" not in ready:
-        process.kill()
-        pytest.fail(f"the view printed no address within 60 s; stderr:\n{process.communicate()[1]}")
-    process.url, process.expected_notes = ready["url"], []
-    yield process
-    process.terminate()
-    _, stderr = process.communicate(timeout=10)
-    assert process.returncode == 0, f"the view ended with {process.returncode}; stderr:\n{stderr}"
-    for note in process.expected_notes:
-        assert stderr.count(note) == 1, f"'{note}' is not said once on stderr:\n{stderr}"
+    with served_view(["--urdf", URDF, "--tip", TIP, "--package-dir", os.path.join(DATA, "packages"), "--url", LCM_URL,
+                      "--camera", ",".join(str(v) for v in EYE + TARGET)], timeout=60) as process:
+        yield process
 
 
 @pytest.fixture(scope="module")

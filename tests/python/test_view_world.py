@@ -16,9 +16,6 @@ import json
 import math
 import os
 import re
-import subprocess
-import sys
-import threading
 import time
 
 import numpy as np
@@ -28,7 +25,7 @@ import chasles
 from chasles.lcmtypes import (arm_target_t, control_mode_t, controller_status_t, lcmt_iiwa_status,
                               lcmt_panda_status, scene_t)
 from test_view import DATA, LCM_URL, Bus, ghost, hue_saturation, shot, state, status
-from view_browser import Browser, chromium_path, project
+from view_browser import Browser, chromium_path, project, served_view
 
 from chasles.view.app import CAMERA_FOV_DEG
 
@@ -127,35 +124,14 @@ def right(points):
 def view(tmp_path_factory):
     scene_file = tmp_path_factory.mktemp("scene") / "right.json"
     scene_file.write_text(json.dumps(RIGHT_SCENE))
-    argv = [sys.executable, "-m", "chasles.view", "--package-dir", os.path.join(DATA, "packages"), "--url", LCM_URL,
-            "--port", "0", "--camera", ",".join(str(v) for v in EYE + TARGET),
-            "--arm", "left", "--urdf", PANDA, "--tip", "panda_hand", "--prefix", "LEFT_",
-            "--base", ",".join(map(str, LEFT_BASE)),
-            "--arm", "right", "--urdf", IIWA, "--tip", "iiwa_link_ee", "--prefix", "RIGHT_", "--protocol", "drake-iiwa",
-            "--base", ",".join(map(str, RIGHT_BASE)), "--scene", str(scene_file)]
-    process = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    ready = {}
-
-    def read():
-        for line in process.stdout:
-            match = re.fullmatch(r"chasles view: (http://127\.0\.0\.1:\d+)\s*", line)
-            if match:
-                ready["url"] = match.group(1)
-                break
-
-    reader = threading.Thread(target=read, daemon=True)
-    reader.start()
-    reader.join(timeout=30)
-    if "url" not in ready:
-        process.kill()
-        pytest.fail(f"the view printed no address within 30 s; stderr:\n{process.communicate()[1]}")
-    process.url, process.expected_notes = ready["url"], []
-    yield process
-    process.terminate()
-    _, stderr = process.communicate(timeout=10)
-    assert process.returncode == 0, f"the view ended with {process.returncode}; stderr:\n{stderr}"
-    for note in process.expected_notes:
-        assert stderr.count(note) == 1, f"'{note}' is not said once on stderr:\n{stderr}"
+    with served_view(["--package-dir", os.path.join(DATA, "packages"), "--url", LCM_URL,
+                      "--camera", ",".join(str(v) for v in EYE + TARGET),
+                      "--arm", "left", "--urdf", PANDA, "--tip", "panda_hand", "--prefix", "LEFT_",
+                      "--base", ",".join(map(str, LEFT_BASE)),
+                      "--arm", "right", "--urdf", IIWA, "--tip", "iiwa_link_ee", "--prefix", "RIGHT_",
+                      "--protocol", "drake-iiwa", "--base", ",".join(map(str, RIGHT_BASE)), "--scene", str(scene_file)],
+                     timeout=30) as process:
+        yield process
 
 
 @pytest.fixture(scope="module")

@@ -6,6 +6,7 @@ Chromium renders WebGL in software (SwiftShader), as a machine with no GPU, and 
 from __future__ import annotations
 
 import base64
+import contextlib
 import io
 import itertools
 import json
@@ -14,12 +15,45 @@ import re
 import shutil
 import signal
 import subprocess
+import sys
 import tempfile
+import threading
 import time
 
 import numpy as np
+import pytest
 from PIL import Image
 from websockets.sync.client import connect
+
+
+@contextlib.contextmanager
+def served_view(args, timeout: float):
+    """`python -m chasles.view ARGS` on a free port, yielded once it prints its address (its .url);
+    on leaving, it must end cleanly on SIGTERM, and say each of its .expected_notes once."""
+    process = subprocess.Popen([sys.executable, "-m", "chasles.view", "--port", "0", *args], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)
+    ready = {}
+
+    def read():
+        for line in process.stdout:
+            match = re.fullmatch(r"chasles view: (http://127\.0\.0\.1:\d+)\s*", line)
+            if match:
+                ready["url"] = match.group(1)
+                break
+
+    reader = threading.Thread(target=read, daemon=True)
+    reader.start()
+    reader.join(timeout=timeout)
+    if "url" not in ready:
+        process.kill()
+        pytest.fail(f"the view printed no address within {timeout:g} s; stderr:\n{process.communicate()[1]}")
+    process.url, process.expected_notes = ready["url"], []
+    yield process
+    process.terminate()
+    _, stderr = process.communicate(timeout=10)
+    assert process.returncode == 0, f"the view ended with {process.returncode}; stderr:\n{stderr}"
+    for note in process.expected_notes:
+        assert stderr.count(note) == 1, f"'{note}' is not said once on stderr:\n{stderr}"
 
 
 def chromium_path():

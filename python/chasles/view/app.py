@@ -544,11 +544,13 @@ class View:
         """The law in force: the status's, else the latest control mode's."""
         return self.last_status.law if self.last_status is not None else self.stiffness_law
 
-    def draw(self) -> None:
-        """Draws the newest messages, if any came since the last draw."""
+    def draw(self, panel_now: bool = False) -> None:
+        """Draws the newest messages, if any came since the last draw; the panel too, within
+        PANEL_PERIOD_S of its last rewrite only if `panel_now` (a replay's seek: its new time is
+        what the person waits to see)."""
         truth_stale = self.last_truth is not None and self.clock() - self.truth.when > TRUTH_STALE_S
         if not self._take() and not (truth_stale and self.truth_arrow.visible):
-            self._panel()
+            self._panel(panel_now)
             return
         s = self.last_status
         with self.server.atomic():
@@ -587,7 +589,7 @@ class View:
                 self._show(self.stiffness_frame, False)
             self._clearance(s)
         self.draws += 1
-        self._panel()
+        self._panel(panel_now)
 
     def _clearance(self, s: Optional[Status]) -> None:
         """The closest pair's gap, witness to witness: red while that pair slows the motion."""
@@ -604,14 +606,14 @@ class View:
         self._clearance_sent = (points, colour)
         self._show(self.clearance_rod, True)
 
-    def _panel(self) -> None:
+    def _panel(self, at_once: bool = False) -> None:
         now = time.monotonic()
         mark_time, mark_states, mark_draws = self._rate_mark
         if now - mark_time >= 1.0:
             dt = now - mark_time
             self.rates = ((self.state.count - mark_states) / dt, (self.draws - mark_draws) / dt)
             self._rate_mark = (now, self.state.count, self.draws)
-        if now - self._panel_sent < PANEL_PERIOD_S:
+        if now - self._panel_sent < PANEL_PERIOD_S and not at_once:
             return
         lines = [self.caption] if self.caption else []
         s = self.last_status

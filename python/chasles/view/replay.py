@@ -192,14 +192,16 @@ class Replay:
             # frame goes without them, so that the arm and the panel show the new time first, and
             # they follow in a later frame; at most every PLOT_PERIOD_S (3 × while dragging).
             since = now - self._plots_drawn
-            self.show(t, plots=since >= PLOT_PERIOD_S and (asked is None or since >= 3 * PLOT_PERIOD_S))
+            self.show(t, plots=since >= PLOT_PERIOD_S and (asked is None or since >= 3 * PLOT_PERIOD_S),
+                      sought=asked is not None)
 
-    def show(self, t: float, plots: bool = True) -> None:
+    def show(self, t: float, plots: bool = True, sought: bool = True) -> None:
         """Draws the log at time t: its messages, the panel's time, the slider and, if `plots`,
-        the plots."""
+        the plots. A time `sought` (not reached by playing) rewrites the panel at once, however
+        recently it was: its throttle held a seek's new time back by up to PANEL_PERIOD_S."""
         self.seek(t)
         self.caption_time()
-        self.view.draw()
+        self.view.draw(panel_now=sought)
         # Only as t moves: the slider has two writers, this and the browser, and a paused replay
         # leaves it to the browser alone.
         if self.t != self._slider_t:
