@@ -237,6 +237,8 @@ void ContactMonitor::take_location(const LocatedContact& located) {
   location_age_ = 0.0;
 }
 
+bool ContactMonitor::location_fresh() const { return location_age_ <= kLocationFresh; }
+
 // The locator's body while its estimate is recent: it looked at the arm's shape, and a force whose
 // line passes through the distal joints' axes (a push on a tool's centre, on the last joint's
 // axis) leaves their torque at zero. Else the most distal joint over its floor: a force on body b
@@ -244,7 +246,7 @@ void ContactMonitor::take_location(const LocatedContact& located) {
 void ContactMonitor::isolate() {
   estimate_.body = 0;
   isolated_link_ = {};
-  if (location_age_ <= kLocationFresh) {
+  if (location_fresh()) {
     estimate_.body = located_.body;
     isolated_link_ = located_.link;
     return;
@@ -305,7 +307,7 @@ void ContactMonitor::classify() {
   const char* on = estimate_.body > 0 ? ", on " : "";
   // Isolated by the torques alone, the link is where the contact begins: the most distal joint
   // that feels it moves that link, and a push on a later one may leave the joints between at zero.
-  const char* beyond = estimate_.body > 0 && location_age_ > kLocationFresh ? " or beyond" : "";
+  const char* beyond = estimate_.body > 0 && !location_fresh() ? " or beyond" : "";
   if (e.joint >= 0) {
     std::snprintf(reason_, sizeof(reason_), "%s: joint %s external torque %.3g over %.3g%s%.*s%s", level,
                   model_->joint(e.joint).name.c_str(), e.value, e.limit, on, link_length(isolated_link_),

@@ -138,6 +138,7 @@ class ContactMonitor {
  private:
   void classify();
   void isolate();
+  bool location_fresh() const;  // the locator's estimate names the body (isolate())
   void judge_location();
   void remember(const Eigen::VectorXd& q);
 
