@@ -606,14 +606,14 @@ class View:
         self._clearance_sent = (points, colour)
         self._show(self.clearance_rod, True)
 
-    def _panel(self, at_once: bool = False) -> None:
+    def _panel(self, panel_now: bool = False) -> None:
         now = time.monotonic()
         mark_time, mark_states, mark_draws = self._rate_mark
         if now - mark_time >= 1.0:
             dt = now - mark_time
             self.rates = ((self.state.count - mark_states) / dt, (self.draws - mark_draws) / dt)
             self._rate_mark = (now, self.state.count, self.draws)
-        if now - self._panel_sent < PANEL_PERIOD_S and not at_once:
+        if now - self._panel_sent < PANEL_PERIOD_S and not panel_now:
             return
         lines = [self.caption] if self.caption else []
         s = self.last_status
